@@ -1,0 +1,236 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Value types of the core: a rigid body, its state, and the wrench applied to it.
+
+All vectors are SI (REP-103): metres, seconds, kilograms, radians. The world frame is inertial;
+the body frame is attached to the centre of mass. Orientation R maps body to world
+(``r_world = R @ r_body``). Every type is immutable and validated once, at construction: a
+``ValueError`` names the offending field, and no half-built object is ever returned.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import enum
+import math
+from typing import Any
+
+import numpy as np
+
+from rb_sim_ros import so3
+
+# Tolerances of validation, relative to the largest principal moment.
+SYMMETRY_TOLERANCE = 1e-9
+TRIANGLE_TOLERANCE = 1e-9
+# How far a given rotation matrix may be from SO(3) before it is refused (it is then projected).
+ROTATION_TOLERANCE = 1e-6
+
+
+def _vector(name: str, value: Any, size: int = 3) -> np.ndarray:
+    try:
+        arr = np.array(value, dtype=float).reshape(size)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f'{name} must be {size} numbers, got {value!r}') from exc
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f'{name} must be finite, got {arr.tolist()}')
+    arr.flags.writeable = False
+    return arr
+
+
+def _matrix(name: str, value: Any) -> np.ndarray:
+    try:
+        arr = np.array(value, dtype=float).reshape(3, 3)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f'{name} must be a 3x3 matrix, got {value!r}') from exc
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f'{name} must be finite, got {arr.tolist()}')
+    return arr
+
+
+class Frame(enum.Enum):
+    """The frame a wrench is expressed in."""
+
+    WORLD = 'world'
+    BODY = 'body'
+
+    @classmethod
+    def parse(cls, value: 'Frame | str') -> 'Frame':
+        """Frame from a Frame or its name ('world' or 'body'); ValueError names the field."""
+        if isinstance(value, Frame):
+            return value
+        try:
+            return cls(str(value).lower())
+        except ValueError:
+            raise ValueError(f"frame must be 'world' or 'body', got {value!r}") from None
+
+
+@dataclass(frozen=True, eq=False)
+class RigidBody:
+    """Mass (kg) and inertia tensor (kg m^2) about the centre of mass, in the body frame.
+
+    The inertia need not be diagonal: any symmetric positive definite tensor whose principal
+    moments obey the triangle inequality (I1 + I2 >= I3, as every real mass distribution does).
+    """
+
+    mass: float
+    inertia: np.ndarray
+
+    def __init__(self, mass: float, inertia: Any) -> None:
+        try:
+            mass = float(mass)
+        except (TypeError, ValueError):
+            raise ValueError(f'mass must be a number, got {mass!r}') from None
+        if not math.isfinite(mass) or mass <= 0.0:
+            raise ValueError(f'mass must be finite and > 0 kg, got {mass!r}')
+        if np.ndim(inertia) == 1 and np.size(inertia) == 3:
+            inertia = np.diag(_vector('inertia', inertia))
+        inertia = _matrix('inertia', inertia)
+        scale = float(np.max(np.abs(inertia)))
+        if scale == 0.0:
+            raise ValueError('inertia must be positive definite, got the zero matrix')
+        if np.max(np.abs(inertia - inertia.T)) > SYMMETRY_TOLERANCE * scale:
+            raise ValueError(f'inertia must be symmetric, got {inertia.tolist()}')
+        inertia = 0.5 * (inertia + inertia.T)
+        moments = np.linalg.eigvalsh(inertia)
+        if moments[0] <= 0.0:
+            raise ValueError(
+                f'inertia must be positive definite, principal moments {moments.tolist()}')
+        if moments[0] + moments[1] < moments[2] * (1.0 - TRIANGLE_TOLERANCE):
+            raise ValueError(
+                'inertia principal moments must obey the triangle inequality I1 + I2 >= I3, '
+                f'got {moments.tolist()}')
+        inertia.flags.writeable = False
+        object.__setattr__(self, 'mass', mass)
+        object.__setattr__(self, 'inertia', inertia)
+
+    @property
+    def principal_moments(self) -> np.ndarray:
+        """Principal moments of inertia (kg m^2), ascending."""
+        return np.linalg.eigvalsh(self.inertia)
+
+    @property
+    def is_isotropic(self) -> bool:
+        """True when the inertia is a multiple of the identity (a sphere, a cube)."""
+        return bool(np.array_equal(self.inertia, self.inertia[0, 0] * np.eye(3)))
+
+    @property
+    def is_diagonal(self) -> bool:
+        """True when the body frame is a principal frame (off-diagonal products are zero)."""
+        return bool(np.array_equal(self.inertia, np.diag(np.diag(self.inertia))))
+
+    def inertia_world(self, rotation: np.ndarray) -> np.ndarray:
+        """World-frame inertia R I_body R^T (kg m^2), Lemma 1 of the report."""
+        rotation = np.asarray(rotation, dtype=float)
+        return rotation @ self.inertia @ rotation.T
+
+    def __repr__(self) -> str:
+        return f'RigidBody(mass={self.mass!r}, inertia={self.inertia.tolist()!r})'
+
+
+@dataclass(frozen=True, eq=False)
+class State:
+    """World-frame state of a body at one instant.
+
+    position: centre of mass (m), world frame.
+    rotation: 3x3 matrix taking body-frame vectors to the world frame.
+    linear_velocity: velocity of the centre of mass (m/s), world frame.
+    angular_velocity: omega (rad/s), world frame.
+    """
+
+    position: np.ndarray
+    rotation: np.ndarray
+    linear_velocity: np.ndarray
+    angular_velocity: np.ndarray
+
+    def __init__(self, position: Any = (0.0, 0.0, 0.0), rotation: Any = None,
+                 linear_velocity: Any = (0.0, 0.0, 0.0),
+                 angular_velocity: Any = (0.0, 0.0, 0.0)) -> None:
+        position = _vector('position', position)
+        rot = _matrix('rotation', np.eye(3) if rotation is None else rotation)
+        err = so3.orthonormality_error(rot)
+        if err > ROTATION_TOLERANCE:
+            raise ValueError(f'rotation must be a rotation matrix (|R^T R - I| = {err:.3g}), '
+                             f'got {rot.tolist()}')
+        if err > 0.0:
+            rot = so3.orthonormalize(rot)
+        rot.flags.writeable = False
+        object.__setattr__(self, 'position', position)
+        object.__setattr__(self, 'rotation', rot)
+        object.__setattr__(self, 'linear_velocity',
+                           _vector('linear_velocity', linear_velocity))
+        object.__setattr__(self, 'angular_velocity',
+                           _vector('angular_velocity', angular_velocity))
+
+    @classmethod
+    def from_quaternion_xyzw(cls, position: Any = (0.0, 0.0, 0.0),
+                             quaternion_xyzw: Any = (0.0, 0.0, 0.0, 1.0),
+                             linear_velocity: Any = (0.0, 0.0, 0.0),
+                             angular_velocity: Any = (0.0, 0.0, 0.0)) -> 'State':
+        """State whose orientation is given as a quaternion (x, y, z, w); it is normalised."""
+        q = _vector('quaternion_xyzw', quaternion_xyzw, 4)
+        try:
+            rot = so3.matrix_from_quaternion_xyzw(q)
+        except ValueError:
+            raise ValueError(f'quaternion_xyzw must be non-zero, got {q.tolist()}') from None
+        return cls(position, rot, linear_velocity, angular_velocity)
+
+    @property
+    def quaternion_xyzw(self) -> np.ndarray:
+        """Orientation as a unit quaternion (x, y, z, w) with w >= 0."""
+        return so3.quaternion_xyzw_from_matrix(self.rotation)
+
+    @property
+    def angular_velocity_body(self) -> np.ndarray:
+        """omega in the body frame (rad/s): R^T omega."""
+        return self.rotation.T @ self.angular_velocity
+
+    def kinetic_energy(self, body: RigidBody) -> float:
+        """Translational plus rotational kinetic energy (J)."""
+        wb = self.angular_velocity_body
+        v = self.linear_velocity
+        return float(0.5 * body.mass * v @ v + 0.5 * wb @ body.inertia @ wb)
+
+    def angular_momentum(self, body: RigidBody) -> np.ndarray:
+        """Angular momentum about the centre of mass (kg m^2/s), world frame: R I_b R^T omega."""
+        return self.rotation @ (body.inertia @ self.angular_velocity_body)
+
+    def __repr__(self) -> str:
+        return (f'State(position={self.position.tolist()}, '
+                f'quaternion_xyzw={self.quaternion_xyzw.tolist()}, '
+                f'linear_velocity={self.linear_velocity.tolist()}, '
+                f'angular_velocity={self.angular_velocity.tolist()})')
+
+
+@dataclass(frozen=True, eq=False)
+class Wrench:
+    """Force (N) at the centre of mass and torque (N m) about it, in ``frame``.
+
+    A body-frame wrench turns with the body (a thruster); a world-frame one does not (gravity,
+    a tether). Both act at the centre of mass.
+    """
+
+    force: np.ndarray
+    torque: np.ndarray
+    frame: Frame
+
+    def __init__(self, force: Any = (0.0, 0.0, 0.0), torque: Any = (0.0, 0.0, 0.0),
+                 frame: 'Frame | str' = Frame.WORLD) -> None:
+        object.__setattr__(self, 'force', _vector('force', force))
+        object.__setattr__(self, 'torque', _vector('torque', torque))
+        object.__setattr__(self, 'frame', Frame.parse(frame))
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Wrench):
+            return NotImplemented
+        return (self.frame is other.frame and np.array_equal(self.force, other.force)
+                and np.array_equal(self.torque, other.torque))
+
+    def __hash__(self) -> int:
+        return hash((self.frame, tuple(self.force), tuple(self.torque)))
+
+    def __repr__(self) -> str:
+        return (f'Wrench(force={self.force.tolist()}, torque={self.torque.tolist()}, '
+                f"frame='{self.frame.value}')")
+
+
+ZERO_WRENCH = Wrench()

@@ -1,0 +1,163 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""SO(3) helpers: hat, exp, log and quaternion conversions.
+
+Two layers live here:
+
+* numpy functions for users and tests (``hat``, ``exp``, ``log``, ``quaternion_xyzw_from_matrix``,
+  ``matrix_from_quaternion_xyzw``, ``orthonormalize``), which take and return ndarrays;
+* component functions (``quaternion_xyzw_from_components``, ``orthonormalize_components``)
+  written with plain arithmetic on floats, for the stepper's hot path.
+
+Rotation matrices map body-frame vectors to world-frame vectors: ``r_world = R @ r_body``.
+Quaternions are Hamilton, ordered x, y, z, w as in geometry_msgs/Quaternion.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+# exp([p]) = I + A [p] + B [p]^2 with A = sin(t)/t and B = (1 - cos t)/t^2, t = |p|. The
+# integrator writes them in half-angle form, A = 2 sin(t/2) cos(t/2) / t and
+# B = 2 sin^2(t/2) / t^2, which has no cancellation at small t, and adds TINY_ANGLE_SQ to t^2 so
+# that t = 0 gives A = 1, B = 1/2 without a branch (a branch would not run on numpy arrays).
+# 1e-300 is invisible next to any t^2 that matters (t^2 < 1e-32 changes R by < 1e-16) and
+# sin(t/2)^2 at t = 1e-150 is still a normal double.
+TINY_ANGLE_SQ = 1e-300
+# Below this rotation angle (rad) log() uses its series: atan2(s, w)/s -> 1/w.
+SMALL_ANGLE = 1e-12
+
+
+def hat(v: np.ndarray) -> np.ndarray:
+    """Return the skew matrix [v] with [v] @ u == np.cross(v, u) (eq. (1) of the report)."""
+    x, y, z = np.asarray(v, dtype=float)
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def vee(m: np.ndarray) -> np.ndarray:
+    """Inverse of ``hat``: the vector of the skew-symmetric part of ``m``."""
+    m = np.asarray(m, dtype=float)
+    return 0.5 * np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
+
+
+def exp(phi: np.ndarray) -> np.ndarray:
+    """Rotation matrix exp([phi]) of a rotation vector phi (rad, axis times angle).
+
+    Computed through the unit quaternion (sin(t/2) phi/t, cos(t/2)), independently of the
+    Rodrigues form the integrator uses, so that each checks the other in the tests.
+    """
+    phi = np.asarray(phi, dtype=float).reshape(3)
+    t = float(np.linalg.norm(phi))
+    if t < SMALL_ANGLE:
+        # sin(t/2)/t = 1/2 - t^2/48 + ...; the t^2 term is below 1e-25 here.
+        return matrix_from_quaternion_xyzw((*(0.5 * phi), 1.0))
+    return matrix_from_quaternion_xyzw((*(math.sin(0.5 * t) / t * phi), math.cos(0.5 * t)))
+
+
+def log(rot: np.ndarray) -> np.ndarray:
+    """Rotation vector phi (rad, |phi| <= pi) with exp([phi]) == rot."""
+    rot = np.asarray(rot, dtype=float)
+    q = quaternion_xyzw_from_matrix(rot)
+    xyz, w = q[:3], q[3]
+    if w < 0.0:
+        xyz, w = -xyz, -w
+    s = float(np.linalg.norm(xyz))
+    if s < SMALL_ANGLE:
+        # theta = 2 asin(s) ~ 2 s: phi = 2 xyz / w to second order.
+        return 2.0 * xyz / w
+    return 2.0 * math.atan2(s, w) * xyz / s
+
+
+def angle_between(r1: np.ndarray, r2: np.ndarray) -> float:
+    """Angle (rad) of the rotation taking r2 to r1: |log(r1 r2^T)|."""
+    return float(np.linalg.norm(log(np.asarray(r1) @ np.asarray(r2).T)))
+
+
+def matrix_from_quaternion_xyzw(q) -> np.ndarray:
+    """Rotation matrix of a quaternion (x, y, z, w); it is normalised first."""
+    x, y, z, w = np.asarray(q, dtype=float).reshape(4)
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    if not math.isfinite(n) or n == 0.0:
+        raise ValueError(f'quaternion must be finite and non-zero, got {q!r}')
+    x, y, z, w = x / n, y / n, z / n, w / n
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def quaternion_xyzw_from_components(r00, r01, r02, r10, r11, r12, r20, r21, r22):
+    """Unit quaternion (x, y, z, w), w >= 0, of a rotation matrix given row-major (floats)."""
+    tr = r00 + r11 + r22
+    # Shepperd's method: take the largest of 4 candidates to divide by, for accuracy.
+    if tr >= r00 and tr >= r11 and tr >= r22:
+        s = 2.0 * math.sqrt(max(1.0 + tr, 0.0))
+        q = ((r21 - r12) / s, (r02 - r20) / s, (r10 - r01) / s, 0.25 * s)
+    elif r00 >= r11 and r00 >= r22:
+        s = 2.0 * math.sqrt(max(1.0 + r00 - r11 - r22, 0.0))
+        q = (0.25 * s, (r01 + r10) / s, (r02 + r20) / s, (r21 - r12) / s)
+    elif r11 >= r22:
+        s = 2.0 * math.sqrt(max(1.0 + r11 - r00 - r22, 0.0))
+        q = ((r01 + r10) / s, 0.25 * s, (r12 + r21) / s, (r02 - r20) / s)
+    else:
+        s = 2.0 * math.sqrt(max(1.0 + r22 - r00 - r11, 0.0))
+        q = ((r02 + r20) / s, (r12 + r21) / s, 0.25 * s, (r10 - r01) / s)
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    sign = -1.0 if q[3] < 0.0 else 1.0
+    return (sign * q[0] / n, sign * q[1] / n, sign * q[2] / n, sign * q[3] / n)
+
+
+def quaternion_xyzw_from_matrix(rot: np.ndarray) -> np.ndarray:
+    """Unit quaternion (x, y, z, w) with w >= 0 of a rotation matrix."""
+    comps = (float(c) for c in np.asarray(rot, dtype=float).reshape(9))
+    return np.array(quaternion_xyzw_from_components(*comps))
+
+
+def orthonormalize_components(r00, r01, r02, r10, r11, r12, r20, r21, r22):
+    """One Newton step of the polar decomposition, R <- R (3 I - R^T R) / 2, on components.
+
+    For R within e of SO(3) the result is within O(e^2): the integrator calls it every
+    ``Stepper.ORTHONORMALIZE_EVERY`` steps to stop rounding errors from accumulating.
+    """
+    # S = R^T R (symmetric)
+    s00 = r00 * r00 + r10 * r10 + r20 * r20
+    s11 = r01 * r01 + r11 * r11 + r21 * r21
+    s22 = r02 * r02 + r12 * r12 + r22 * r22
+    s01 = r00 * r01 + r10 * r11 + r20 * r21
+    s02 = r00 * r02 + r10 * r12 + r20 * r22
+    s12 = r01 * r02 + r11 * r12 + r21 * r22
+    # M = (3 I - S) / 2
+    m00 = 0.5 * (3.0 - s00)
+    m11 = 0.5 * (3.0 - s11)
+    m22 = 0.5 * (3.0 - s22)
+    m01 = -0.5 * s01
+    m02 = -0.5 * s02
+    m12 = -0.5 * s12
+    return (r00 * m00 + r01 * m01 + r02 * m02,
+            r00 * m01 + r01 * m11 + r02 * m12,
+            r00 * m02 + r01 * m12 + r02 * m22,
+            r10 * m00 + r11 * m01 + r12 * m02,
+            r10 * m01 + r11 * m11 + r12 * m12,
+            r10 * m02 + r11 * m12 + r12 * m22,
+            r20 * m00 + r21 * m01 + r22 * m02,
+            r20 * m01 + r21 * m11 + r22 * m12,
+            r20 * m02 + r21 * m12 + r22 * m22)
+
+
+def orthonormalize(rot: np.ndarray) -> np.ndarray:
+    """The nearest rotation matrix to ``rot`` (polar factor, via SVD)."""
+    u, _, vt = np.linalg.svd(np.asarray(rot, dtype=float))
+    r = u @ vt
+    if np.linalg.det(r) < 0.0:
+        u[:, -1] = -u[:, -1]
+        r = u @ vt
+    return r
+
+
+def orthonormality_error(rot: np.ndarray) -> float:
+    """max |R^T R - I| entry and |det R - 1|, whichever is larger."""
+    rot = np.asarray(rot, dtype=float)
+    return float(max(np.max(np.abs(rot.T @ rot - np.eye(3))), abs(np.linalg.det(rot) - 1.0)))

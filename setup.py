@@ -1,0 +1,27 @@
+from setuptools import find_packages, setup
+
+package_name = 'rb_sim_ros'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'test.*', 'bench', 'bench.*']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    # ROS dependencies come from package.xml (rosdep); PyPI-only ones (mcap for recording)
+    # are in requirements.txt, used by the README's commands, never forced on colcon.
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='rb_sim_ros maintainers',
+    maintainer_email='maintainers@rb-sim-ros.invalid',
+    description='A fast, accurate, deterministic rigid-body simulator node.',
+    license='Apache-2.0',
+    tests_require=['pytest'],
+    entry_points={
+        'console_scripts': [
+            'simulator = rb_sim_ros.simulator_node:main',
+        ],
+    },
+)

@@ -1,0 +1,106 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""SO(3) helpers: the group's axioms, and agreement of the two independent exp forms."""
+
+import math
+
+from hypothesis import given, settings, strategies as st
+import numpy as np
+import pytest
+
+from rb_sim_ros import multistep, so3
+
+finite = st.floats(-10.0, 10.0, allow_nan=False)
+vectors = st.tuples(finite, finite, finite).map(np.array)
+
+
+def _rodrigues(phi):
+    """exp([phi]) as the integrator computes it: one step with w = phi/dt, no acceleration."""
+    dt = 0.5
+    step = multistep.make_step(multistep.EQ27, dt)
+    zero = (0.0, 0.0, 0.0)
+    eye = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    _, _, r, _ = step(zero, zero, eye, tuple(phi / dt), zero, zero, zero, zero)
+    return np.array(r).reshape(3, 3)
+
+
+def _same_rotation_quaternions(q1, q2):
+    return min(np.max(np.abs(q1 - q2)), np.max(np.abs(q1 + q2)))
+
+
+@given(vectors)
+def test_hat_is_cross_product(v):
+    u = np.array([0.3, -1.2, 2.0])
+    np.testing.assert_allclose(so3.hat(v) @ u, np.cross(v, u), atol=1e-12)
+    np.testing.assert_array_equal(so3.vee(so3.hat(v)), v)
+
+
+@given(vectors)
+def test_exp_is_a_rotation(phi):
+    r = so3.exp(phi)
+    assert so3.orthonormality_error(r) < 1e-14
+    assert not np.any(np.isnan(r))
+
+
+@given(vectors)
+def test_integrator_rodrigues_matches_quaternion_exp(phi):
+    np.testing.assert_allclose(_rodrigues(phi), so3.exp(phi), atol=1e-14)
+
+
+@pytest.mark.parametrize('angle', [0.0, 1e-300, 1e-160, 1e-20, 1e-9, 1e-5, 1e-3, 0.1, 3.0])
+def test_exp_small_angles_agree_with_series(angle):
+    axis = np.array([2.0, -3.0, 6.0]) / 7.0
+    phi = angle * axis
+    # exp([phi]) = I + [phi] + [phi]^2 / 2 + O(angle^3).
+    series = np.eye(3) + so3.hat(phi) + so3.hat(phi) @ so3.hat(phi) / 2.0
+    tol = max(angle ** 3, 1e-16)
+    np.testing.assert_allclose(_rodrigues(phi), series, atol=tol, rtol=0)
+    np.testing.assert_allclose(so3.exp(phi), series, atol=tol, rtol=0)
+
+
+@given(vectors)
+def test_log_exp_bijective(phi):
+    angle = np.linalg.norm(phi)
+    if angle >= math.pi - 1e-6:
+        phi = phi / angle * math.fmod(angle, math.pi - 1e-6)
+    np.testing.assert_allclose(so3.log(so3.exp(phi)), phi, atol=1e-9)
+
+
+@given(vectors)
+def test_exp_log_bijective(phi):
+    r = so3.exp(phi)
+    np.testing.assert_allclose(so3.exp(so3.log(r)), r, atol=1e-13)
+
+
+@given(vectors)
+def test_inverse_is_exp_of_minus(phi):
+    np.testing.assert_allclose(so3.exp(phi) @ so3.exp(-phi), np.eye(3), atol=1e-14)
+
+
+@given(vectors)
+def test_quaternion_round_trip(phi):
+    r = so3.exp(phi)
+    q = so3.quaternion_xyzw_from_matrix(r)
+    assert abs(np.linalg.norm(q) - 1.0) < 1e-15
+    assert q[3] >= 0.0
+    np.testing.assert_allclose(so3.matrix_from_quaternion_xyzw(q), r, atol=1e-14)
+
+
+def test_quaternion_compares_up_to_sign_near_pi():
+    r = so3.exp(np.array([0.0, 0.0, math.pi]))
+    q = so3.quaternion_xyzw_from_matrix(r)
+    assert _same_rotation_quaternions(q, np.array([0.0, 0.0, 1.0, 0.0])) < 1e-15
+
+
+def test_zero_quaternion_is_refused():
+    with pytest.raises(ValueError, match='quaternion'):
+        so3.matrix_from_quaternion_xyzw((0, 0, 0, 0))
+
+
+@settings(max_examples=50)
+@given(vectors, st.floats(1e-9, 1e-4))
+def test_orthonormalize_components_squares_the_error(phi, eps):
+    r = so3.exp(phi)
+    bent = r + eps * np.array([[0.3, -0.2, 0.5], [0.1, 0.4, -0.7], [-0.6, 0.2, 0.1]])
+    fixed = np.array(so3.orthonormalize_components(*bent.reshape(9))).reshape(3, 3)
+    assert so3.orthonormality_error(fixed) < 10 * eps * eps + 1e-15

@@ -1,0 +1,23 @@
+# Sourced by the other tools: create or reuse ./.venv and install a requirements file into it.
+# pip runs only when the requirements (or this package's setup files) changed since last time.
+# Usage: . tools/venv.sh requirements-test.txt
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+req=${1:-requirements.txt}
+venv=${RB_SIM_VENV:-$root/.venv}
+if [ ! -x "$venv/bin/python" ]; then
+  echo "[rb_sim_ros] creating $venv" >&2
+  python3 -m venv "$venv"
+fi
+stamp="$venv/.rb_sim_ros-$(basename "$req").stamp"
+want=$(cat "$root"/requirements*.txt "$root/setup.py" "$root/setup.cfg" | sha256sum | cut -c1-16)
+if [ "$(cat "$stamp" 2>/dev/null || true)" != "$want" ]; then
+  echo "[rb_sim_ros] installing $req into $venv (about 30 s the first time)" >&2
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$root/$req"
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps -e "$root"
+  echo "$want" > "$stamp"
+fi
+# Keep ROS traffic on this machine unless the user chose otherwise.
+export ROS_AUTOMATIC_DISCOVERY_RANGE=${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}
+export PATH="$venv/bin:$PATH"
+PY="$venv/bin/python"
