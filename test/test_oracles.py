@@ -1,0 +1,121 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The stepper against closed forms and conservation laws."""
+
+import math
+
+import numpy as np
+import pytest
+
+from rb_sim_ros import RigidBody, State, Stepper, Wrench, so3
+
+
+def _run(body, dt, t_end, state, wrench=Wrench(), method='eq27'):
+    s = Stepper(body, dt, state, wrench, method=method)
+    s.step(round(t_end / dt))
+    return s
+
+
+@pytest.mark.parametrize('frame', ['world', 'body'])
+def test_constant_force_is_exact(frame):
+    # A world force; or a body force on a body that does not turn: a = F/m exactly.
+    body = RigidBody(2.5, [1.0, 2.0, 2.5])
+    x0, v0, f = np.array([1.0, -2.0, 0.5]), np.array([0.3, 0.1, -0.2]), np.array([1.0, -3.0, 2.0])
+    rot = so3.exp([0.3, -0.4, 0.2])
+    force = f if frame == 'world' else rot.T @ f
+    s = _run(body, 1e-2, 3.0, State(x0, rot, v0), Wrench(force=force, frame=frame))
+    t = s.time
+    np.testing.assert_allclose(s.state.linear_velocity, v0 + f / 2.5 * t, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(s.state.position, x0 + v0 * t + f / 5.0 * t * t, rtol=0, atol=1e-11)
+    assert so3.angle_between(s.state.rotation, rot) < 1e-13
+
+
+def test_sphere_with_torque_parallel_to_omega_is_exact():
+    # Isotropic inertia: no gyroscopic term, beta = tau / I constant and parallel to omega, so
+    # the rotation angle is |w0| t + |beta| t^2 / 2 about a fixed axis.
+    inertia = 0.4
+    axis = np.array([1.0, 2.0, -2.0]) / 3.0
+    w0, tau = 1.7, 0.05
+    rot0 = so3.exp([0.2, 0.1, -0.3])
+    s = _run(RigidBody(3.0, [inertia] * 3), 1e-2, 4.0, State(rotation=rot0,
+             angular_velocity=w0 * axis), Wrench(torque=tau * axis))
+    t = s.time
+    beta = tau / inertia
+    np.testing.assert_allclose(s.state.angular_velocity, (w0 + beta * t) * axis, atol=1e-12)
+    expected = so3.exp((w0 * t + 0.5 * beta * t * t) * axis) @ rot0
+    assert so3.angle_between(s.state.rotation, expected) < 1e-11
+
+
+def _symmetric_top(t, i_t, i_3, w_body, rot0):
+    """Closed form of a torque-free symmetric top (I1 = I2 = i_t): R(t) and omega(t), world."""
+    w_body = np.asarray(w_body, dtype=float)
+    angular_momentum = rot0 @ (np.diag([i_t, i_t, i_3]) @ w_body)
+    lam = (1.0 - i_3 / i_t) * w_body[2]
+    rot = so3.exp(t * angular_momentum / i_t) @ rot0 @ so3.exp([0.0, 0.0, lam * t])
+    e3 = rot[:, 2]
+    omega = angular_momentum / i_t + (1.0 / i_3 - 1.0 / i_t) * (angular_momentum @ e3) * e3
+    return rot, omega
+
+
+@pytest.mark.parametrize('i_3', [0.5, 1.8])  # oblate and prolate
+def test_symmetric_top_against_closed_form(i_3):
+    i_t, w_body, rot0 = 1.0, [0.4, -0.3, 2.0], so3.exp([0.5, 0.2, -0.1])
+    body = RigidBody(1.0, [i_t, i_t, i_3])
+    start = State(rotation=rot0, angular_velocity=rot0 @ np.array(w_body))
+    t_end = 5.0
+    errors = []
+    for dt in (0.01, 0.005, 0.0025):
+        s = _run(body, dt, t_end, start)
+        rot, omega = _symmetric_top(t_end, i_t, i_3, w_body, rot0)
+        errors.append((so3.angle_between(s.state.rotation, rot),
+                       np.linalg.norm(s.state.angular_velocity - omega)))
+    # Small, and second order.
+    assert errors[-1][0] < 1e-4 and errors[-1][1] < 1e-4
+    for k in range(2):
+        for q in range(2):
+            assert math.log2(errors[k][q] / errors[k + 1][q]) == pytest.approx(2.0, abs=0.2)
+
+
+def test_closed_form_top_solves_eulers_equations():
+    # The oracle itself: R' = [omega] R by finite differences, and L = R I R^T omega constant.
+    i_t, i_3, w_body, rot0 = 1.0, 1.8, [0.4, -0.3, 2.0], so3.exp([0.5, 0.2, -0.1])
+    h, t = 1e-6, 0.7
+    rot_m, _ = _symmetric_top(t - h, i_t, i_3, w_body, rot0)
+    rot_p, _ = _symmetric_top(t + h, i_t, i_3, w_body, rot0)
+    rot, omega = _symmetric_top(t, i_t, i_3, w_body, rot0)
+    np.testing.assert_allclose((rot_p - rot_m) / (2 * h), so3.hat(omega) @ rot, atol=1e-8)
+    inertia = np.diag([i_t, i_t, i_3])
+    l0 = rot0 @ inertia @ np.array(w_body)
+    np.testing.assert_allclose(rot @ inertia @ rot.T @ omega, l0, atol=1e-12)
+
+
+def test_torque_free_asymmetric_body_keeps_invariants_to_second_order():
+    body = RigidBody(1.0, [[1.2, 0.1, 0.05], [0.1, 2.0, -0.1], [0.05, -0.1, 2.6]])
+    start = State(rotation=so3.exp([0.1, 0.7, -0.2]), angular_velocity=[0.3, 1.0, 0.5])
+    e0, l0 = start.kinetic_energy(body), start.angular_momentum(body)
+    drifts = []
+    for dt in (0.02, 0.01, 0.005):
+        s = Stepper(body, dt, start)
+        worst_e = worst_l = 0.0
+        for _ in range(20):
+            s.step(round(1.0 / dt))
+            st = s.state
+            worst_e = max(worst_e, abs(st.kinetic_energy(body) - e0) / e0)
+            worst_l = max(worst_l, np.linalg.norm(st.angular_momentum(body) - l0)
+                          / np.linalg.norm(l0))
+        drifts.append((worst_e, worst_l))
+    assert drifts[-1][0] < 1e-4 and drifts[-1][1] < 1e-4
+    for k in range(2):
+        for q in range(2):
+            assert math.log2(drifts[k][q] / drifts[k + 1][q]) > 1.7
+
+
+def test_rotation_stays_orthonormal_over_long_runs():
+    body = RigidBody(1.0, [1.0, 2.0, 2.9])
+    s = Stepper(body, 1e-3, State(angular_velocity=[3.0, 20.0, 1.0]),
+                Wrench(torque=[0.01, -0.02, 0.03], frame='body'))
+    worst = 0.0
+    for _ in range(20):
+        s.step(10_000)
+        worst = max(worst, so3.orthonormality_error(s.state.rotation))
+    assert worst < 1e-12
