@@ -20,4 +20,6 @@ fi
 # Keep ROS traffic on this machine unless the user chose otherwise.
 export ROS_AUTOMATIC_DISCOVERY_RANGE=${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}
 export PATH="$venv/bin:$PATH"
+# The ROS wheels install their share/ (ament index, .msg files) into the venv's prefix.
+export AMENT_PREFIX_PATH="$venv${AMENT_PREFIX_PATH:+:$AMENT_PREFIX_PATH}"
 PY="$venv/bin/python"

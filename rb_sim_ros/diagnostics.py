@@ -1,0 +1,83 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The node's /diagnostics: step cost, late ticks, tick jitter, sim/wall ratio, rejections."""
+
+from __future__ import annotations
+
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+
+class Diagnostics:
+    """Counters kept by the node; published about once a wall second."""
+
+    PERIOD_NS = 1_000_000_000
+
+    def __init__(self) -> None:
+        self.rejected = 0
+        self.dropped_periods = 0
+        self.error = ''
+        self.ticks = 0
+        self.late_ticks = 0
+        self._lateness_ns: list[float] = []
+        self._steps = 0
+        self._step_ns = 0
+        self._last_wall = time.monotonic_ns()
+        self._last_sim_ns = 0
+        self._sim_ns = 0
+        self._pub = None
+
+    def create_publisher(self, node) -> None:
+        self._pub = node.create_publisher(DiagnosticArray, '/diagnostics', 10)
+
+    def tick(self, lateness_ns: float, late: bool) -> None:
+        """A timer tick that was due ``lateness_ns`` ago; ``late`` if it had to catch up."""
+        self.ticks += 1
+        self.late_ticks += late
+        if len(self._lateness_ns) < 100_000:
+            self._lateness_ns.append(lateness_ns)
+
+    def stepped(self, steps: int, cost_ns: int, sim_ns: int) -> None:
+        self._steps += steps
+        self._step_ns += cost_ns
+        self._sim_ns = sim_ns
+
+    def maybe_publish(self, node, real_time_factor: float) -> None:
+        now = time.monotonic_ns()
+        if now - self._last_wall < self.PERIOD_NS or self._pub is None:
+            return
+        wall = now - self._last_wall
+        lateness = sorted(self._lateness_ns)
+
+        def pct(q):
+            return lateness[min(len(lateness) - 1, int(q * len(lateness)))] * 1e-6 \
+                if lateness else 0.0
+
+        values = {
+            'step_cost_us': self._step_ns / self._steps * 1e-3 if self._steps else 0.0,
+            'steps': self._steps,
+            'sim_over_wall': (self._sim_ns - self._last_sim_ns) / wall,
+            'real_time_factor_requested': real_time_factor,
+            'ticks': self.ticks,
+            'late_ticks_total': self.late_ticks,
+            'tick_lateness_p50_ms': pct(0.5),
+            'tick_lateness_p99_ms': pct(0.99),
+            'dropped_periods_total': self.dropped_periods,
+            'rejected_inputs_total': self.rejected,
+        }
+        status = DiagnosticStatus(name='rb_sim: simulator', hardware_id='rb_sim_ros')
+        if self.error:
+            status.level, status.message = DiagnosticStatus.ERROR, self.error
+        elif self.dropped_periods:
+            status.level, status.message = DiagnosticStatus.WARN, 'falling behind real time'
+        else:
+            status.level, status.message = DiagnosticStatus.OK, 'running'
+        status.values = [KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float) else str(v))
+                         for k, v in values.items()]
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = node.get_clock().now().to_msg()
+        self._pub.publish(msg)
+        self._last_wall, self._last_sim_ns = now, self._sim_ns
+        self._steps = self._step_ns = 0
+        self._lateness_ns.clear()

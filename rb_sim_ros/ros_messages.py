@@ -1,0 +1,98 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Conversions between ROS messages and the core's values, shared by the node and replay.
+
+Output messages are filled in place (``OutputMessages.fill``) so that the node allocates nothing
+per publish, and so that replay rebuilds exactly the bytes the node published from the same
+state. Conventions (REP-103, REP-105): pose in ``world_frame`` (default ``odom``); twist in
+the body frame ``body_frame`` (default ``base_link``) as nav_msgs/Odometry requires for its
+twist, or in the world frame if ``twist_frame`` is 'world'.
+"""
+
+from __future__ import annotations
+
+import math
+
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import PoseStamped, Twist, Wrench as WrenchMsg
+from nav_msgs.msg import Odometry
+
+from rb_sim_ros.rigid_body import Frame, Wrench
+
+
+def time_msg(time_ns: int) -> Time:
+    return Time(sec=time_ns // 1_000_000_000, nanosec=time_ns % 1_000_000_000)
+
+
+def wrench_from_msg(msg: WrenchMsg, frame: Frame, max_wrench: float) -> Wrench:
+    """A core Wrench from a geometry_msgs/Wrench (N, N m) in ``frame``.
+
+    Raises ValueError naming what is wrong: a non-finite component, or a force or torque whose
+    norm exceeds ``max_wrench``.
+    """
+    f = (msg.force.x, msg.force.y, msg.force.z)
+    t = (msg.torque.x, msg.torque.y, msg.torque.z)
+    if not all(math.isfinite(c) for c in f + t):
+        raise ValueError(f'non-finite wrench: force {f}, torque {t}')
+    for name, vec in (('force', f), ('torque', t)):
+        norm = math.sqrt(vec[0] ** 2 + vec[1] ** 2 + vec[2] ** 2)
+        if norm > max_wrench:
+            raise ValueError(f'{name} norm {norm:.6g} exceeds max_wrench {max_wrench:.6g}')
+    return Wrench(f, t, frame)
+
+
+def rotate(r, v, transpose=False):
+    """R v (or R^T v) for R given as 9 row-major floats."""
+    x, y, z = v
+    if transpose:
+        return (r[0] * x + r[3] * y + r[6] * z, r[1] * x + r[4] * y + r[7] * z,
+                r[2] * x + r[5] * y + r[8] * z)
+    return (r[0] * x + r[1] * y + r[2] * z, r[3] * x + r[4] * y + r[5] * z,
+            r[6] * x + r[7] * y + r[8] * z)
+
+
+def rotation_from_quaternion(q):
+    """9 row-major floats of the rotation of a unit quaternion (x, y, z, w)."""
+    x, y, z, w = q
+    return (1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
+            2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+            2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y))
+
+
+class OutputMessages:
+    """The published PoseStamped, Twist and Odometry, filled in place from a state."""
+
+    def __init__(self, world_frame: str = 'odom', body_frame: str = 'base_link',
+                 twist_frame: str = 'body') -> None:
+        self.pose = PoseStamped()
+        self.twist = Twist()
+        self.odom = Odometry()
+        self.configure(world_frame, body_frame, twist_frame)
+
+    def configure(self, world_frame: str, body_frame: str, twist_frame: str) -> None:
+        self.pose.header.frame_id = world_frame
+        self.odom.header.frame_id = world_frame
+        self.odom.child_frame_id = body_frame
+        self.twist_in_body = Frame.parse(twist_frame) is Frame.BODY
+
+    def fill(self, time_ns: int, position, quaternion_xyzw, linear_velocity,
+             angular_velocity) -> None:
+        """Fill all three from a world-frame state at ``time_ns`` (sim time, ns)."""
+        stamp = time_msg(time_ns)
+        pose = self.pose.pose
+        pose.position.x, pose.position.y, pose.position.z = position
+        o = pose.orientation
+        o.x, o.y, o.z, o.w = quaternion_xyzw
+        r = rotation_from_quaternion(quaternion_xyzw)
+        lin_b = rotate(r, linear_velocity, transpose=True)
+        ang_b = rotate(r, angular_velocity, transpose=True)
+        lin, ang = (lin_b, ang_b) if self.twist_in_body else (linear_velocity, angular_velocity)
+        t = self.twist
+        t.linear.x, t.linear.y, t.linear.z = lin
+        t.angular.x, t.angular.y, t.angular.z = ang
+        self.pose.header.stamp = stamp
+        self.odom.header.stamp = stamp
+        self.odom.pose.pose = pose
+        ot = self.odom.twist.twist
+        ot.linear.x, ot.linear.y, ot.linear.z = lin_b
+        ot.angular.x, ot.angular.y, ot.angular.z = ang_b

@@ -1,0 +1,369 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The simulator node: steps a Simulation at a fixed rate, takes wrenches, publishes state.
+
+Timing. Sim time is step_count * dt. A steady-clock timer ticks once per publish period (divided
+by real_time_factor); each tick steps as many whole publish periods as the wall clock says are
+due (a late tick catches up by stepping, at most max_catchup periods, and is counted), and after
+each period publishes pose, twist, odom and /clock. Inputs received between ticks take effect at
+the start of the next period; what a run does depends only on the inputs and the step at which
+each took effect, never on scheduling.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+from geometry_msgs.msg import PoseStamped, Twist, Wrench as WrenchMsg, WrenchStamped
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+import rclpy
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.utilities import remove_ros_args
+from rosgraph_msgs.msg import Clock as ClockMsg
+from std_srvs.srv import Empty, SetBool, Trigger
+
+from rb_sim_ros import node_params, ros_messages
+from rb_sim_ros.diagnostics import Diagnostics
+from rb_sim_ros.rigid_body import Frame, ZERO_WRENCH
+from rb_sim_ros.simulation import Config, Reset, SetPose, SetTwist, SetWrench, Simulation
+from rb_sim_ros.stepper import IntegrationError
+
+
+class SimulatorNode(Node):
+    """One rigid body; see README.md for topics, services and parameters."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('rb_sim', **kwargs)
+        for p in node_params.PARAMS:
+            self.declare_parameter(p.name, p.default, ParameterDescriptor(
+                description=p.description, read_only=p.read_only, dynamic_typing=True))
+        values = {p.name: self.get_parameter(p.name).value for p in node_params.PARAMS}
+        for name, value in values.items():
+            node_params.check(name, value)
+        self.config = _config(values)
+        self.sim = Simulation(self.config)
+        self._v = values
+        self._out = ros_messages.OutputMessages(values['world_frame'], values['body_frame'],
+                                                values['twist_frame'])
+        self._pending: list = []
+        self._paused = False
+        self._last_command_step = 0
+        self._timeout_steps = 0
+        self._apply_settings()
+        self.diagnostics = Diagnostics()
+        self._recorder = _open_recorder(self, values)
+
+        qos = QoSProfile(depth=10)
+        self._pub_pose = self.create_publisher(PoseStamped, 'pose', qos)
+        self._pub_twist = self.create_publisher(Twist, 'twist', qos)
+        self._pub_odom = self.create_publisher(Odometry, 'odom', qos)
+        self._pub_clock = (self.create_publisher(ClockMsg, '/clock', QoSProfile(
+            depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)) if values['publish_clock']
+            else None)
+        self._clock_msg = ClockMsg()
+        self._pub_applied = self.create_publisher(WrenchStamped, 'applied_wrench', qos)
+        self.diagnostics.create_publisher(self)
+        self.create_subscription(WrenchMsg, 'wrench', self._on_wrench, qos)
+        self.create_subscription(WrenchStamped, 'wrench_stamped', self._on_wrench_stamped, qos)
+        self.create_subscription(PoseStamped, 'set_pose', self._on_set_pose, qos)
+        self.create_subscription(Twist, 'set_twist', self._on_set_twist, qos)
+        self.create_service(Empty, 'reset', self._on_reset)
+        self.create_service(SetBool, 'pause', self._on_pause)
+        self.create_service(Trigger, 'step', self._on_step)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._timer = None
+        self._restart_timer()
+        self._publish()
+        self.get_logger().info(
+            f'simulating mass {self.config.mass} kg, inertia {list(self.config.inertia)}, '
+            f'dt {self.config.dt} s, publishing every {self.config.steps_per_publish} steps, '
+            f'real_time_factor {values["real_time_factor"]}')
+
+    # -- inputs (callbacks only queue; the tick applies) -----------------------------------
+    def _reject(self, what: str, error: Exception) -> None:
+        self.diagnostics.rejected += 1
+        self.get_logger().warning(f'rejected {what}: {error}', throttle_duration_sec=1.0)
+
+    def _on_wrench(self, msg: WrenchMsg) -> None:
+        self._queue_wrench(msg, Frame.parse(self._v['wrench_frame']), msg)
+
+    def _on_wrench_stamped(self, msg: WrenchStamped) -> None:
+        fid = msg.header.frame_id.lstrip('/')
+        if fid in ('', ):
+            frame = Frame.parse(self._v['wrench_frame'])
+        elif fid in (self._v['world_frame'], 'world'):
+            frame = Frame.WORLD
+        elif fid in (self._v['body_frame'], 'body'):
+            frame = Frame.BODY
+        else:
+            self._reject('wrench_stamped', ValueError(
+                f"frame_id '{fid}' is neither '{self._v['world_frame']}' nor "
+                f"'{self._v['body_frame']}' (no tf lookup here)"))
+            return
+        self._queue_wrench(msg.wrench, frame, msg)
+
+    def _queue_wrench(self, wrench_msg: WrenchMsg, frame: Frame, raw) -> None:
+        try:
+            wrench = ros_messages.wrench_from_msg(wrench_msg, frame, self._v['max_wrench'])
+        except ValueError as e:
+            self._reject('wrench', e)
+            return
+        self._pending.append(SetWrench(wrench))
+
+    def _on_set_pose(self, msg: PoseStamped) -> None:
+        fid = msg.header.frame_id.lstrip('/')
+        p, o = msg.pose.position, msg.pose.orientation
+        try:
+            if fid not in ('', self._v['world_frame']):
+                raise ValueError(f"frame_id must be '{self._v['world_frame']}', got '{fid}'")
+            q = (o.x, o.y, o.z, o.w)
+            if not all(math.isfinite(c) for c in q) or not any(q):
+                raise ValueError(f'orientation must be a finite non-zero quaternion, got {q}')
+            event = SetPose((p.x, p.y, p.z), q)
+            _check_finite('position', event.position)
+        except ValueError as e:
+            self._reject('set_pose', e)
+            return
+        self._pending.append(event)
+
+    def _on_set_twist(self, msg: Twist) -> None:
+        lin = (msg.linear.x, msg.linear.y, msg.linear.z)
+        ang = (msg.angular.x, msg.angular.y, msg.angular.z)
+        try:
+            _check_finite('twist', lin + ang)
+        except ValueError as e:
+            self._reject('set_twist', e)
+            return
+        # In the body frame it is turned into the world frame when applied, at a step.
+        self._pending.append((self._out.twist_in_body, lin, ang))
+
+    def _on_reset(self, request, response):
+        self._pending.append(Reset())
+        return response
+
+    def _on_pause(self, request, response):
+        self._paused = bool(request.data)
+        if not self._paused:
+            self._anchor()
+        response.success = True
+        response.message = 'paused' if self._paused else 'running'
+        return response
+
+    def _on_step(self, request, response):
+        if not self._paused:
+            response.success = False
+            response.message = 'not paused: call pause with data: true first'
+            return response
+        self._period()
+        response.success = True
+        response.message = f'stepped to t = {self.sim.time_ns * 1e-9:.9f} s'
+        return response
+
+    # -- the step loop ---------------------------------------------------------------------
+    def _anchor(self) -> None:
+        self._anchor_wall = time.monotonic_ns()
+        self._anchor_period = self._periods
+
+    def _restart_timer(self) -> None:
+        if self._timer is not None:
+            self.destroy_timer(self._timer)
+        rtf = self._v['real_time_factor']
+        period = self.config.dt * self.config.steps_per_publish
+        wall_period = period / rtf if rtf > 0 else 1e-4
+        self._period_wall_ns = period / rtf * 1e9 if rtf > 0 else 0.0
+        self._periods = getattr(self, '_periods', 0)
+        self._anchor()
+        self._timer = self.create_timer(wall_period, self._on_tick, clock=self._steady)
+
+    def _on_tick(self) -> None:
+        if self._paused:
+            return
+        now = time.monotonic_ns()
+        if self._period_wall_ns == 0.0:  # as fast as possible, yielding every 10 ms
+            end = now + 10_000_000
+            while not self._paused and time.monotonic_ns() < end:
+                self._period()
+            return
+        due_total = self._anchor_period + int((now - self._anchor_wall) / self._period_wall_ns)
+        due = due_total - self._periods
+        if due <= 0:
+            return
+        ideal = self._anchor_wall + (self._periods + 1 - self._anchor_period) * \
+            self._period_wall_ns
+        self.diagnostics.tick(now - ideal, due > 1)
+        if due > self._v['max_catchup']:
+            self.diagnostics.dropped_periods += due - self._v['max_catchup']
+            due = self._v['max_catchup']
+            self._anchor_wall = now
+            self._anchor_period = self._periods + due
+        for _ in range(due):
+            self._period()
+
+    def _period(self) -> None:
+        """One publish period: apply inputs, step, publish."""
+        sim = self.sim
+        if self._pending:
+            pending, self._pending = self._pending, []
+            for event in pending:
+                self._apply(event)
+        if (self._timeout_steps and sim.step_count - self._last_command_step
+                >= self._timeout_steps and sim.stepper.wrench != ZERO_WRENCH):
+            self._apply(SetWrench(ZERO_WRENCH), command=False)
+        t0 = time.perf_counter_ns()
+        try:
+            sim.run(self.config.steps_per_publish)
+        except IntegrationError as e:
+            self._paused = True
+            self.diagnostics.error = str(e)
+            self.get_logger().error(f'{e}; paused at the last finite state (reset to go on)')
+        self.diagnostics.stepped(self.config.steps_per_publish, time.perf_counter_ns() - t0,
+                                 sim.time_ns)
+        self._periods += 1
+        self._publish()
+
+    def _apply(self, event, command: bool = True) -> None:
+        if isinstance(event, tuple):  # a twist in the body frame, turned now
+            in_body, lin, ang = event
+            if in_body:
+                r = tuple(self.sim.stepper.state.rotation.reshape(9))
+                lin, ang = ros_messages.rotate(r, lin), ros_messages.rotate(r, ang)
+            event = SetTwist(lin, ang)
+        try:
+            self.sim.apply(event)
+        except ValueError as e:
+            self._reject(type(event).__name__, e)
+            return
+        if isinstance(event, SetWrench):
+            if command:
+                self._last_command_step = self.sim.step_count
+            self._pub_applied.publish(self._applied_msg(event.wrench))
+        if self._recorder is not None:
+            self._recorder.event(self.sim.step_count, self.sim.time_ns, event)
+
+    def _applied_msg(self, wrench) -> WrenchStamped:
+        msg = WrenchStamped()
+        msg.header.stamp = ros_messages.time_msg(self.sim.time_ns)
+        msg.header.frame_id = self._v['body_frame' if wrench.frame is Frame.BODY
+                                      else 'world_frame']
+        f, t = msg.wrench.force, msg.wrench.torque
+        f.x, f.y, f.z = (float(c) for c in wrench.force)
+        t.x, t.y, t.z = (float(c) for c in wrench.torque)
+        return msg
+
+    def _publish(self) -> None:
+        sim = self.sim
+        t_ns = sim.time_ns
+        self._out.fill(t_ns, *sim.stepper.pose_twist())
+        self._pub_pose.publish(self._out.pose)
+        self._pub_twist.publish(self._out.twist)
+        self._pub_odom.publish(self._out.odom)
+        if self._pub_clock is not None:
+            self._clock_msg.clock = self._out.pose.header.stamp
+            self._pub_clock.publish(self._clock_msg)
+        if self._recorder is not None:
+            self._recorder.output(sim.step_count, t_ns, self._out)
+        self.diagnostics.maybe_publish(self, self._v['real_time_factor'])
+
+    # -- parameters ------------------------------------------------------------------------
+    def _apply_settings(self) -> None:
+        timeout = self._v['command_timeout']
+        self._timeout_steps = math.ceil(timeout / self.config.dt - 1e-9) if timeout else 0
+        self._out.configure(self._v['world_frame'], self._v['body_frame'],
+                            self._v['twist_frame'])
+
+    def _on_set_parameters(self, params) -> SetParametersResult:
+        new = dict(self._v)
+        try:
+            for p in params:
+                if p.name not in node_params.BY_NAME:
+                    continue
+                node_params.check(p.name, p.value)
+                new[p.name] = p.value
+            config = _config(new)
+        except ValueError as e:
+            return SetParametersResult(successful=False, reason=str(e))
+        rtf_changed = new['real_time_factor'] != self._v['real_time_factor']
+        self._v = new
+        self.config = config
+        self.sim.config = config  # initial state, used by the next reset
+        self._apply_settings()
+        if rtf_changed:
+            self._restart_timer()
+        return SetParametersResult(successful=True)
+
+    def close(self) -> None:
+        """Finish the recording (idempotent)."""
+        if self._recorder is not None:
+            self._recorder.close()
+
+
+def _check_finite(name, values) -> None:
+    if not all(math.isfinite(c) for c in values):
+        raise ValueError(f'{name} must be finite, got {list(values)}')
+
+
+def _config(v: dict) -> Config:
+    steps = v['dt'] and 1.0 / (v['publish_rate'] * v['dt'])
+    if abs(steps - round(steps)) > 1e-6 * steps or round(steps) < 1:
+        raise ValueError(f"publish_rate {v['publish_rate']} Hz must divide 1/dt = "
+                         f"{1.0 / v['dt']:.9g} Hz into a whole number of steps >= 1")
+    inertia = v['inertia']
+    return Config(mass=float(v['mass']), inertia=tuple(inertia), dt=float(v['dt']),
+                  steps_per_publish=int(round(steps)), integrator=v['integrator'],
+                  initial_position=tuple(v['initial_position']),
+                  initial_orientation_xyzw=tuple(v['initial_orientation']),
+                  initial_linear_velocity=tuple(v['initial_linear_velocity']),
+                  initial_angular_velocity=tuple(v['initial_angular_velocity']))
+
+
+def _open_recorder(node: SimulatorNode, values: dict):
+    if not values['record']:
+        return None
+    from rb_sim_ros.node_recorder import NodeRecorder
+    return NodeRecorder(values['record'], node.config, values,
+                        overwrite=bool(values['record_overwrite']))
+
+
+def main(args=None) -> int:
+    argv = sys.argv if args is None else args
+    parser = argparse.ArgumentParser(
+        prog='simulator', formatter_class=argparse.RawDescriptionHelpFormatter,
+        description='rb_sim_ros rigid-body simulator node. Subscribes wrench '
+        '(geometry_msgs/Wrench), wrench_stamped, set_pose, set_twist; publishes pose, twist, '
+        'odom, /clock, /diagnostics; services reset, pause, step.',
+        epilog=node_params.help_text())
+    parser.parse_args(remove_ros_args(argv)[1:])
+    rclpy.init(args=argv)
+    node = None
+    try:
+        node = SimulatorNode()
+        # Not rclpy.experimental.EventsExecutor: in Jazzy's rclpy 7.1.6 its spin() holds the
+        # GIL and ignores SIGINT/SIGTERM (measured), so the recording could not be finalised.
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        executor.spin()
+    except (ValueError, OSError) as e:
+        if node is None:
+            print(f'simulator: {e}', file=sys.stderr)
+            return 2
+        raise
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,39 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+import pytest
+
+import ros_harness
+
+
+@pytest.fixture(scope='session')
+def installed(tmp_path_factory):
+    """The package installed into a temporary prefix, colcon-style (lib/rb_sim_ros/...)."""
+    return ros_harness.install(tmp_path_factory.mktemp('ws') / 'install')
+
+
+@pytest.fixture
+def ros_env(installed):
+    return ros_harness.ros_env(installed)
+
+
+@pytest.fixture
+def probe(ros_env):
+    p = ros_harness.Probe(ros_env)
+    yield p
+    p.close()
+
+
+@pytest.fixture
+def start_sim(installed, ros_env, tmp_path):
+    """start_sim('-p', 'dt:=0.001', ...) runs the installed simulator with --ros-args."""
+    procs = []
+
+    def start(*ros_args, exe='simulator', args=()):
+        full = [*args, '--ros-args', *ros_args] if ros_args else list(args)
+        proc = ros_harness.SimProcess(installed, ros_env, full, tmp_path, exe)
+        procs.append(proc)
+        return proc
+
+    yield start
+    for p in procs:
+        p.stop()

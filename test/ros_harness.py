@@ -1,0 +1,124 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Real processes over DDS for the node tests: an installed simulator and a probe node.
+
+Every test run gets its own ROS_DOMAIN_ID and LOCALHOST discovery, so parallel runs never hear
+each other. Waiting is on conditions (spin until a message arrives), never on sleeps.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import sysconfig
+import time
+from pathlib import Path
+
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def install(prefix: Path) -> Path:
+    """Install the package into ``prefix`` as colcon's ament_python build does."""
+    build = prefix.parent / 'build'
+    build.mkdir(parents=True, exist_ok=True)
+    subprocess.run([sys.executable, 'setup.py', '-q', 'egg_info', '--egg-base', str(build),
+                    'build', '--build-base', str(build), 'install', '--prefix', str(prefix),
+                    '--record', str(build / 'install.log'),
+                    '--single-version-externally-managed'],
+                   cwd=ROOT, check=True, capture_output=True)
+    return prefix
+
+
+def site_packages(prefix: Path) -> Path:
+    rel = Path(sysconfig.get_path('purelib')).relative_to(sys.prefix)
+    return prefix / rel
+
+
+def ros_env(prefix: Path) -> dict:
+    env = dict(os.environ)
+    env['ROS_DOMAIN_ID'] = str(random.Random().randint(1, 100))
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    env['AMENT_PREFIX_PATH'] = os.pathsep.join([str(prefix), sys.prefix])
+    env['PYTHONPATH'] = os.pathsep.join(filter(None, [str(site_packages(prefix)),
+                                                      env.get('PYTHONPATH', '')]))
+    env['PYTHONUNBUFFERED'] = '1'
+    return env
+
+
+class SimProcess:
+    """The installed ``simulator`` executable as a subprocess."""
+
+    def __init__(self, prefix: Path, env: dict, args=(), log_dir: Path | None = None,
+                 exe: str = 'simulator') -> None:
+        self.log = (log_dir or prefix) / f'{exe}-{time.monotonic_ns()}.log'
+        self._log_file = open(self.log, 'w')
+        self.proc = subprocess.Popen([str(prefix / 'lib' / 'rb_sim_ros' / exe), *args],
+                                     env=env, stdout=self._log_file, stderr=subprocess.STDOUT)
+
+    def stop(self, sig=signal.SIGINT, timeout=10.0) -> int:
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self._log_file.close()
+        return self.proc.returncode
+
+    def output(self) -> str:
+        self._log_file.flush()
+        return self.log.read_text()
+
+
+class Probe:
+    """A node in the test process, on the test's own domain."""
+
+    def __init__(self, env: dict, name: str = 'probe') -> None:
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, domain_id=int(env['ROS_DOMAIN_ID']))
+        self.node = rclpy.create_node(name, context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+
+    def collect(self, msg_type, topic: str, qos=10) -> list:
+        """Subscribe; the returned list fills with every message received."""
+        got: list = []
+        self.node.create_subscription(msg_type, topic, got.append, qos)
+        return got
+
+    def wait_for(self, predicate, timeout: float = 20.0, what: str = 'condition') -> None:
+        end = time.monotonic() + timeout
+        while not predicate():
+            if time.monotonic() > end:
+                raise TimeoutError(f'timed out after {timeout} s waiting for {what}')
+            self.executor.spin_once(timeout_sec=0.02)
+
+    def call(self, srv_type, name: str, request, timeout: float = 20.0):
+        client = self.node.create_client(srv_type, name)
+        self.wait_for(client.service_is_ready, timeout, f'service {name}')
+        future = client.call_async(request)
+        self.wait_for(future.done, timeout, f'response of {name}')
+        return future.result()
+
+    def publisher(self, msg_type, topic: str, subscribers: int = 1):
+        """A publisher, returned once ``subscribers`` subscriptions have matched it."""
+        pub = self.node.create_publisher(msg_type, topic, 10)
+        self.wait_for(lambda: pub.get_subscription_count() >= subscribers,
+                      what=f'a subscriber on {topic}')
+        return pub
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+
+def stamp_ns(stamp) -> int:
+    return stamp.sec * 1_000_000_000 + stamp.nanosec

@@ -1,0 +1,232 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The installed simulator over DDS against the core's own prediction, and its interface."""
+
+import math
+import subprocess
+import sys
+
+from geometry_msgs.msg import PoseStamped, Twist, Wrench, WrenchStamped
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
+from rosgraph_msgs.msg import Clock
+from std_srvs.srv import Empty, SetBool, Trigger
+
+from rb_sim_ros import Wrench as CoreWrench
+from rb_sim_ros.simulation import Config, SetWrench, Simulation
+from ros_harness import stamp_ns
+
+DT_NS = 1_000_000
+PERIOD_NS = 10 * DT_NS
+INERTIA = ['-p', 'inertia:=[0.2, 0.3, 0.4]', '-p', 'mass:=2.0',
+           '-p', 'initial_angular_velocity:=[0.5, -1.0, 2.0]']
+
+
+def _wrench_msg(f, t):
+    m = Wrench()
+    m.force.x, m.force.y, m.force.z = f
+    m.torque.x, m.torque.y, m.torque.z = t
+    return m
+
+
+def test_installed_layout(installed, ros_env):
+    assert (installed / 'lib' / 'rb_sim_ros' / 'simulator').is_file()
+    assert (installed / 'share' / 'ament_index' / 'resource_index' / 'packages'
+            / 'rb_sim_ros').is_file()
+    assert (installed / 'share' / 'rb_sim_ros' / 'package.xml').is_file()
+    out = subprocess.run(
+        [sys.executable, '-c', 'from ament_index_python.packages import get_package_prefix;'
+         'print(get_package_prefix("rb_sim_ros"))'],
+        env=ros_env, capture_output=True, text=True, check=True).stdout.strip()
+    assert out == str(installed)
+
+
+def test_help_lists_parameters(installed, ros_env):
+    out = subprocess.run([str(installed / 'lib' / 'rb_sim_ros' / 'simulator'), '--help'],
+                         env=ros_env, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0
+    for name in ('dt', 'publish_rate', 'wrench_frame', 'command_timeout', 'real_time_factor'):
+        assert f'  {name} (default' in out.stdout
+
+
+def test_follows_the_core_prediction_for_a_wrench_schedule(start_sim, probe):
+    start_sim(*INERTIA, '-p', 'command_timeout:=0.0')
+    odoms = probe.collect(Odometry, 'odom')
+    poses = probe.collect(PoseStamped, 'pose')
+    applied = probe.collect(WrenchStamped, 'applied_wrench')
+    wrench = probe.publisher(Wrench, 'wrench')
+    stamped = probe.publisher(WrenchStamped, 'wrench_stamped')
+    probe.wait_for(lambda: len(poses) > 3, what='first poses')
+    commands = [((1.0, 0.0, -0.5), (0.0, 0.02, 0.0)), ((0.0, 2.0, 0.0), (0.05, 0.0, -0.01)),
+                ((-1.0, 0.5, 0.0), (0.0, 0.0, 0.0))]
+    for i, (f, t) in enumerate(commands):
+        if i == 1:  # the middle one in the body frame, by frame_id
+            m = WrenchStamped(wrench=_wrench_msg(f, t))
+            m.header.frame_id = 'base_link'
+            stamped.publish(m)
+        else:
+            wrench.publish(_wrench_msg(f, t))
+        probe.wait_for(lambda: len(applied) > i, what=f'wrench {i} applied')
+        n = len(poses)
+        probe.wait_for(lambda: len(poses) > n + 5, what='poses after it')
+
+    # Re-simulate offline with the wrenches at the steps at which they took effect.
+    events = []
+    for msg, (f, t) in zip(applied, commands):
+        frame = 'body' if msg.header.frame_id == 'base_link' else 'world'
+        assert (msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z) == f
+        events.append((stamp_ns(msg.header.stamp) // DT_NS, SetWrench(CoreWrench(f, t, frame))))
+    sim = Simulation(Config(mass=2.0, inertia=(0.2, 0.3, 0.4),
+                            initial_angular_velocity=(0.5, -1.0, 2.0)))
+    checked = 0
+    for pose, odom in zip(poses, odoms):
+        step = stamp_ns(pose.header.stamp) // DT_NS
+        assert stamp_ns(odom.header.stamp) == stamp_ns(pose.header.stamp)
+        events = sim.run_until(step, events)
+        x, q, v, w = sim.stepper.pose_twist()
+        p, o = pose.pose.position, pose.pose.orientation
+        assert (p.x, p.y, p.z) == x and (o.x, o.y, o.z, o.w) == q, f'step {step}'
+        assert odom.pose.pose == pose.pose
+        checked += 1
+    assert checked > 20 and not events
+
+
+def _set(probe, **values):
+    req = SetParameters.Request()
+    for name, value in values.items():
+        if isinstance(value, str):
+            pv = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=value)
+        else:
+            pv = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=float(value))
+        req.parameters.append(Parameter(name=name, value=pv))
+    return probe.call(SetParameters, 'rb_sim/set_parameters', req).results
+
+
+def test_parameters_are_validated_and_the_node_keeps_running(start_sim, probe):
+    start_sim()
+    poses = probe.collect(PoseStamped, 'pose')
+    probe.wait_for(lambda: poses, what='a pose')
+    refusals = {'dt': 0.002, 'command_timeout': -1.0, 'wrench_frame': 'map',
+                'max_wrench': float('nan'), 'real_time_factor': -2.0,
+                'initial_position': 'up'}
+    for name, value in refusals.items():
+        (result,) = _set(probe, **{name: value})
+        assert not result.successful, name
+        assert result.reason, name
+    (result,) = _set(probe, command_timeout=0.5)
+    assert result.successful
+    n = len(poses)
+    probe.wait_for(lambda: len(poses) > n + 3, what='poses after the refusals')
+
+
+def test_services_pause_step_reset_and_teleports(start_sim, probe):
+    start_sim('-p', 'initial_position:=[1.0, 2.0, 3.0]')
+    poses = probe.collect(PoseStamped, 'pose')
+    clock = probe.collect(Clock, '/clock', qos=probe_best_effort())
+    probe.wait_for(lambda: poses and clock, what='pose and clock')
+    assert probe.call(SetBool, 'pause', SetBool.Request(data=True)).success
+    # While paused, each step call advances exactly one publish period.
+    before = len(poses)
+    first = probe.call(Trigger, 'step', Trigger.Request())
+    assert first.success
+    probe.wait_for(lambda: len(poses) > before, what='the stepped pose')
+    t0 = stamp_ns(poses[-1].header.stamp)
+    n = len(poses)
+    assert probe.call(Trigger, 'step', Trigger.Request()).success
+    probe.wait_for(lambda: len(poses) > n, what='the second stepped pose')
+    assert stamp_ns(poses[-1].header.stamp) - t0 == PERIOD_NS
+    assert len(poses) == n + 1
+    # Teleport, then reset back to the initial pose.
+    set_pose = probe.publisher(PoseStamped, 'set_pose')
+    target = PoseStamped()
+    target.header.frame_id = 'odom'
+    target.pose.position.x, target.pose.orientation.z, target.pose.orientation.w = 5.0, 1.0, 0.0
+    set_pose.publish(target)
+    probe.wait_for(lambda: probe.node.count_publishers('set_pose') >= 1)
+    n = len(poses)
+    # The teleport is applied at the next period: step until it shows.
+    for _ in range(50):
+        assert probe.call(Trigger, 'step', Trigger.Request()).success
+        probe.wait_for(lambda: len(poses) > n, what='pose after step')
+        n = len(poses)
+        if poses[-1].pose.position.x == 5.0:
+            break
+    assert poses[-1].pose.position.x == 5.0 and abs(poses[-1].pose.orientation.z) == 1.0
+    set_twist = probe.publisher(Twist, 'set_twist')
+    tw = Twist()
+    tw.linear.x = 1.0  # body frame: the body is turned by pi about z, so world -x
+    set_twist.publish(tw)
+    for _ in range(50):
+        assert probe.call(Trigger, 'step', Trigger.Request()).success
+        probe.wait_for(lambda: len(poses) > n, what='pose after step')
+        n = len(poses)
+        if poses[-1].pose.position.x < 5.0:
+            break
+    assert math.isclose(poses[-1].pose.position.x, 5.0 - 0.01, rel_tol=1e-9)
+    probe.call(Empty, 'reset', Empty.Request())
+    assert probe.call(Trigger, 'step', Trigger.Request()).success
+    probe.wait_for(lambda: len(poses) > n, what='pose after reset')
+    p = poses[-1].pose
+    assert (p.position.x, p.position.y, p.position.z) == (1.0, 2.0, 3.0)
+    assert (p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w) == (0, 0, 0, 1)
+    # Stepping refused while running.
+    assert probe.call(SetBool, 'pause', SetBool.Request(data=False)).success
+    assert not probe.call(Trigger, 'step', Trigger.Request()).success
+
+
+def probe_best_effort():
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    return QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+
+
+def test_command_timeout_zeroes_the_wrench(start_sim, probe):
+    start_sim('-p', 'command_timeout:=0.05')
+    applied = probe.collect(WrenchStamped, 'applied_wrench')
+    pub = probe.publisher(Wrench, 'wrench')
+    pub.publish(_wrench_msg((1.0, 0.0, 0.0), (0.0, 0.0, 0.1)))
+    probe.wait_for(lambda: len(applied) >= 2, what='the command and its timeout')
+    cmd, zero = applied[:2]
+    assert cmd.wrench.force.x == 1.0
+    assert zero.wrench == Wrench()
+    assert stamp_ns(zero.header.stamp) - stamp_ns(cmd.header.stamp) == 50 * DT_NS
+
+
+def test_non_finite_and_absurd_wrenches_are_rejected(start_sim, probe):
+    sim = start_sim('-p', 'max_wrench:=100.0', '-p', 'command_timeout:=0.0')
+    applied = probe.collect(WrenchStamped, 'applied_wrench')
+    poses = probe.collect(PoseStamped, 'pose')
+    pub = probe.publisher(Wrench, 'wrench')
+    for bad in (_wrench_msg((math.nan, 0, 0), (0, 0, 0)),
+                _wrench_msg((0, 0, 0), (0, math.inf, 0)),
+                _wrench_msg((1e3, 0, 0), (0, 0, 0))):
+        pub.publish(bad)
+    pub.publish(_wrench_msg((0.0, 3.0, 0.0), (0, 0, 0)))
+    # Messages on one topic arrive in order: had a bad one been applied, it would come first.
+    probe.wait_for(lambda: applied, what='the good wrench')
+    assert applied[0].wrench.force.y == 3.0 and len(applied) == 1
+    n = len(poses)
+    probe.wait_for(lambda: len(poses) > n + 3, what='poses after the bad wrenches')
+    assert all(math.isfinite(p.pose.position.x) for p in poses)
+    assert sim.proc.poll() is None
+    assert 'rejected wrench: non-finite' in sim.output()
+
+
+def test_params_file(start_sim, probe, tmp_path):
+    f = tmp_path / 'params.yaml'
+    f.write_text('rb_sim:\n  ros__parameters:\n    mass: 3\n    initial_position: [0.5, 0.0, '
+                 '-1.0]\n    world_frame: map\n')
+    start_sim('--params-file', str(f))
+    poses = probe.collect(PoseStamped, 'pose')
+    probe.wait_for(lambda: poses, what='a pose')
+    assert poses[0].header.frame_id == 'map'
+    assert poses[0].pose.position.x == 0.5 and poses[0].pose.position.z == -1.0
+
+
+def test_bad_startup_parameters_exit_with_a_message(start_sim, tmp_path):
+    f = tmp_path / 'params.yaml'
+    f.write_text('rb_sim:\n  ros__parameters:\n    inertia: [1.0, 1.0, 5.0]\n')
+    sim = start_sim('--params-file', str(f))
+    assert sim.proc.wait(60) == 2
+    assert 'triangle inequality' in sim.output()
+    assert 'Traceback' not in sim.output()
