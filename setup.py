@@ -22,6 +22,7 @@ setup(
     entry_points={
         'console_scripts': [
             'simulator = rb_sim_ros.simulator_node:main',
+            'send_wrench = rb_sim_ros.send_wrench:main',
         ],
     },
 )

@@ -236,15 +236,16 @@ class SimulatorNode(Node):
                 r = tuple(self.sim.stepper.state.rotation.reshape(9))
                 lin, ang = ros_messages.rotate(r, lin), ros_messages.rotate(r, ang)
             event = SetTwist(lin, ang)
+        held = self.sim.stepper.wrench
         try:
             self.sim.apply(event)
         except ValueError as e:
             self._reject(type(event).__name__, e)
             return
-        if isinstance(event, SetWrench):
-            if command:
-                self._last_command_step = self.sim.step_count
-            self._pub_applied.publish(self._applied_msg(event.wrench))
+        if isinstance(event, SetWrench) and command:
+            self._last_command_step = self.sim.step_count
+        if self.sim.stepper.wrench != held:
+            self._pub_applied.publish(self._applied_msg(self.sim.stepper.wrench))
         if self._recorder is not None:
             self._recorder.event(self.sim.step_count, self.sim.time_ns, event)
 

@@ -230,3 +230,26 @@ def test_bad_startup_parameters_exit_with_a_message(start_sim, tmp_path):
     assert sim.proc.wait(60) == 2
     assert 'triangle inequality' in sim.output()
     assert 'Traceback' not in sim.output()
+
+
+def test_send_wrench_drives_the_simulator_from_a_csv_profile(start_sim, probe, tmp_path):
+    start_sim('-p', 'command_timeout:=0.0')
+    applied = probe.collect(WrenchStamped, 'applied_wrench')
+    csv = tmp_path / 'profile.csv'
+    csv.write_text('t,fx,fy,fz,tx,ty,tz,frame\n0,1,0,0,0,0,0,world\n0.3,0,2,0,0,0,0.1,body\n')
+    sender = start_sim(exe='send_wrench', args=('--csv', str(csv), '--duration', '0.3'))
+    probe.wait_for(lambda: sender.proc.poll() is not None, what='send_wrench to finish')
+    assert sender.proc.returncode == 0, sender.output()
+    probe.wait_for(lambda: any(a.wrench == Wrench() for a in applied), what='the final zero')
+    got = [(a.header.frame_id, a.wrench.force.x, a.wrench.force.y, a.wrench.torque.z)
+           for a in applied]
+    assert got == [('odom', 1.0, 0.0, 0.0), ('base_link', 0.0, 2.0, 0.1),
+                   ('base_link', 0.0, 0.0, 0.0)]
+
+
+def test_send_wrench_refuses_a_bad_profile(start_sim, tmp_path):
+    csv = tmp_path / 'profile.csv'
+    csv.write_text('t,fx,fy,fz,tx,ty,tz\n0,1,0,0,0,0,zero\n')
+    sender = start_sim(exe='send_wrench', args=('--csv', str(csv)))
+    assert sender.proc.wait(60) == 2
+    assert f'{csv}:2: not a number' in sender.output()
