@@ -2,29 +2,32 @@
 # Licensed under the Apache License, Version 2.0
 """The simulator node: steps a Simulation at a fixed rate, takes wrenches, publishes state.
 
-Timing. Sim time is step_count * dt. A steady-clock timer ticks once per publish period (divided
-by real_time_factor); each tick steps as many whole publish periods as the wall clock says are
-due (a late tick catches up by stepping, at most max_catchup periods, and is counted), and after
-each period publishes pose, twist, odom and /clock. Inputs received between ticks take effect at
-the start of the next period; what a run does depends only on the inputs and the step at which
-each took effect, never on scheduling.
+Timing. Sim time is step_count * dt. A step-loop thread wakes on the steady clock once per
+publish period (divided by real_time_factor) and steps as many whole publish periods as are due
+(a late tick catches up by stepping, at most max_catchup periods, and is counted), publishing
+pose, twist, odom and /clock after each. The executor thread only queues inputs and answers
+services, so it sleeps while nothing arrives: rclpy's executor rebuilds its wait set on every
+wake-up (ros2/design#305), which at 1 kHz would cost most of a core if it also drove the steps.
+Inputs take effect at the start of the next period; what a run does depends only on the inputs
+and the step at which each took effect, never on scheduling.
 """
 
 from __future__ import annotations
 
 import argparse
+import collections
 import math
 import sys
+import threading
 import time
 
 from geometry_msgs.msg import PoseStamped, Twist, Wrench as WrenchMsg, WrenchStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 import rclpy
-from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_srvs.srv import Empty, SetBool, Trigger
@@ -34,6 +37,9 @@ from rb_sim_ros.diagnostics import Diagnostics
 from rb_sim_ros.rigid_body import Frame, ZERO_WRENCH
 from rb_sim_ros.simulation import Config, Reset, SetPose, SetTwist, SetWrench, Simulation
 from rb_sim_ros.stepper import IntegrationError
+
+
+APPLIED_QOS = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 class SimulatorNode(Node):
@@ -52,7 +58,11 @@ class SimulatorNode(Node):
         self._v = values
         self._out = ros_messages.OutputMessages(values['world_frame'], values['body_frame'],
                                                 values['twist_frame'])
-        self._pending: list = []
+        self._pending: collections.deque = collections.deque()
+        self._lock = threading.Lock()  # the step loop against service and parameter callbacks
+        self._stop = threading.Event()
+        self._wake = threading.Event()
+        self._periods = 0
         self._paused = False
         self._last_command_step = 0
         self._timeout_steps = 0
@@ -68,7 +78,10 @@ class SimulatorNode(Node):
             depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)) if values['publish_clock']
             else None)
         self._clock_msg = ClockMsg()
-        self._pub_applied = self.create_publisher(WrenchStamped, 'applied_wrench', qos)
+        self._state_pubs = ((self._pub_pose, self._out.pose), (self._pub_twist, self._out.twist),
+                            (self._pub_odom, self._out.odom))
+        # Latched (transient local) like a state: a late subscriber still gets the recent ones.
+        self._pub_applied = self.create_publisher(WrenchStamped, 'applied_wrench', APPLIED_QOS)
         self.diagnostics.create_publisher(self)
         self.create_subscription(WrenchMsg, 'wrench', self._on_wrench, qos)
         self.create_subscription(WrenchStamped, 'wrench_stamped', self._on_wrench_stamped, qos)
@@ -78,10 +91,10 @@ class SimulatorNode(Node):
         self.create_service(SetBool, 'pause', self._on_pause)
         self.create_service(Trigger, 'step', self._on_step)
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._timer = None
-        self._restart_timer()
+        self._set_rate()
         self._publish()
+        self._thread = threading.Thread(target=self._loop, name='rb_sim_step_loop', daemon=True)
+        self._thread.start()
         self.get_logger().info(
             f'simulating mass {self.config.mass} kg, inertia {list(self.config.inertia)}, '
             f'dt {self.config.dt} s, publishing every {self.config.steps_per_publish} steps, '
@@ -150,9 +163,11 @@ class SimulatorNode(Node):
         return response
 
     def _on_pause(self, request, response):
-        self._paused = bool(request.data)
-        if not self._paused:
-            self._anchor()
+        with self._lock:
+            self._paused = bool(request.data)
+            if not self._paused:
+                self._anchor()
+                self._wake.set()
         response.success = True
         response.message = 'paused' if self._paused else 'running'
         return response
@@ -162,7 +177,8 @@ class SimulatorNode(Node):
             response.success = False
             response.message = 'not paused: call pause with data: true first'
             return response
-        self._period()
+        with self._lock:
+            self._period()
         response.success = True
         response.message = f'stepped to t = {self.sim.time_ns * 1e-9:.9f} s'
         return response
@@ -172,33 +188,43 @@ class SimulatorNode(Node):
         self._anchor_wall = time.monotonic_ns()
         self._anchor_period = self._periods
 
-    def _restart_timer(self) -> None:
-        if self._timer is not None:
-            self.destroy_timer(self._timer)
+    def _set_rate(self) -> None:
         rtf = self._v['real_time_factor']
         period = self.config.dt * self.config.steps_per_publish
-        wall_period = period / rtf if rtf > 0 else 1e-4
         self._period_wall_ns = period / rtf * 1e9 if rtf > 0 else 0.0
-        self._periods = getattr(self, '_periods', 0)
         self._anchor()
-        self._timer = self.create_timer(wall_period, self._on_tick, clock=self._steady)
 
-    def _on_tick(self) -> None:
-        if self._paused:
+    def _loop(self) -> None:
+        try:
+            while not self._stop.is_set():
+                if self._paused:
+                    self._wake.wait(0.1)
+                    self._wake.clear()
+                elif self._period_wall_ns == 0.0:  # as fast as possible
+                    with self._lock:
+                        for _ in range(10):
+                            if not self._paused:
+                                self._period()
+                    time.sleep(0)  # let the executor thread take the GIL for inputs
+                else:
+                    due_at = self._anchor_wall + (self._periods + 1 - self._anchor_period) * \
+                        self._period_wall_ns
+                    now = time.monotonic_ns()
+                    if now < due_at:
+                        self._stop.wait((due_at - now) * 1e-9)
+                        continue
+                    with self._lock:
+                        self._tick(now, now - due_at)
+        except Exception as e:  # never die silently: say why stepping stopped
+            self.get_logger().fatal(f'step loop stopped: {e!r}')
+            raise
+
+    def _tick(self, now: int, lateness_ns: float) -> None:
+        if self._paused or self._period_wall_ns == 0.0:
             return
-        now = time.monotonic_ns()
-        if self._period_wall_ns == 0.0:  # as fast as possible, yielding every 10 ms
-            end = now + 10_000_000
-            while not self._paused and time.monotonic_ns() < end:
-                self._period()
-            return
-        due_total = self._anchor_period + int((now - self._anchor_wall) / self._period_wall_ns)
-        due = due_total - self._periods
-        if due <= 0:
-            return
-        ideal = self._anchor_wall + (self._periods + 1 - self._anchor_period) * \
-            self._period_wall_ns
-        self.diagnostics.tick(now - ideal, due > 1)
+        due = self._anchor_period + int((now - self._anchor_wall) / self._period_wall_ns) \
+            - self._periods
+        self.diagnostics.tick(lateness_ns, due > 1)
         if due > self._v['max_catchup']:
             self.diagnostics.dropped_periods += due - self._v['max_catchup']
             due = self._v['max_catchup']
@@ -210,10 +236,8 @@ class SimulatorNode(Node):
     def _period(self) -> None:
         """One publish period: apply inputs, step, publish."""
         sim = self.sim
-        if self._pending:
-            pending, self._pending = self._pending, []
-            for event in pending:
-                self._apply(event)
+        while self._pending:
+            self._apply(self._pending.popleft())
         if (self._timeout_steps and sim.step_count - self._last_command_step
                 >= self._timeout_steps and sim.stepper.wrench != ZERO_WRENCH):
             self._apply(SetWrench(ZERO_WRENCH), command=False)
@@ -260,17 +284,22 @@ class SimulatorNode(Node):
         return msg
 
     def _publish(self) -> None:
+        """Publish the state to whoever listens: a topic with no subscriber (and no recording)
+        costs neither a fill nor a serialisation; at real_time_factor 0 that is most of a
+        period's cost."""
         sim = self.sim
         t_ns = sim.time_ns
-        self._out.fill(t_ns, *sim.stepper.pose_twist())
-        self._pub_pose.publish(self._out.pose)
-        self._pub_twist.publish(self._out.twist)
-        self._pub_odom.publish(self._out.odom)
+        recording = self._recorder is not None
+        pubs = [p for p in self._state_pubs if p[0].get_subscription_count()]
+        if pubs or recording:
+            self._out.fill(t_ns, *sim.stepper.pose_twist())
+            for pub, msg in pubs:
+                pub.publish(msg)
+            if recording:
+                self._recorder.output(sim.step_count, t_ns, self._out)
         if self._pub_clock is not None:
-            self._clock_msg.clock = self._out.pose.header.stamp
+            self._clock_msg.clock = ros_messages.time_msg(t_ns)
             self._pub_clock.publish(self._clock_msg)
-        if self._recorder is not None:
-            self._recorder.output(sim.step_count, t_ns, self._out)
         self.diagnostics.maybe_publish(self, self._v['real_time_factor'])
 
     # -- parameters ------------------------------------------------------------------------
@@ -291,17 +320,22 @@ class SimulatorNode(Node):
             config = _config(new)
         except ValueError as e:
             return SetParametersResult(successful=False, reason=str(e))
-        rtf_changed = new['real_time_factor'] != self._v['real_time_factor']
-        self._v = new
-        self.config = config
-        self.sim.config = config  # initial state, used by the next reset
-        self._apply_settings()
-        if rtf_changed:
-            self._restart_timer()
+        with self._lock:
+            rtf_changed = new['real_time_factor'] != self._v['real_time_factor']
+            self._v = new
+            self.config = config
+            self.sim.config = config  # initial state, used by the next reset
+            self._apply_settings()
+            if rtf_changed:
+                self._set_rate()
         return SetParametersResult(successful=True)
 
     def close(self) -> None:
-        """Finish the recording (idempotent)."""
+        """Stop the step loop and finish the recording (idempotent)."""
+        self._stop.set()
+        self._wake.set()
+        if self._thread.is_alive() and threading.current_thread() is not self._thread:
+            self._thread.join()
         if self._recorder is not None:
             self._recorder.close()
 

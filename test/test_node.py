@@ -15,6 +15,7 @@ from std_srvs.srv import Empty, SetBool, Trigger
 
 from rb_sim_ros import Wrench as CoreWrench
 from rb_sim_ros.simulation import Config, SetWrench, Simulation
+from rb_sim_ros.simulator_node import APPLIED_QOS
 from ros_harness import stamp_ns
 
 DT_NS = 1_000_000
@@ -54,7 +55,7 @@ def test_follows_the_core_prediction_for_a_wrench_schedule(start_sim, probe):
     start_sim(*INERTIA, '-p', 'command_timeout:=0.0')
     odoms = probe.collect(Odometry, 'odom')
     poses = probe.collect(PoseStamped, 'pose')
-    applied = probe.collect(WrenchStamped, 'applied_wrench')
+    applied = probe.collect(WrenchStamped, 'applied_wrench', APPLIED_QOS)
     wrench = probe.publisher(Wrench, 'wrench')
     stamped = probe.publisher(WrenchStamped, 'wrench_stamped')
     probe.wait_for(lambda: len(poses) > 3, what='first poses')
@@ -182,7 +183,7 @@ def probe_best_effort():
 
 def test_command_timeout_zeroes_the_wrench(start_sim, probe):
     start_sim('-p', 'command_timeout:=0.05')
-    applied = probe.collect(WrenchStamped, 'applied_wrench')
+    applied = probe.collect(WrenchStamped, 'applied_wrench', APPLIED_QOS)
     pub = probe.publisher(Wrench, 'wrench')
     pub.publish(_wrench_msg((1.0, 0.0, 0.0), (0.0, 0.0, 0.1)))
     probe.wait_for(lambda: len(applied) >= 2, what='the command and its timeout')
@@ -194,7 +195,7 @@ def test_command_timeout_zeroes_the_wrench(start_sim, probe):
 
 def test_non_finite_and_absurd_wrenches_are_rejected(start_sim, probe):
     sim = start_sim('-p', 'max_wrench:=100.0', '-p', 'command_timeout:=0.0')
-    applied = probe.collect(WrenchStamped, 'applied_wrench')
+    applied = probe.collect(WrenchStamped, 'applied_wrench', APPLIED_QOS)
     poses = probe.collect(PoseStamped, 'pose')
     pub = probe.publisher(Wrench, 'wrench')
     for bad in (_wrench_msg((math.nan, 0, 0), (0, 0, 0)),
@@ -234,7 +235,7 @@ def test_bad_startup_parameters_exit_with_a_message(start_sim, tmp_path):
 
 def test_send_wrench_drives_the_simulator_from_a_csv_profile(start_sim, probe, tmp_path):
     start_sim('-p', 'command_timeout:=0.0')
-    applied = probe.collect(WrenchStamped, 'applied_wrench')
+    applied = probe.collect(WrenchStamped, 'applied_wrench', APPLIED_QOS)
     csv = tmp_path / 'profile.csv'
     csv.write_text('t,fx,fy,fz,tx,ty,tz,frame\n0,1,0,0,0,0,0,world\n0.3,0,2,0,0,0,0.1,body\n')
     sender = start_sim(exe='send_wrench', args=('--csv', str(csv), '--duration', '0.3'))
