@@ -78,7 +78,7 @@ PARAMS = (
     Param('wrench_frame', 'world', "Frame of wrenches on the 'wrench' topic: 'world' (fixed) "
           "or 'body' (turns with the body).", False, _frame),
     Param('twist_frame', 'body', "Frame of the 'twist' topic and of 'set_twist': 'body' (as "
-          "in odom) or 'world'.", False, _frame),
+          "in odom) or 'world'.", True, _frame),
     Param('command_timeout', 1.0, 'Sim-time seconds after the last wrench command at which '
           'the wrench is set to zero; 0 holds the last command forever.', False, _non_negative),
     Param('max_wrench', 1.0e6, 'Largest accepted force norm (N) and torque norm (N m); '
@@ -89,6 +89,9 @@ PARAMS = (
     Param('max_catchup', 10, 'Most publish periods stepped in one tick to catch up after a '
           'late tick; beyond that, real time is dropped (counted in diagnostics).', False,
           _positive),
+    Param('start_paused', False, 'Start paused at step 0. While paused, inputs take effect '
+          'as they arrive (at the step the next step call takes), so a script of inputs and '
+          'step calls gives the same run every time.', True),
     Param('publish_clock', True, 'Publish /clock (rosgraph_msgs/Clock, best-effort) with sim '
           'time.', True),
     Param('record', '', 'Path of an MCAP file to record the run to; empty: no recording.', True),

@@ -118,7 +118,25 @@ class SetTwist:
 
 @dataclass(frozen=True)
 class Reset:
-    """Back to the configuration's initial state, with no wrench."""
+    """Zero the wrench and jump to a state: the given one (world frame: position m,
+    orientation x-y-z-w, linear m/s, angular rad/s), or else the configuration's initial one."""
+
+    position: tuple[float, ...] | None = None
+    orientation_xyzw: tuple[float, ...] | None = None
+    linear: tuple[float, ...] | None = None
+    angular: tuple[float, ...] | None = None
+
+    @classmethod
+    def to_initial(cls, config: 'Config') -> 'Reset':
+        """A reset to ``config``'s initial state, spelled out (so a recording holds it)."""
+        return cls(config.initial_position, config.initial_orientation_xyzw,
+                   config.initial_linear_velocity, config.initial_angular_velocity)
+
+    def state(self, config: 'Config') -> State:
+        if self.position is None:
+            return config.initial_state()
+        return State.from_quaternion_xyzw(self.position, self.orientation_xyzw, self.linear,
+                                          self.angular)
 
 
 Event = Union[SetWrench, SetPose, SetTwist, Reset]
@@ -157,8 +175,9 @@ class Simulation:
             old = s.state
             s.set_state(State(old.position, old.rotation, event.linear, event.angular))
         elif isinstance(event, Reset):
+            state = event.state(self.config)
             s.set_wrench(ZERO_WRENCH)
-            s.set_state(self.config.initial_state())
+            s.set_state(state)
         else:
             raise ValueError(f'event must be SetWrench, SetPose, SetTwist or Reset, '
                              f'got {event!r}')

@@ -63,7 +63,7 @@ class SimulatorNode(Node):
         self._stop = threading.Event()
         self._wake = threading.Event()
         self._periods = 0
-        self._paused = False
+        self._paused = bool(values['start_paused'])
         self._last_command_step = 0
         self._timeout_steps = 0
         self._apply_settings()
@@ -101,6 +101,14 @@ class SimulatorNode(Node):
             f'real_time_factor {values["real_time_factor"]}')
 
     # -- inputs (callbacks only queue; the tick applies) -----------------------------------
+    def _queue(self, event) -> None:
+        """Queue an input for the start of the next period; while paused that is now."""
+        self._pending.append(event)
+        if self._paused:
+            with self._lock:
+                while self._pending:
+                    self._apply(self._pending.popleft())
+
     def _reject(self, what: str, error: Exception) -> None:
         self.diagnostics.rejected += 1
         self.get_logger().warning(f'rejected {what}: {error}', throttle_duration_sec=1.0)
@@ -129,7 +137,7 @@ class SimulatorNode(Node):
         except ValueError as e:
             self._reject('wrench', e)
             return
-        self._pending.append(SetWrench(wrench))
+        self._queue(SetWrench(wrench))
 
     def _on_set_pose(self, msg: PoseStamped) -> None:
         fid = msg.header.frame_id.lstrip('/')
@@ -145,7 +153,7 @@ class SimulatorNode(Node):
         except ValueError as e:
             self._reject('set_pose', e)
             return
-        self._pending.append(event)
+        self._queue(event)
 
     def _on_set_twist(self, msg: Twist) -> None:
         lin = (msg.linear.x, msg.linear.y, msg.linear.z)
@@ -156,10 +164,10 @@ class SimulatorNode(Node):
             self._reject('set_twist', e)
             return
         # In the body frame it is turned into the world frame when applied, at a step.
-        self._pending.append((self._out.twist_in_body, lin, ang))
+        self._queue((self._out.twist_in_body, lin, ang))
 
     def _on_reset(self, request, response):
-        self._pending.append(Reset())
+        self._queue(Reset())
         return response
 
     def _on_pause(self, request, response):
@@ -260,6 +268,8 @@ class SimulatorNode(Node):
                 r = tuple(self.sim.stepper.state.rotation.reshape(9))
                 lin, ang = ros_messages.rotate(r, lin), ros_messages.rotate(r, ang)
             event = SetTwist(lin, ang)
+        elif isinstance(event, Reset) and event.position is None:
+            event = Reset.to_initial(self.config)  # spelled out, for the recording
         held = self.sim.stepper.wrench
         try:
             self.sim.apply(event)
