@@ -15,8 +15,6 @@ converts at its boundary, so users still see R of the body frame they gave.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 

@@ -31,7 +31,7 @@ FIELDS = ('t', 'fx', 'fy', 'fz', 'tx', 'ty', 'tz')
 
 
 def load_profile(path: str) -> list[tuple[float, tuple[float, ...], str | None]]:
-    """Rows (t, (fx, fy, fz, tx, ty, tz), frame or None), sorted by t; ValueError names the line."""
+    """Rows (t, (fx, fy, fz, tx, ty, tz), frame or None) sorted by t; ValueError names the line."""
     rows = []
     with open(path, newline='') as f:
         reader = csv.DictReader(f)

@@ -35,6 +35,7 @@ import numpy as np
 from rb_sim_ros import euler_dynamics, multistep, so3
 from rb_sim_ros.rigid_body import Frame, RigidBody, State, Wrench, ZERO_WRENCH
 
+
 class IntegrationError(RuntimeError):
     """The state became non-finite; ``step`` is the step number (from 0) that produced it."""
 

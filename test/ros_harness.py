@@ -9,13 +9,13 @@ each other. Waiting is on conditions (spin until a message arrives), never on sl
 from __future__ import annotations
 
 import os
+from pathlib import Path
 import random
 import signal
 import subprocess
 import sys
 import sysconfig
 import time
-from pathlib import Path
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from rb_sim_ros import RigidBody, State, Stepper, Wrench, so3
+from rb_sim_ros import RigidBody, so3, State, Stepper, Wrench
 
 
 def _run(body, dt, t_end, state, wrench=Wrench(), method='eq27'):
