@@ -89,7 +89,8 @@ def method_by_name(name: str) -> Multistep:
             f'integrator must be one of {sorted(METHODS)}, got {name!r}') from None
 
 
-def make_step(method: Multistep, dt, functions=math):
+def make_step(method: Multistep, dt, functions=math, translate: bool = True,
+              rotate: bool = True):
     """One step of ``method`` with a fixed dt (s), as a function of components:
 
         step(x, v, r, w, a, b, a_prev, b_prev) -> (x, v, r, w) at t + dt
@@ -99,6 +100,12 @@ def make_step(method: Multistep, dt, functions=math):
     at t - dt, all world frame. Components may be floats (``functions`` = math) or numpy arrays
     of one shape (``functions`` = numpy, which supplies sqrt, sin, cos). The coefficients times
     powers of dt are computed once here.
+
+    ``rotate=False`` builds a step that leaves R and omega as they are, for a body that does
+    not turn (omega = beta = beta_prev = 0 under no torque), where the full update would give
+    them back (omega bit for bit, R up to the sign of a zero entry) at four times the cost;
+    ``translate=False`` as well gives a step that changes nothing (a body at rest). A body
+    that only does not translate takes the full step: that part is 3% of it.
     """
     vn, vp = method.velocity_now * dt, method.velocity_prev * dt
     pn, pp = method.position_now * dt * dt, method.position_prev * dt * dt
@@ -147,4 +154,21 @@ def make_step(method: Multistep, dt, functions=math):
             (wx + vn * bx + vp * bpx, wy + vn * by + vp * bpy, wz + vn * bz + vp * bpz),
         )
 
-    return step
+    if rotate:
+        if not translate:
+            raise ValueError('a step that rotates must also translate (see make_step)')
+        return step
+    if not translate:
+        return lambda x, v, r, w, a, b, a_prev, b_prev: (x, v, r, w)
+
+    def translation(x, v, r, w, a, b, a_prev, b_prev):
+        ax, ay, az = a
+        apx, apy, apz = a_prev
+        xx, xy, xz = x
+        vx, vy, vz = v
+        return ((xx + vx * dt + pn * ax + pp * apx,
+                 xy + vy * dt + pn * ay + pp * apy,
+                 xz + vz * dt + pn * az + pp * apz),
+                (vx + vn * ax + vp * apx, vy + vn * ay + vp * apy, vz + vn * az + vp * apz),
+                r, w)
+    return translation

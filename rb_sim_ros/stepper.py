@@ -65,10 +65,21 @@ class Stepper:
 
     def __init__(self, body: RigidBody, dt: float, state: State | None = None,
                  wrench: Wrench = ZERO_WRENCH,
-                 method: multistep.Multistep | str = multistep.EQ27) -> None:
+                 method: multistep.Multistep | str = multistep.EQ27,
+                 gravity: Any = (0.0, 0.0, 0.0), linear_damping: float = 0.0,
+                 angular_damping: float = 0.0, specialize: bool = True) -> None:
+        """``gravity`` (m/s^2, world) accelerates the centre of mass; ``linear_damping`` c and
+        ``angular_damping`` d (1/s) add -c v and -d omega to the accelerations. ``specialize``
+        builds the step for what the body needs (see ``euler_dynamics.make_accelerations``)
+        and skips the translation or rotation update of a body at rest in that sense under no
+        force or torque; False always takes the general path (for comparison)."""
         if not isinstance(body, RigidBody):
             raise ValueError(f'body must be a RigidBody, got {body!r}')
         self._dt = _check_dt(dt)
+        self._gravity = _check_vector('gravity', gravity)
+        self._linear_damping = _check_rate('linear_damping', linear_damping)
+        self._angular_damping = _check_rate('angular_damping', angular_damping)
+        self._specialize = bool(specialize)
         self._method = (multistep.method_by_name(method) if isinstance(method, str)
                         else method)
         if not isinstance(self._method, multistep.Multistep):
@@ -79,6 +90,8 @@ class Stepper:
         self._moments, q = euler_dynamics.principal_axes(body.inertia)
         self._q = None if np.array_equal(q, np.eye(3)) else q
         self._advance = multistep.make_step(self._method, self._dt)
+        # The step of a body that does not turn (see make_step).
+        self._no_rotation = multistep.make_step(self._method, self._dt, rotate=False)
         self._startup = multistep.make_step(multistep.TAYLOR1, self._dt)
         self._step_count = 0
         self._wrench = ZERO_WRENCH
@@ -139,7 +152,7 @@ class Stepper:
         if previous is not None and not isinstance(previous, State):
             raise ValueError(f'previous must be a State or None, got {previous!r}')
         self._x, self._v, self._r, self._w = _components(state, self._q)
-        self._a, self._b = self._accelerations(self._r, self._w)
+        self._a, self._b = self._accelerations(self._r, self._w, self._v)
         self._prev = None if previous is None else _components(previous, self._q)
         self._pa = self._pb = None
         self._history_stale = previous is not None
@@ -163,9 +176,10 @@ class Stepper:
             force, torque = self._q.T @ force, self._q.T @ torque
         self._accelerations = euler_dynamics.make_accelerations(
             self._inverse_mass, self._moments, tuple(float(c) for c in force),
-            tuple(float(c) for c in torque), in_body, in_body)
+            tuple(float(c) for c in torque), in_body, in_body, self._gravity,
+            self._linear_damping, self._angular_damping, self._specialize)
         if hasattr(self, '_r'):
-            self._a, self._b = self._accelerations(self._r, self._w)
+            self._a, self._b = self._accelerations(self._r, self._w, self._v)
             self._history_stale = self._prev is not None
 
     def step(self, n: int = 1) -> None:
@@ -205,6 +219,19 @@ class Stepper:
                 f'(t = {self._step_count * self._dt:.9g} s) from v = {v}, omega = {w}') from None
         xp, vp, rp, wp = self._prev or (x, v, r, w)
         countdown = self._orthonormalize_countdown
+        frozen_rotation = False
+        if self._specialize:
+            zero = euler_dynamics.ZERO3
+            frozen_rotation = (accelerations.torque_free and w == zero and b == zero
+                               and bp == zero)
+            frozen_translation = (accelerations.force_free and v == zero and a == zero
+                                  and ap == zero)
+            if frozen_rotation and frozen_translation:  # at rest, unforced: nothing moves
+                self._store(n, x, v, r, w, a, b, x, v, r, w, a, b, countdown)
+                return
+            if frozen_rotation:
+                advance = self._no_rotation
+                accelerations = accelerations.linear_only
         for i in range(n):
             try:
                 x1, v1, r1, w1 = advance(x, v, r, w, a, b, ap, bp)
@@ -218,12 +245,12 @@ class Stepper:
                     f'state became non-finite at step {self._step_count} '
                     f'(t = {self._step_count * self._dt:.9g} s) from v = {v}, omega = {w}')
             countdown -= 1
-            if not countdown:
+            if not countdown and not frozen_rotation:
                 r1 = so3.orthonormalize_components(*r1)
                 countdown = self.ORTHONORMALIZE_EVERY
             xp, vp, rp, wp, ap, bp = x, v, r, w, a, b
             x, v, r, w = x1, v1, r1, w1
-            a, b = accelerations(r, w)
+            a, b = accelerations(r, w, v)
         self._store(n, x, v, r, w, a, b, xp, vp, rp, wp, ap, bp, countdown)
 
     def _save(self):
@@ -240,12 +267,13 @@ class Stepper:
         x, v, r, w, a, b = self._x, self._v, self._r, self._w, self._a, self._b
         if self._prev is None:
             # Start-up: predict with a one-step Taylor step, extrapolate back.
-            _, _, r1, w1 = self._startup(x, v, r, w, a, b, a, b)
-            a1, b1 = self._accelerations(r1, w1)
+            _, v1, r1, w1 = self._startup(x, v, r, w, a, b, a, b)
+            a1, b1 = self._accelerations(r1, w1, v1)
             self._pa = (2.0 * a[0] - a1[0], 2.0 * a[1] - a1[1], 2.0 * a[2] - a1[2])
             self._pb = (2.0 * b[0] - b1[0], 2.0 * b[1] - b1[1], 2.0 * b[2] - b1[2])
         elif self._history_stale:
-            self._pa, self._pb = self._accelerations(self._prev[2], self._prev[3])
+            _, vp, rp, wp = self._prev
+            self._pa, self._pb = self._accelerations(rp, wp, vp)
         self._history_stale = False
         return self._pa, self._pb
 
@@ -256,6 +284,26 @@ class Stepper:
             self._pa, self._pb = ap, bp
             self._step_count += steps
         self._orthonormalize_countdown = countdown
+
+
+def _check_vector(name: str, value: Any) -> tuple[float, float, float]:
+    try:
+        out = tuple(float(c) for c in value)
+    except (TypeError, ValueError):
+        raise ValueError(f'{name} must be 3 numbers, got {value!r}') from None
+    if len(out) != 3 or not all(math.isfinite(c) for c in out):
+        raise ValueError(f'{name} must be 3 finite numbers, got {value!r}')
+    return out
+
+
+def _check_rate(name: str, value: Any) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f'{name} must be a number (1/s), got {value!r}') from None
+    if not math.isfinite(value) or value < 0.0:
+        raise ValueError(f'{name} must be finite and >= 0 (1/s), got {value!r}')
+    return value
 
 
 def _finite(*vectors) -> bool:
