@@ -94,6 +94,9 @@ PARAMS = (
           'step calls gives the same run every time.', True),
     Param('publish_clock', True, 'Publish /clock (rosgraph_msgs/Clock, best-effort) with sim '
           'time.', True),
+    Param('scene_file', '', 'A YAML scene (several bodies, gravity, damping; see '
+          'rb_sim_ros/scene.py). Empty: one body from the parameters above. Each scene body '
+          'has its own topics <name>/wrench, <name>/pose, ...', True),
     Param('record', '', 'Path of an MCAP file to record the run to; empty: no recording.', True),
     Param('record_overwrite', False, 'Overwrite an existing recording file.', True),
 )

@@ -11,7 +11,7 @@ events at the same steps reproduce a run bit for bit, whatever the scheduling wa
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 import math
 from typing import Any, Union
 
@@ -19,7 +19,7 @@ import numpy as np
 
 from rb_sim_ros import multistep
 from rb_sim_ros.rigid_body import RigidBody, State, Wrench, ZERO_WRENCH
-from rb_sim_ros.stepper import Stepper
+from rb_sim_ros.stepper import IntegrationError, Stepper
 
 
 def _floats(name: str, value: Any, size: int) -> tuple[float, ...]:
@@ -34,26 +34,41 @@ def _floats(name: str, value: Any, size: int) -> tuple[float, ...]:
     return out
 
 
+def _rate(name: str, value: Any) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f'{name} must be a number, got {value!r}') from None
+    if not math.isfinite(value) or value < 0.0:
+        raise ValueError(f'{name} must be finite and >= 0 (1/s), got {value!r}')
+    return value
+
+
 @dataclass(frozen=True)
-class Config:
-    """Everything needed to (re-)simulate a run. SI units; vectors in the world frame.
+class BodySpec:
+    """One body of a scene. SI units; vectors in the world frame.
 
     inertia: 3 principal moments or 9 row-major components of the body-frame tensor (kg m^2).
-    dt: physics step (s); steps_per_publish: physics steps between two published states.
-    initial_*: the state at step 0 and after a reset.
+    initial_*: the state at step 0 and after a reset. linear/angular_damping: rates (1/s).
+    static: never moves and costs nothing. colliders: reserved for collision shapes.
     """
 
+    name: str = 'body'
     mass: float = 1.0
     inertia: tuple[float, ...] = (0.1, 0.1, 0.1)
-    dt: float = 1e-3
-    steps_per_publish: int = 10
-    integrator: str = multistep.EQ27.name
     initial_position: tuple[float, ...] = (0.0, 0.0, 0.0)
     initial_orientation_xyzw: tuple[float, ...] = (0.0, 0.0, 0.0, 1.0)
     initial_linear_velocity: tuple[float, ...] = (0.0, 0.0, 0.0)
     initial_angular_velocity: tuple[float, ...] = (0.0, 0.0, 0.0)
+    linear_damping: float = 0.0
+    angular_damping: float = 0.0
+    static: bool = False
+    colliders: tuple = ()
 
     def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name.isidentifier():
+            raise ValueError(f'name must be a ROS-safe identifier (letters, digits, _), '
+                             f'got {self.name!r}')
         inertia = _floats('inertia', self.inertia, len(tuple(self.inertia)))
         if len(inertia) not in (3, 9):
             raise ValueError(f'inertia must be 3 principal moments or 9 components, '
@@ -62,14 +77,13 @@ class Config:
         for name, size in (('initial_position', 3), ('initial_orientation_xyzw', 4),
                            ('initial_linear_velocity', 3), ('initial_angular_velocity', 3)):
             object.__setattr__(self, name, _floats(name, getattr(self, name), size))
-        if (not isinstance(self.steps_per_publish, int) or isinstance(self.steps_per_publish, bool)
-                or self.steps_per_publish < 1):
-            raise ValueError(
-                f'steps_per_publish must be an int >= 1, got {self.steps_per_publish!r}')
-        multistep.method_by_name(self.integrator)
+        for name in ('linear_damping', 'angular_damping'):
+            object.__setattr__(self, name, _rate(name, getattr(self, name)))
+        if not isinstance(self.static, bool):
+            raise ValueError(f'static must be true or false, got {self.static!r}')
+        object.__setattr__(self, 'colliders', tuple(self.colliders))
         self.body()  # validates mass and inertia
         self.initial_state()  # validates the orientation
-        Stepper(self.body(), self.dt)  # validates dt
 
     def body(self) -> RigidBody:
         inertia = (np.array(self.inertia) if len(self.inertia) == 3
@@ -81,23 +95,78 @@ class Config:
                                           self.initial_linear_velocity,
                                           self.initial_angular_velocity)
 
+
+@dataclass(frozen=True)
+class Config:
+    """Everything needed to (re-)simulate a run: the scene and the clock.
+
+    dt: physics step (s); steps_per_publish: physics steps between two published states;
+    integrator: a name of multistep.METHODS; gravity: m/s^2, world frame; bodies: at least one,
+    names unique.
+    """
+
+    dt: float = 1e-3
+    steps_per_publish: int = 10
+    integrator: str = multistep.EQ27.name
+    gravity: tuple[float, ...] = (0.0, 0.0, 0.0)
+    bodies: tuple[BodySpec, ...] = (BodySpec(),)
+
+    def __post_init__(self) -> None:
+        if (not isinstance(self.steps_per_publish, int) or isinstance(self.steps_per_publish, bool)
+                or self.steps_per_publish < 1):
+            raise ValueError(
+                f'steps_per_publish must be an int >= 1, got {self.steps_per_publish!r}')
+        multistep.method_by_name(self.integrator)
+        object.__setattr__(self, 'gravity', _floats('gravity', self.gravity, 3))
+        bodies = tuple(self.bodies)
+        if not bodies or not all(isinstance(b, BodySpec) for b in bodies):
+            raise ValueError('bodies must be one or more BodySpec')
+        names = [b.name for b in bodies]
+        if len(set(names)) != len(names):
+            raise ValueError(f'body names must be unique, got {names}')
+        object.__setattr__(self, 'bodies', bodies)
+        Stepper(bodies[0].body(), self.dt)  # validates dt
+
+    def body(self, name: str = '') -> BodySpec:
+        """The body called ``name`` ('' = the first)."""
+        if not name:
+            return self.bodies[0]
+        for b in self.bodies:
+            if b.name == name:
+                return b
+        raise ValueError(f"no body named '{name}' (have {[b.name for b in self.bodies]})")
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-able form; floats are written with repr, so a round trip is exact."""
-        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.__dict__.items()}
+        def plain(v):
+            return list(v) if isinstance(v, tuple) else v
+        out = {k: plain(v) for k, v in self.__dict__.items() if k != 'bodies'}
+        out['bodies'] = [{k: plain(v) for k, v in b.__dict__.items()} for b in self.bodies]
+        return out
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> 'Config':
         unknown = set(data) - set(cls.__dataclass_fields__)
         if unknown:
             raise ValueError(f'unknown configuration keys {sorted(unknown)}')
-        return cls(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items()})
+        data = dict(data)
+        bodies = []
+        for b in data.pop('bodies', [{}]):
+            unknown = set(b) - set(BodySpec.__dataclass_fields__)
+            if unknown:
+                raise ValueError(f'unknown body keys {sorted(unknown)}')
+            bodies.append(BodySpec(**{k: (tuple(v) if isinstance(v, list) else v)
+                                      for k, v in b.items()}))
+        return cls(bodies=tuple(bodies),
+                   **{k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items()})
 
 
 @dataclass(frozen=True)
 class SetWrench:
-    """Hold ``wrench`` from this step on."""
+    """Hold ``wrench`` on ``body`` ('' = the first) from this step on."""
 
     wrench: Wrench
+    body: str = ''
 
 
 @dataclass(frozen=True)
@@ -106,6 +175,7 @@ class SetPose:
 
     position: tuple[float, ...]
     orientation_xyzw: tuple[float, ...]
+    body: str = ''
 
 
 @dataclass(frozen=True)
@@ -114,27 +184,29 @@ class SetTwist:
 
     linear: tuple[float, ...]
     angular: tuple[float, ...]
+    body: str = ''
 
 
 @dataclass(frozen=True)
 class Reset:
-    """Zero the wrench and jump to a state: the given one (world frame: position m,
-    orientation x-y-z-w, linear m/s, angular rad/s), or else the configuration's initial one."""
+    """Zero the wrench of ``body`` and jump to a state: the given one (world frame: position m,
+    orientation x-y-z-w, linear m/s, angular rad/s), or else the body's initial one."""
 
     position: tuple[float, ...] | None = None
     orientation_xyzw: tuple[float, ...] | None = None
     linear: tuple[float, ...] | None = None
     angular: tuple[float, ...] | None = None
+    body: str = ''
 
     @classmethod
-    def to_initial(cls, config: 'Config') -> 'Reset':
-        """A reset to ``config``'s initial state, spelled out (so a recording holds it)."""
-        return cls(config.initial_position, config.initial_orientation_xyzw,
-                   config.initial_linear_velocity, config.initial_angular_velocity)
+    def to_initial(cls, spec: BodySpec) -> 'Reset':
+        """A reset of ``spec`` to its initial state, spelled out (so a recording holds it)."""
+        return cls(spec.initial_position, spec.initial_orientation_xyzw,
+                   spec.initial_linear_velocity, spec.initial_angular_velocity, spec.name)
 
-    def state(self, config: 'Config') -> State:
+    def state(self, spec: BodySpec) -> State:
         if self.position is None:
-            return config.initial_state()
+            return spec.initial_state()
         return State.from_quaternion_xyzw(self.position, self.orientation_xyzw, self.linear,
                                           self.angular)
 
@@ -142,29 +214,61 @@ class Reset:
 Event = Union[SetWrench, SetPose, SetTwist, Reset]
 
 
-@dataclass
 class Simulation:
-    """A run of ``config``: apply events at step boundaries, advance, read the state."""
+    """A run of ``config``: apply events at step boundaries, advance all bodies, read them.
 
-    config: Config
-    stepper: Stepper = field(init=False)
+    Bodies marked static get no stepper: they cost nothing and never move. ``stepper`` is the
+    first body's (the single-body case); ``steppers`` maps every moving body's name to its own.
+    """
 
-    def __post_init__(self) -> None:
-        self.stepper = Stepper(self.config.body(), self.config.dt, self.config.initial_state(),
-                               method=self.config.integrator)
+    def __init__(self, config: Config) -> None:
+        self.config = config
+        self._step_count = 0
+        self.steppers: dict[str, Stepper] = {}
+        self.static: dict[str, State] = {}
+        for spec in config.bodies:
+            if spec.static:
+                self.static[spec.name] = spec.initial_state()
+            else:
+                self.steppers[spec.name] = Stepper(
+                    spec.body(), config.dt, spec.initial_state(), method=config.integrator,
+                    gravity=config.gravity, linear_damping=spec.linear_damping,
+                    angular_damping=spec.angular_damping)
+        self._moving = tuple(self.steppers.values())
+
+    @property
+    def stepper(self) -> Stepper:
+        return self.steppers[self.config.bodies[0].name]
 
     @property
     def step_count(self) -> int:
-        return self.stepper.step_count
+        return self._step_count
 
     @property
     def time_ns(self) -> int:
         """Simulated time in integer nanoseconds: step_count * dt, rounded."""
-        return round(self.stepper.step_count * self.config.dt * 1e9)
+        return round(self._step_count * self.config.dt * 1e9)
+
+    def pose_twist(self, name: str = ''):
+        """(position, quaternion x-y-z-w, linear velocity, angular velocity) of a body, world."""
+        name = name or self.config.bodies[0].name
+        if name in self.steppers:
+            return self.steppers[name].pose_twist()
+        if name in self.static:
+            st = self.static[name]
+            return (tuple(st.position), tuple(st.quaternion_xyzw), (0.0, 0.0, 0.0),
+                    (0.0, 0.0, 0.0))
+        raise ValueError(f"no body named '{name}'")
 
     def apply(self, event: Event) -> None:
         """Apply ``event`` now: it takes effect from the next step. Validated first."""
-        s = self.stepper
+        if not isinstance(event, (SetWrench, SetPose, SetTwist, Reset)):
+            raise ValueError(f'event must be SetWrench, SetPose, SetTwist or Reset, '
+                             f'got {event!r}')
+        spec = self.config.body(event.body)
+        if spec.static:
+            raise ValueError(f"body '{spec.name}' is static")
+        s = self.steppers[spec.name]
         if isinstance(event, SetWrench):
             s.set_wrench(event.wrench)
         elif isinstance(event, SetPose):
@@ -174,17 +278,23 @@ class Simulation:
         elif isinstance(event, SetTwist):
             old = s.state
             s.set_state(State(old.position, old.rotation, event.linear, event.angular))
-        elif isinstance(event, Reset):
-            state = event.state(self.config)
+        else:
+            state = event.state(spec)
             s.set_wrench(ZERO_WRENCH)
             s.set_state(state)
-        else:
-            raise ValueError(f'event must be SetWrench, SetPose, SetTwist or Reset, '
-                             f'got {event!r}')
 
     def run(self, n: int) -> None:
-        """Advance n steps."""
-        self.stepper.step(n)
+        """Advance every moving body n steps. If one goes non-finite the others still advance
+        and its IntegrationError is raised after (it stays at its last finite state)."""
+        error = None
+        for s in self._moving:
+            try:
+                s.step(n)
+            except IntegrationError as e:
+                error = error or e
+        self._step_count += n
+        if error is not None:
+            raise error
 
     def run_until(self, step: int, events: list[tuple[int, Event]]) -> list[tuple[int, Event]]:
         """Advance to ``step``, applying each (step, event) of ``events`` (sorted by step) when

@@ -2,14 +2,18 @@
 # Licensed under the Apache License, Version 2.0
 """The simulator node: steps a Simulation at a fixed rate, takes wrenches, publishes state.
 
+Bodies. Without ``scene_file``, one body built from the node's parameters, on topics at the
+node's namespace (``wrench``, ``pose``, ...). With it, every body of the scene on its own topics
+(``<name>/wrench``, ``<name>/pose``, ...), with ``<name>`` as its frame id.
+
 Timing. Sim time is step_count * dt. A step-loop thread wakes on the steady clock once per
 publish period (divided by real_time_factor) and steps as many whole publish periods as are due
 (a late tick catches up by stepping, at most max_catchup periods, and is counted), publishing
 pose, twist, odom and /clock after each. The executor thread only queues inputs and answers
 services, so it sleeps while nothing arrives: rclpy's executor rebuilds its wait set on every
 wake-up (ros2/design#305), which at 1 kHz would cost most of a core if it also drove the steps.
-Inputs take effect at the start of the next period; what a run does depends only on the inputs
-and the step at which each took effect, never on scheduling.
+Inputs take effect at the start of the next period (at once while paused); what a run does
+depends only on the inputs and the step at which each took effect, never on scheduling.
 """
 
 from __future__ import annotations
@@ -21,29 +25,28 @@ import sys
 import threading
 import time
 
-from geometry_msgs.msg import PoseStamped, Twist, Wrench as WrenchMsg, WrenchStamped
-from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_srvs.srv import Empty, SetBool, Trigger
 
 from rb_sim_ros import node_params, ros_messages
+from rb_sim_ros.body_ports import APPLIED_QOS, BodyPorts, TwistInput
 from rb_sim_ros.diagnostics import Diagnostics
-from rb_sim_ros.rigid_body import Frame, ZERO_WRENCH
-from rb_sim_ros.simulation import Config, Reset, SetPose, SetTwist, SetWrench, Simulation
+from rb_sim_ros.rigid_body import ZERO_WRENCH
+from rb_sim_ros.scene import load_scene
+from rb_sim_ros.simulation import BodySpec, Config, Reset, SetTwist, SetWrench, Simulation
 from rb_sim_ros.stepper import IntegrationError
 
-
-APPLIED_QOS = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+__all__ = ['APPLIED_QOS', 'SimulatorNode', 'main']
 
 
 class SimulatorNode(Node):
-    """One rigid body; see README.md for topics, services and parameters."""
+    """Rigid bodies on ROS topics; see README.md for topics, services and parameters."""
 
     def __init__(self, **kwargs) -> None:
         super().__init__('rb_sim', **kwargs)
@@ -53,40 +56,33 @@ class SimulatorNode(Node):
         values = {p.name: self.get_parameter(p.name).value for p in node_params.PARAMS}
         for name, value in values.items():
             node_params.check(name, value)
-        self.config = _config(values)
+        self._scene = load_scene(values['scene_file']) if values['scene_file'] else None
+        self.config = _config(values, self._scene)
         self.sim = Simulation(self.config)
         self._v = values
-        self._out = ros_messages.OutputMessages(values['world_frame'], values['body_frame'],
-                                                values['twist_frame'])
         self._pending: collections.deque = collections.deque()
         self._lock = threading.Lock()  # the step loop against service and parameter callbacks
         self._stop = threading.Event()
         self._wake = threading.Event()
         self._periods = 0
         self._paused = bool(values['start_paused'])
-        self._last_command_step = 0
         self._timeout_steps = 0
-        self._apply_settings()
         self.diagnostics = Diagnostics()
+        self.ports: dict[str, BodyPorts] = {}
+        for spec in self.config.bodies:
+            single = self._scene is None
+            self.ports[spec.name] = BodyPorts(
+                self, spec.name, '' if single else spec.name + '/', values['world_frame'],
+                values['body_frame'] if single else spec.name, values['twist_frame'],
+                _Settings(self), self._queue, self._reject)
+        self._moving = [p for p in self.ports.values() if p.name in self.sim.steppers]
+        self._apply_settings()
         self._recorder = _open_recorder(self, values)
-
-        qos = QoSProfile(depth=10)
-        self._pub_pose = self.create_publisher(PoseStamped, 'pose', qos)
-        self._pub_twist = self.create_publisher(Twist, 'twist', qos)
-        self._pub_odom = self.create_publisher(Odometry, 'odom', qos)
         self._pub_clock = (self.create_publisher(ClockMsg, '/clock', QoSProfile(
             depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)) if values['publish_clock']
             else None)
         self._clock_msg = ClockMsg()
-        self._state_pubs = ((self._pub_pose, self._out.pose), (self._pub_twist, self._out.twist),
-                            (self._pub_odom, self._out.odom))
-        # Latched (transient local) like a state: a late subscriber still gets the recent ones.
-        self._pub_applied = self.create_publisher(WrenchStamped, 'applied_wrench', APPLIED_QOS)
         self.diagnostics.create_publisher(self)
-        self.create_subscription(WrenchMsg, 'wrench', self._on_wrench, qos)
-        self.create_subscription(WrenchStamped, 'wrench_stamped', self._on_wrench_stamped, qos)
-        self.create_subscription(PoseStamped, 'set_pose', self._on_set_pose, qos)
-        self.create_subscription(Twist, 'set_twist', self._on_set_twist, qos)
         self.create_service(Empty, 'reset', self._on_reset)
         self.create_service(SetBool, 'pause', self._on_pause)
         self.create_service(Trigger, 'step', self._on_step)
@@ -95,12 +91,14 @@ class SimulatorNode(Node):
         self._publish()
         self._thread = threading.Thread(target=self._loop, name='rb_sim_step_loop', daemon=True)
         self._thread.start()
+        bodies = ', '.join(f'{b.name} ({b.mass:g} kg{", static" if b.static else ""})'
+                           for b in self.config.bodies)
         self.get_logger().info(
-            f'simulating mass {self.config.mass} kg, inertia {list(self.config.inertia)}, '
-            f'dt {self.config.dt} s, publishing every {self.config.steps_per_publish} steps, '
-            f'real_time_factor {values["real_time_factor"]}')
+            f'simulating {bodies}; dt {self.config.dt} s, publishing every '
+            f'{self.config.steps_per_publish} steps, real_time_factor '
+            f'{values["real_time_factor"]}')
 
-    # -- inputs (callbacks only queue; the tick applies) -----------------------------------
+    # -- inputs (callbacks only queue; the step loop applies) ------------------------------
     def _queue(self, event) -> None:
         """Queue an input for the start of the next period; while paused that is now."""
         self._pending.append(event)
@@ -113,61 +111,10 @@ class SimulatorNode(Node):
         self.diagnostics.rejected += 1
         self.get_logger().warning(f'rejected {what}: {error}', throttle_duration_sec=1.0)
 
-    def _on_wrench(self, msg: WrenchMsg) -> None:
-        self._queue_wrench(msg, Frame.parse(self._v['wrench_frame']), msg)
-
-    def _on_wrench_stamped(self, msg: WrenchStamped) -> None:
-        fid = msg.header.frame_id.lstrip('/')
-        if fid in ('', ):
-            frame = Frame.parse(self._v['wrench_frame'])
-        elif fid in (self._v['world_frame'], 'world'):
-            frame = Frame.WORLD
-        elif fid in (self._v['body_frame'], 'body'):
-            frame = Frame.BODY
-        else:
-            self._reject('wrench_stamped', ValueError(
-                f"frame_id '{fid}' is neither '{self._v['world_frame']}' nor "
-                f"'{self._v['body_frame']}' (no tf lookup here)"))
-            return
-        self._queue_wrench(msg.wrench, frame, msg)
-
-    def _queue_wrench(self, wrench_msg: WrenchMsg, frame: Frame, raw) -> None:
-        try:
-            wrench = ros_messages.wrench_from_msg(wrench_msg, frame, self._v['max_wrench'])
-        except ValueError as e:
-            self._reject('wrench', e)
-            return
-        self._queue(SetWrench(wrench))
-
-    def _on_set_pose(self, msg: PoseStamped) -> None:
-        fid = msg.header.frame_id.lstrip('/')
-        p, o = msg.pose.position, msg.pose.orientation
-        try:
-            if fid not in ('', self._v['world_frame']):
-                raise ValueError(f"frame_id must be '{self._v['world_frame']}', got '{fid}'")
-            q = (o.x, o.y, o.z, o.w)
-            if not all(math.isfinite(c) for c in q) or not any(q):
-                raise ValueError(f'orientation must be a finite non-zero quaternion, got {q}')
-            event = SetPose((p.x, p.y, p.z), q)
-            _check_finite('position', event.position)
-        except ValueError as e:
-            self._reject('set_pose', e)
-            return
-        self._queue(event)
-
-    def _on_set_twist(self, msg: Twist) -> None:
-        lin = (msg.linear.x, msg.linear.y, msg.linear.z)
-        ang = (msg.angular.x, msg.angular.y, msg.angular.z)
-        try:
-            _check_finite('twist', lin + ang)
-        except ValueError as e:
-            self._reject('set_twist', e)
-            return
-        # In the body frame it is turned into the world frame when applied, at a step.
-        self._queue((self._out.twist_in_body, lin, ang))
-
     def _on_reset(self, request, response):
-        self._queue(Reset())
+        for spec in self.config.bodies:
+            if not spec.static:
+                self._queue(Reset(body=spec.name))
         return response
 
     def _on_pause(self, request, response):
@@ -246,9 +193,11 @@ class SimulatorNode(Node):
         sim = self.sim
         while self._pending:
             self._apply(self._pending.popleft())
-        if (self._timeout_steps and sim.step_count - self._last_command_step
-                >= self._timeout_steps and sim.stepper.wrench != ZERO_WRENCH):
-            self._apply(SetWrench(ZERO_WRENCH), command=False)
+        if self._timeout_steps:
+            for port in self._moving:
+                if (sim.step_count - port.last_command_step >= self._timeout_steps
+                        and sim.steppers[port.name].wrench != ZERO_WRENCH):
+                    self._apply(SetWrench(ZERO_WRENCH, port.name), command=False)
         t0 = time.perf_counter_ns()
         try:
             sim.run(self.config.steps_per_publish)
@@ -262,51 +211,38 @@ class SimulatorNode(Node):
         self._publish()
 
     def _apply(self, event, command: bool = True) -> None:
-        if isinstance(event, tuple):  # a twist in the body frame, turned now
-            in_body, lin, ang = event
-            if in_body:
-                r = tuple(self.sim.stepper.state.rotation.reshape(9))
+        if isinstance(event, TwistInput):  # turned into the world frame now, at its step
+            lin, ang = event.linear, event.angular
+            if event.in_body:
+                r = tuple(self.sim.steppers[event.body].state.rotation.reshape(9))
                 lin, ang = ros_messages.rotate(r, lin), ros_messages.rotate(r, ang)
-            event = SetTwist(lin, ang)
+            event = SetTwist(lin, ang, event.body)
         elif isinstance(event, Reset) and event.position is None:
-            event = Reset.to_initial(self.config)  # spelled out, for the recording
-        held = self.sim.stepper.wrench
+            # Spelled out, so that the recording holds the state reset to.
+            event = Reset.to_initial(self.config.body(event.body))
+        name = event.body or self.config.bodies[0].name
+        stepper = self.sim.steppers.get(name)
+        held = stepper.wrench if stepper else None
         try:
             self.sim.apply(event)
         except ValueError as e:
             self._reject(type(event).__name__, e)
             return
+        port = self.ports[name]
         if isinstance(event, SetWrench) and command:
-            self._last_command_step = self.sim.step_count
-        if self.sim.stepper.wrench != held:
-            self._pub_applied.publish(self._applied_msg(self.sim.stepper.wrench))
+            port.last_command_step = self.sim.step_count
+        if stepper.wrench != held:
+            port.applied(stepper.wrench, self.sim.time_ns)
         if self._recorder is not None:
             self._recorder.event(self.sim.step_count, self.sim.time_ns, event)
 
-    def _applied_msg(self, wrench) -> WrenchStamped:
-        msg = WrenchStamped()
-        msg.header.stamp = ros_messages.time_msg(self.sim.time_ns)
-        msg.header.frame_id = self._v['body_frame' if wrench.frame is Frame.BODY
-                                      else 'world_frame']
-        f, t = msg.wrench.force, msg.wrench.torque
-        f.x, f.y, f.z = (float(c) for c in wrench.force)
-        t.x, t.y, t.z = (float(c) for c in wrench.torque)
-        return msg
-
     def _publish(self) -> None:
-        """Publish the state to whoever listens: a topic with no subscriber (and no recording)
-        costs neither a fill nor a serialisation; at real_time_factor 0 that is most of a
-        period's cost."""
         sim = self.sim
         t_ns = sim.time_ns
-        recording = self._recorder is not None
-        pubs = [p for p in self._state_pubs if p[0].get_subscription_count()]
-        if pubs or recording:
-            self._out.fill(t_ns, *sim.stepper.pose_twist())
-            for pub, msg in pubs:
-                pub.publish(msg)
-            if recording:
-                self._recorder.output(sim.step_count, t_ns, self._out)
+        for port in self.ports.values():
+            moving = port.name in sim.steppers  # a static body is not recorded: it never moves
+            port.publish(t_ns, sim.pose_twist(port.name), self._recorder if moving else None,
+                         sim.step_count)
         if self._pub_clock is not None:
             self._clock_msg.clock = ros_messages.time_msg(t_ns)
             self._pub_clock.publish(self._clock_msg)
@@ -316,8 +252,6 @@ class SimulatorNode(Node):
     def _apply_settings(self) -> None:
         timeout = self._v['command_timeout']
         self._timeout_steps = math.ceil(timeout / self.config.dt - 1e-9) if timeout else 0
-        self._out.configure(self._v['world_frame'], self._v['body_frame'],
-                            self._v['twist_frame'])
 
     def _on_set_parameters(self, params) -> SetParametersResult:
         new = dict(self._v)
@@ -327,14 +261,14 @@ class SimulatorNode(Node):
                     continue
                 node_params.check(p.name, p.value)
                 new[p.name] = p.value
-            config = _config(new)
+            config = _config(new, self._scene)
         except ValueError as e:
             return SetParametersResult(successful=False, reason=str(e))
         with self._lock:
             rtf_changed = new['real_time_factor'] != self._v['real_time_factor']
             self._v = new
             self.config = config
-            self.sim.config = config  # initial state, used by the next reset
+            self.sim.config = config  # initial states, used by the next reset
             self._apply_settings()
             if rtf_changed:
                 self._set_rate()
@@ -350,30 +284,41 @@ class SimulatorNode(Node):
             self._recorder.close()
 
 
-def _check_finite(name, values) -> None:
-    if not all(math.isfinite(c) for c in values):
-        raise ValueError(f'{name} must be finite, got {list(values)}')
+class _Settings:
+    """The node's current parameter values, read when a message arrives."""
+
+    def __init__(self, node: SimulatorNode) -> None:
+        self._node = node
+
+    def __getitem__(self, name: str):
+        return self._node._v[name]
 
 
-def _config(v: dict) -> Config:
-    steps = v['dt'] and 1.0 / (v['publish_rate'] * v['dt'])
+def _config(v: dict, scene=None) -> Config:
+    steps = 1.0 / (v['publish_rate'] * v['dt'])
     if abs(steps - round(steps)) > 1e-6 * steps or round(steps) < 1:
         raise ValueError(f"publish_rate {v['publish_rate']} Hz must divide 1/dt = "
                          f"{1.0 / v['dt']:.9g} Hz into a whole number of steps >= 1")
-    inertia = v['inertia']
-    return Config(mass=float(v['mass']), inertia=tuple(inertia), dt=float(v['dt']),
-                  steps_per_publish=int(round(steps)), integrator=v['integrator'],
-                  initial_position=tuple(v['initial_position']),
-                  initial_orientation_xyzw=tuple(v['initial_orientation']),
-                  initial_linear_velocity=tuple(v['initial_linear_velocity']),
-                  initial_angular_velocity=tuple(v['initial_angular_velocity']))
+    if scene is not None:
+        gravity, bodies = scene
+    else:
+        gravity = (0.0, 0.0, 0.0)
+        bodies = (BodySpec(name='body', mass=float(v['mass']), inertia=tuple(v['inertia']),
+                           initial_position=tuple(v['initial_position']),
+                           initial_orientation_xyzw=tuple(v['initial_orientation']),
+                           initial_linear_velocity=tuple(v['initial_linear_velocity']),
+                           initial_angular_velocity=tuple(v['initial_angular_velocity'])),)
+    return Config(dt=float(v['dt']), steps_per_publish=int(round(steps)),
+                  integrator=v['integrator'], gravity=gravity, bodies=bodies)
 
 
 def _open_recorder(node: SimulatorNode, values: dict):
     if not values['record']:
         return None
     from rb_sim_ros.node_recorder import NodeRecorder
-    return NodeRecorder(values['record'], node.config, values,
+    topics = {name: {'pose': p.pub_pose.topic_name, 'twist': p.pub_twist.topic_name,
+                     'odom': p.pub_odom.topic_name} for name, p in node.ports.items()}
+    return NodeRecorder(values['record'], node.config, values, topics,
                         overwrite=bool(values['record_overwrite']))
 
 

@@ -8,13 +8,14 @@ import sys
 
 from geometry_msgs.msg import PoseStamped, Twist, Wrench, WrenchStamped
 from nav_msgs.msg import Odometry
+import pytest
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Empty, SetBool, Trigger
 
 from rb_sim_ros import Wrench as CoreWrench
-from rb_sim_ros.simulation import Config, SetWrench, Simulation
+from rb_sim_ros.simulation import BodySpec, Config, SetWrench, Simulation
 from rb_sim_ros.simulator_node import APPLIED_QOS
 from ros_harness import stamp_ns
 
@@ -78,8 +79,8 @@ def test_follows_the_core_prediction_for_a_wrench_schedule(start_sim, probe):
         frame = 'body' if msg.header.frame_id == 'base_link' else 'world'
         assert (msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z) == f
         events.append((stamp_ns(msg.header.stamp) // DT_NS, SetWrench(CoreWrench(f, t, frame))))
-    sim = Simulation(Config(mass=2.0, inertia=(0.2, 0.3, 0.4),
-                            initial_angular_velocity=(0.5, -1.0, 2.0)))
+    sim = Simulation(Config(bodies=(BodySpec(mass=2.0, inertia=(0.2, 0.3, 0.4),
+                                             initial_angular_velocity=(0.5, -1.0, 2.0)),)))
     checked = 0
     for pose, odom in zip(poses, odoms):
         step = stamp_ns(pose.header.stamp) // DT_NS
@@ -254,3 +255,43 @@ def test_send_wrench_refuses_a_bad_profile(start_sim, tmp_path):
     sender = start_sim(exe='send_wrench', args=('--csv', str(csv)))
     assert sender.proc.wait(60) == 2
     assert f'{csv}:2: not a number' in sender.output()
+
+
+def test_a_scene_gives_each_body_its_topics(start_sim, probe, tmp_path):
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text('gravity: [0, 0, -9.81]\nbodies:\n'
+                     '  - {name: a, mass: 2.0, inertia: [0.2, 0.3, 0.4], '
+                     'angular_velocity: [0.1, 0.2, 0.3]}\n'
+                     '  - {name: b, shape: sphere, radius: 0.1, density: 1000, '
+                     'linear_damping: 0.5}\n'
+                     '  - {name: wall, static: true, position: [5, 0, 0]}\n')
+    start_sim('-p', f'scene_file:={scene}', '-p', 'command_timeout:=0.0')
+    poses = {n: probe.collect(PoseStamped, f'{n}/pose') for n in ('a', 'b', 'wall')}
+    applied = probe.collect(WrenchStamped, 'a/applied_wrench', APPLIED_QOS)
+    pub = probe.publisher(Wrench, 'a/wrench')
+    probe.wait_for(lambda: all(len(p) > 3 for p in poses.values()), what='poses of all')
+    pub.publish(_wrench_msg((0.0, 0.0, 19.62), (0.0, 0.01, 0.0)))
+    probe.wait_for(lambda: applied, what='the wrench on a')
+    n = len(poses['a'])
+    probe.wait_for(lambda: len(poses['a']) > n + 10, what='poses after it')
+    assert poses['a'][0].header.frame_id == 'odom'
+
+    from rb_sim_ros.scene import load_scene
+    gravity, bodies = load_scene(str(scene))
+    sim = Simulation(Config(gravity=gravity, bodies=bodies))
+    events = [(stamp_ns(applied[0].header.stamp) // DT_NS,
+               SetWrench(CoreWrench((0.0, 0.0, 19.62), (0.0, 0.01, 0.0)), 'a'))]
+    for pa, pb in zip(poses['a'], poses['b']):
+        step = stamp_ns(pa.header.stamp) // DT_NS
+        assert stamp_ns(pb.header.stamp) == stamp_ns(pa.header.stamp)
+        events = sim.run_until(step, events)
+        for name, pose in (('a', pa), ('b', pb)):
+            x, q, _, _ = sim.pose_twist(name)
+            p, o = pose.pose.position, pose.pose.orientation
+            assert (p.x, p.y, p.z) == x and (o.x, o.y, o.z, o.w) == q, (name, step)
+    # b falls; a's thrust cancels gravity (m g = 19.62 N), so then it keeps its vertical
+    # velocity; the wall stays.
+    assert poses['b'][-1].pose.position.z < -0.01
+    z = [p.pose.position.z for p in poses['a'][-4:]]
+    assert z[1] - z[0] == pytest.approx(z[3] - z[2], abs=1e-12) and z[1] < z[0]
+    assert all(p.pose.position.x == 5.0 for p in poses['wall'])

@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 from rb_sim_ros import State, Stepper, Wrench
-from rb_sim_ros.simulation import Config, Reset, SetPose, SetTwist, SetWrench, Simulation
+from rb_sim_ros.simulation import (BodySpec, Config, Reset, SetPose, SetTwist, SetWrench,
+                                   Simulation)
 
-CONFIG = Config(mass=1.5, inertia=(0.2, 0.01, 0.0, 0.01, 0.3, 0.0, 0.0, 0.0, 0.4), dt=0.002,
-                steps_per_publish=5, initial_position=(1.0, 2.0, 3.0),
-                initial_angular_velocity=(0.3, -0.2, 1.0))
+BODY = BodySpec(name='b', mass=1.5, inertia=(0.2, 0.01, 0.0, 0.01, 0.3, 0.0, 0.0, 0.0, 0.4),
+                initial_position=(1.0, 2.0, 3.0), initial_angular_velocity=(0.3, -0.2, 1.0))
+CONFIG = Config(dt=0.002, steps_per_publish=5, bodies=(BODY,))
 
 
 def test_config_json_round_trip_is_exact():
@@ -22,10 +23,19 @@ def test_config_json_round_trip_is_exact():
 
 @pytest.mark.parametrize('change, field', [
     ({'mass': -1.0}, 'mass'), ({'inertia': (1.0, 1.0)}, 'inertia'),
-    ({'dt': 0.0}, 'dt'), ({'steps_per_publish': 0}, 'steps_per_publish'),
-    ({'integrator': 'rk4'}, 'integrator'),
     ({'initial_orientation_xyzw': (0, 0, 0, 0)}, 'quaternion'),
     ({'initial_position': (0, float('nan'), 0)}, 'initial_position'),
+    ({'linear_damping': -0.1}, 'linear_damping'), ({'name': 'a b'}, 'name'),
+])
+def test_bad_body(change, field):
+    with pytest.raises(ValueError, match=field):
+        BodySpec(**{**BODY.__dict__, **change})
+
+
+@pytest.mark.parametrize('change, field', [
+    ({'dt': 0.0}, 'dt'), ({'steps_per_publish': 0}, 'steps_per_publish'),
+    ({'integrator': 'rk4'}, 'integrator'), ({'gravity': (0, 0)}, 'gravity'),
+    ({'bodies': (BODY, BODY)}, 'unique'), ({'bodies': ()}, 'bodies'),
 ])
 def test_bad_config(change, field):
     with pytest.raises(ValueError, match=field):
@@ -34,7 +44,7 @@ def test_bad_config(change, field):
 
 def test_unknown_config_key():
     with pytest.raises(ValueError, match='unknown configuration keys'):
-        Config.from_dict({**CONFIG.to_dict(), 'gravity': 9.81})
+        Config.from_dict({**CONFIG.to_dict(), 'wind': 9.81})
 
 
 def test_events_at_steps_equal_the_same_calls_on_a_stepper():
@@ -43,7 +53,7 @@ def test_events_at_steps_equal_the_same_calls_on_a_stepper():
               (12, SetPose((0, 0, 0), (0, 0, 1, 0))), (20, Reset())]
     sim = Simulation(CONFIG)
     assert sim.run_until(30, events) == []
-    s = Stepper(CONFIG.body(), CONFIG.dt, CONFIG.initial_state())
+    s = Stepper(BODY.body(), CONFIG.dt, BODY.initial_state())
     s.set_wrench(w1)
     s.step(7)
     s.set_wrench(w2)
@@ -55,7 +65,7 @@ def test_events_at_steps_equal_the_same_calls_on_a_stepper():
                                            st.angular_velocity))
     s.step(8)
     s.set_wrench(Wrench())
-    s.set_state(CONFIG.initial_state())
+    s.set_state(BODY.initial_state())
     s.step(10)
     assert sim.stepper.pose_twist() == s.pose_twist()
     assert sim.time_ns == 30 * 2_000_000
@@ -67,7 +77,7 @@ def test_reset_returns_to_the_initial_state_with_no_wrench():
     sim.run(50)
     sim.apply(Reset())
     assert sim.stepper.wrench == Wrench()
-    np.testing.assert_array_equal(sim.stepper.state.position, CONFIG.initial_position)
+    np.testing.assert_array_equal(sim.stepper.state.position, BODY.initial_position)
 
 
 def test_event_in_the_past_is_refused():
@@ -75,3 +85,21 @@ def test_event_in_the_past_is_refused():
     sim.run(10)
     with pytest.raises(ValueError, match='in the past'):
         sim.run_until(20, [(5, Reset())])
+
+
+def test_bodies_are_independent_and_static_ones_never_move():
+    other = BodySpec(name='c', mass=3.0, inertia=(1.0, 1.0, 1.0),
+                     initial_linear_velocity=(1.0, 0.0, 0.0))
+    wall = BodySpec(name='wall', static=True, initial_position=(5.0, 0.0, 0.0))
+    sim = Simulation(Config(dt=0.002, bodies=(BODY, other, wall), gravity=(0, 0, -9.81)))
+    alone = Simulation(Config(dt=0.002, bodies=(BODY,), gravity=(0, 0, -9.81)))
+    w = Wrench([0, 1, 0], [0.01, 0, 0])
+    assert sim.run_until(100, [(10, SetWrench(w, 'b')), (20, SetWrench(w, 'c'))]) == []
+    alone.run_until(100, [(10, SetWrench(w))])
+    assert sim.pose_twist('b') == alone.pose_twist()
+    assert sim.pose_twist('wall')[0] == (5.0, 0.0, 0.0)
+    assert 'wall' not in sim.steppers
+    with pytest.raises(ValueError, match='static'):
+        sim.apply(SetWrench(w, 'wall'))
+    with pytest.raises(ValueError, match="no body named 'd'"):
+        sim.apply(SetWrench(w, 'd'))

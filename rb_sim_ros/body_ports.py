@@ -1,0 +1,126 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The ROS inputs and outputs of one simulated body, for the simulator node.
+
+Topics are relative to ``prefix``: '' for the built-in single body (``wrench``, ``pose``, ...),
+'<name>/' for each body of a scene (``<name>/wrench``, ``<name>/pose``, ...). Callbacks only
+validate and turn messages into simulation events for the node's queue; they never step.
+"""
+
+from __future__ import annotations
+
+import math
+
+from geometry_msgs.msg import PoseStamped, Twist, Wrench as WrenchMsg, WrenchStamped
+from nav_msgs.msg import Odometry
+from rclpy.qos import DurabilityPolicy, QoSProfile
+
+from rb_sim_ros import ros_messages
+from rb_sim_ros.rigid_body import Frame
+from rb_sim_ros.simulation import SetPose, SetWrench
+
+# Latched (transient local) like a state: a late subscriber still gets the recent ones.
+APPLIED_QOS = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+class TwistInput:
+    """A set_twist not yet turned into the world frame (that needs R at the step it applies)."""
+
+    def __init__(self, body: str, in_body: bool, linear, angular) -> None:
+        self.body, self.in_body, self.linear, self.angular = body, in_body, linear, angular
+
+
+class BodyPorts:
+    """Subscriptions and publishers of one body; ``queue(event)`` and ``reject(what, error)``
+    are the node's."""
+
+    def __init__(self, node, name: str, prefix: str, world_frame: str, body_frame: str,
+                 twist_frame: str, settings, queue, reject) -> None:
+        self.name = name
+        self.world_frame, self.body_frame = world_frame, body_frame
+        self.settings = settings  # a dict-like view of the node's parameters, read on use
+        self._queue, self._reject = queue, reject
+        self.out = ros_messages.OutputMessages(world_frame, body_frame, twist_frame)
+        self.last_command_step = 0
+        qos = QoSProfile(depth=10)
+        self.pub_pose = node.create_publisher(PoseStamped, prefix + 'pose', qos)
+        self.pub_twist = node.create_publisher(Twist, prefix + 'twist', qos)
+        self.pub_odom = node.create_publisher(Odometry, prefix + 'odom', qos)
+        self.pub_applied = node.create_publisher(WrenchStamped, prefix + 'applied_wrench',
+                                                 APPLIED_QOS)
+        self.state_pubs = ((self.pub_pose, self.out.pose), (self.pub_twist, self.out.twist),
+                           (self.pub_odom, self.out.odom))
+        node.create_subscription(WrenchMsg, prefix + 'wrench', self._on_wrench, qos)
+        node.create_subscription(WrenchStamped, prefix + 'wrench_stamped',
+                                 self._on_wrench_stamped, qos)
+        node.create_subscription(PoseStamped, prefix + 'set_pose', self._on_set_pose, qos)
+        node.create_subscription(Twist, prefix + 'set_twist', self._on_set_twist, qos)
+
+    def publish(self, time_ns: int, pose_twist, recorder=None, step: int = 0) -> None:
+        """Publish the state to whoever listens: a topic with no subscriber (and no recording)
+        costs neither a fill nor a serialisation."""
+        pubs = [p for p in self.state_pubs if p[0].get_subscription_count()]
+        if pubs or recorder is not None:
+            self.out.fill(time_ns, *pose_twist)
+            for pub, msg in pubs:
+                pub.publish(msg)
+            if recorder is not None:
+                recorder.output(self.name, step, time_ns, self.out)
+
+    def applied(self, wrench, time_ns: int) -> None:
+        msg = WrenchStamped()
+        msg.header.stamp = ros_messages.time_msg(time_ns)
+        msg.header.frame_id = self.body_frame if wrench.frame is Frame.BODY else self.world_frame
+        f, t = msg.wrench.force, msg.wrench.torque
+        f.x, f.y, f.z = (float(c) for c in wrench.force)
+        t.x, t.y, t.z = (float(c) for c in wrench.torque)
+        self.pub_applied.publish(msg)
+
+    # -- callbacks -------------------------------------------------------------------------
+    def _on_wrench(self, msg: WrenchMsg) -> None:
+        self._queue_wrench(msg, Frame.parse(self.settings['wrench_frame']))
+
+    def _on_wrench_stamped(self, msg: WrenchStamped) -> None:
+        fid = msg.header.frame_id.lstrip('/')
+        if fid == '':
+            frame = Frame.parse(self.settings['wrench_frame'])
+        elif fid in (self.world_frame, 'world'):
+            frame = Frame.WORLD
+        elif fid in (self.body_frame, 'body'):
+            frame = Frame.BODY
+        else:
+            self._reject('wrench_stamped', ValueError(
+                f"frame_id '{fid}' is neither '{self.world_frame}' nor '{self.body_frame}' "
+                '(no tf lookup here)'))
+            return
+        self._queue_wrench(msg.wrench, frame)
+
+    def _queue_wrench(self, wrench_msg: WrenchMsg, frame: Frame) -> None:
+        try:
+            wrench = ros_messages.wrench_from_msg(wrench_msg, frame, self.settings['max_wrench'])
+        except ValueError as e:
+            self._reject('wrench', e)
+            return
+        self._queue(SetWrench(wrench, self.name))
+
+    def _on_set_pose(self, msg: PoseStamped) -> None:
+        fid = msg.header.frame_id.lstrip('/')
+        p, o = msg.pose.position, msg.pose.orientation
+        q = (o.x, o.y, o.z, o.w)
+        position = (p.x, p.y, p.z)
+        if fid not in ('', self.world_frame):
+            error = f"frame_id must be '{self.world_frame}', got '{fid}'"
+        elif not all(math.isfinite(c) for c in q + position) or not any(q):
+            error = f'pose must be finite with a non-zero quaternion, got {position}, {q}'
+        else:
+            self._queue(SetPose(position, q, self.name))
+            return
+        self._reject('set_pose', ValueError(error))
+
+    def _on_set_twist(self, msg: Twist) -> None:
+        lin = (msg.linear.x, msg.linear.y, msg.linear.z)
+        ang = (msg.angular.x, msg.angular.y, msg.angular.z)
+        if not all(math.isfinite(c) for c in lin + ang):
+            self._reject('set_twist', ValueError(f'twist must be finite, got {lin}, {ang}'))
+            return
+        self._queue(TwistInput(self.name, self.out.twist_in_body, lin, ang))

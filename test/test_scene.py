@@ -1,0 +1,86 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Scene files: every refusal names the file, the body and the field; shapes' inertia."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rb_sim_ros.scene import load_scene, mass_and_inertia, SceneError
+
+EXAMPLE = Path(__file__).resolve().parents[1] / 'scenes' / 'example.yaml'
+
+
+def test_example_scene_loads():
+    gravity, bodies = load_scene(str(EXAMPLE))
+    assert gravity == (0.0, 0.0, -9.81)
+    assert [b.name for b in bodies] == ['satellite', 'crate', 'ball', 'pillar']
+    crate = bodies[1]
+    assert crate.mass == pytest.approx(500 * 0.4 * 0.3 * 0.2)
+    assert bodies[3].static and not bodies[0].static
+    assert bodies[2].angular_damping == 0.05
+
+
+def test_shapes_against_textbook_and_a_point_cloud():
+    m, (ix, iy, iz) = mass_and_inertia('box', 1000.0, {'size': [2.0, 2.0, 2.0]})
+    assert m == 8000.0 and ix == iy == iz == pytest.approx(m * 8 / 12)
+    m, moments = mass_and_inertia('sphere', 3.0, {'radius': 0.5})
+    assert m == pytest.approx(3.0 * 4 / 3 * math.pi / 8)
+    assert moments == pytest.approx((0.4 * m * 0.25,) * 3)
+    # The cylinder against a Monte Carlo integral of its mass distribution.
+    r, h, rho = 0.3, 1.2, 700.0
+    m, (ix, iy, iz) = mass_and_inertia('cylinder', rho, {'radius': r, 'length': h})
+    rng = np.random.default_rng(1)
+    pts = rng.uniform([-r, -r, -h / 2], [r, r, h / 2], size=(400_000, 3))
+    pts = pts[pts[:, 0] ** 2 + pts[:, 1] ** 2 <= r * r]
+    dm = m / len(pts)
+    assert ix == pytest.approx(dm * np.sum(pts[:, 1] ** 2 + pts[:, 2] ** 2), rel=1e-2)
+    assert iz == pytest.approx(dm * np.sum(pts[:, 0] ** 2 + pts[:, 1] ** 2), rel=1e-2)
+    assert ix == iy
+
+
+@pytest.mark.parametrize('text, where', [
+    ('bodies: []', 'bodies: must be a non-empty list'),
+    ('gravity: [0, 0]\nbodies: [{name: a, mass: 1, inertia: [1, 1, 1]}]', 'gravity:'),
+    ('wind: 3\nbodies: [{name: a, mass: 1, inertia: [1, 1, 1]}]', "unknown key(s) ['wind']"),
+    ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], colour: red}]',
+     "body 0 ('a'): unknown field(s) ['colour']"),
+    ('bodies: [{mass: 1, inertia: [1, 1, 1]}]', 'body 0: name: missing'),
+    ('bodies: [{name: a, inertia: [1, 1, 1]}]', "body 0 ('a'): mass: missing"),
+    ('bodies: [{name: a, mass: -2, inertia: [1, 1, 1]}]', "body 0 ('a'): mass: must be"),
+    ('bodies: [{name: a, mass: 1, inertia: [1, 1, 5]}]', "body 0 ('a'): inertia:"),
+    ('bodies: [{name: a, shape: box, size: [1, 1, 1]}]', "body 0 ('a'): density: missing"),
+    ('bodies: [{name: a, shape: cone, density: 1}]', "body 0 ('a'): shape: must be one of"),
+    ('bodies: [{name: a, shape: sphere, density: 1, radius: 1, size: [1, 1, 1]}]',
+     "body 0 ('a'): size: a sphere has no size"),
+    ('bodies: [{name: a, shape: box, density: 1, size: [1, 0, 1]}]', "body 0 ('a'): size:"),
+    ('bodies: [{name: a, shape: box, density: 1, size: [1, 1, 1], mass: 2}]',
+     "body 0 ('a'): mass: give either"),
+    ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], position: [0, 0]}]',
+     "body 0 ('a'): initial_position:"),
+    ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], orientation: [0, 0, 0, 0]}]',
+     "body 0 ('a'): quaternion_xyzw:"),
+    ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], linear_damping: -1}]',
+     "body 0 ('a'): linear_damping:"),
+    ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], colliders: [{sphere: 1}]}]',
+     "body 0 ('a'): colliders: collision shapes are not simulated yet"),
+    ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1]}, {name: a, static: true}]',
+     "body 1 ('a'): name: used twice"),
+    ('bodies: [{name: my-body, mass: 1, inertia: [1, 1, 1]}]', "body 0 ('my-body'): name:"),
+    ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1]', 'not valid YAML'),
+    ('[1, 2]', 'must be a mapping'),
+])
+def test_refusals_name_file_body_and_field(tmp_path, text, where):
+    f = tmp_path / 'scene.yaml'
+    f.write_text(text)
+    with pytest.raises(SceneError) as e:
+        load_scene(str(f))
+    assert str(e.value).startswith(f'{f}: ')
+    assert where in str(e.value)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(SceneError, match='cannot read'):
+        load_scene(str(tmp_path / 'nope.yaml'))
