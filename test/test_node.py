@@ -295,3 +295,24 @@ def test_a_scene_gives_each_body_its_topics(start_sim, probe, tmp_path):
     z = [p.pose.position.z for p in poses['a'][-4:]]
     assert z[1] - z[0] == pytest.approx(z[3] - z[2], abs=1e-12) and z[1] < z[0]
     assert all(p.pose.position.x == 5.0 for p in poses['wall'])
+
+
+def test_diagnostics_report_cost_ticks_and_rejections(start_sim, probe):
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    start_sim()
+    diags = probe.collect(DiagnosticArray, '/diagnostics')
+    pub = probe.publisher(Wrench, 'wrench')
+    pub.publish(_wrench_msg((math.nan, 0.0, 0.0), (0.0, 0.0, 0.0)))
+
+    def values():
+        return {v.key: v.value for v in diags[-1].status[0].values} if diags else {}
+    probe.wait_for(lambda: values().get('rejected_inputs_total') == '1',
+                   what='a diagnostics message counting the rejection')
+    kv = values()
+    status = diags[-1].status[0]
+    assert status.level == DiagnosticStatus.OK and status.name == 'rb_sim: simulator'
+    assert float(kv['step_cost_us']) > 0 and int(kv['steps']) > 0
+    assert int(kv['ticks']) > 0 and int(kv['late_ticks_total']) >= 0
+    assert float(kv['sim_over_wall']) > 0
+    for key in ('tick_lateness_p50_ms', 'tick_lateness_p99_ms', 'dropped_periods_total'):
+        assert key in kv
