@@ -37,6 +37,30 @@ def _vector(name: str, value: Any, size: int = 3) -> np.ndarray:
     return arr
 
 
+def finite_floats(name: str, value: Any, size: int) -> tuple[float, ...]:
+    """``value`` as a tuple of ``size`` finite floats; ValueError naming ``name`` otherwise."""
+    try:
+        out = tuple(float(c) for c in value)
+    except (TypeError, ValueError):
+        raise ValueError(f'{name} must be {size} numbers, got {value!r}') from None
+    if len(out) != size:
+        raise ValueError(f'{name} must be {size} numbers, got {len(out)}')
+    if not all(math.isfinite(c) for c in out):
+        raise ValueError(f'{name} must be finite, got {list(out)}')
+    return out
+
+
+def rate(name: str, value: Any) -> float:
+    """A finite rate >= 0 (1/s), such as a damping coefficient; ValueError naming ``name``."""
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f'{name} must be a number (1/s), got {value!r}') from None
+    if not math.isfinite(value) or value < 0.0:
+        raise ValueError(f'{name} must be finite and >= 0 (1/s), got {value!r}')
+    return value
+
+
 def _matrix(name: str, value: Any) -> np.ndarray:
     try:
         arr = np.array(value, dtype=float).reshape(3, 3)

@@ -12,36 +12,14 @@ events at the same steps reproduce a run bit for bit, whatever the scheduling wa
 from __future__ import annotations
 
 from dataclasses import dataclass
-import math
 from typing import Any, Union
 
 import numpy as np
 
 from rb_sim_ros import multistep
-from rb_sim_ros.rigid_body import RigidBody, State, Wrench, ZERO_WRENCH
+from rb_sim_ros.rigid_body import (finite_floats, rate, RigidBody, State, Wrench,
+                                   ZERO_WRENCH)
 from rb_sim_ros.stepper import IntegrationError, Stepper
-
-
-def _floats(name: str, value: Any, size: int) -> tuple[float, ...]:
-    try:
-        out = tuple(float(c) for c in value)
-    except (TypeError, ValueError):
-        raise ValueError(f'{name} must be {size} numbers, got {value!r}') from None
-    if len(out) != size:
-        raise ValueError(f'{name} must be {size} numbers, got {len(out)}')
-    if not all(math.isfinite(c) for c in out):
-        raise ValueError(f'{name} must be finite, got {list(out)}')
-    return out
-
-
-def _rate(name: str, value: Any) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f'{name} must be a number, got {value!r}') from None
-    if not math.isfinite(value) or value < 0.0:
-        raise ValueError(f'{name} must be finite and >= 0 (1/s), got {value!r}')
-    return value
 
 
 @dataclass(frozen=True)
@@ -69,16 +47,16 @@ class BodySpec:
         if not isinstance(self.name, str) or not self.name.isidentifier():
             raise ValueError(f'name must be a ROS-safe identifier (letters, digits, _), '
                              f'got {self.name!r}')
-        inertia = _floats('inertia', self.inertia, len(tuple(self.inertia)))
+        inertia = finite_floats('inertia', self.inertia, len(tuple(self.inertia)))
         if len(inertia) not in (3, 9):
             raise ValueError(f'inertia must be 3 principal moments or 9 components, '
                              f'got {len(inertia)} numbers')
         object.__setattr__(self, 'inertia', inertia)
         for name, size in (('initial_position', 3), ('initial_orientation_xyzw', 4),
                            ('initial_linear_velocity', 3), ('initial_angular_velocity', 3)):
-            object.__setattr__(self, name, _floats(name, getattr(self, name), size))
+            object.__setattr__(self, name, finite_floats(name, getattr(self, name), size))
         for name in ('linear_damping', 'angular_damping'):
-            object.__setattr__(self, name, _rate(name, getattr(self, name)))
+            object.__setattr__(self, name, rate(name, getattr(self, name)))
         if not isinstance(self.static, bool):
             raise ValueError(f'static must be true or false, got {self.static!r}')
         object.__setattr__(self, 'colliders', tuple(self.colliders))
@@ -117,7 +95,7 @@ class Config:
             raise ValueError(
                 f'steps_per_publish must be an int >= 1, got {self.steps_per_publish!r}')
         multistep.method_by_name(self.integrator)
-        object.__setattr__(self, 'gravity', _floats('gravity', self.gravity, 3))
+        object.__setattr__(self, 'gravity', finite_floats('gravity', self.gravity, 3))
         bodies = tuple(self.bodies)
         if not bodies or not all(isinstance(b, BodySpec) for b in bodies):
             raise ValueError('bodies must be one or more BodySpec')

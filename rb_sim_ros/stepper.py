@@ -33,7 +33,8 @@ from typing import Any
 import numpy as np
 
 from rb_sim_ros import euler_dynamics, multistep, so3
-from rb_sim_ros.rigid_body import Frame, RigidBody, State, Wrench, ZERO_WRENCH
+from rb_sim_ros.rigid_body import (finite_floats, Frame, rate, RigidBody, State, Wrench,
+                                   ZERO_WRENCH)
 
 
 class IntegrationError(RuntimeError):
@@ -76,9 +77,9 @@ class Stepper:
         if not isinstance(body, RigidBody):
             raise ValueError(f'body must be a RigidBody, got {body!r}')
         self._dt = _check_dt(dt)
-        self._gravity = _check_vector('gravity', gravity)
-        self._linear_damping = _check_rate('linear_damping', linear_damping)
-        self._angular_damping = _check_rate('angular_damping', angular_damping)
+        self._gravity = finite_floats('gravity', gravity, 3)
+        self._linear_damping = rate('linear_damping', linear_damping)
+        self._angular_damping = rate('angular_damping', angular_damping)
         self._specialize = bool(specialize)
         self._method = (multistep.method_by_name(method) if isinstance(method, str)
                         else method)
@@ -284,26 +285,6 @@ class Stepper:
             self._pa, self._pb = ap, bp
             self._step_count += steps
         self._orthonormalize_countdown = countdown
-
-
-def _check_vector(name: str, value: Any) -> tuple[float, float, float]:
-    try:
-        out = tuple(float(c) for c in value)
-    except (TypeError, ValueError):
-        raise ValueError(f'{name} must be 3 numbers, got {value!r}') from None
-    if len(out) != 3 or not all(math.isfinite(c) for c in out):
-        raise ValueError(f'{name} must be 3 finite numbers, got {value!r}')
-    return out
-
-
-def _check_rate(name: str, value: Any) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f'{name} must be a number (1/s), got {value!r}') from None
-    if not math.isfinite(value) or value < 0.0:
-        raise ValueError(f'{name} must be finite and >= 0 (1/s), got {value!r}')
-    return value
 
 
 def _finite(*vectors) -> bool:
