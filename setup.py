@@ -9,6 +9,7 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/scenes', ['scenes/example.yaml']),
     ],
     # ROS dependencies come from package.xml (rosdep); PyPI-only ones (mcap for recording)
     # are in requirements.txt, used by the README's commands, never forced on colcon.
@@ -23,6 +24,7 @@ setup(
         'console_scripts': [
             'simulator = rb_sim_ros.simulator_node:main',
             'send_wrench = rb_sim_ros.send_wrench:main',
+            'replay = rb_sim_ros.replay:main',
         ],
     },
 )

@@ -276,16 +276,20 @@ class Simulation:
 
     def run_until(self, step: int, events: list[tuple[int, Event]]) -> list[tuple[int, Event]]:
         """Advance to ``step``, applying each (step, event) of ``events`` (sorted by step) when
-        the simulation reaches its step. Returns the events not yet due."""
+        the simulation is at its step, before stepping on. Events at ``step`` itself are left
+        pending (returned with the later ones): the state read at ``step`` is the one before
+        them, as the node publishes it."""
         i = 0
-        while True:
+        while self.step_count < step:
             while i < len(events) and events[i][0] <= self.step_count:
                 if events[i][0] < self.step_count:
                     raise ValueError(f'event at step {events[i][0]} is in the past '
                                      f'(now at step {self.step_count})')
                 self.apply(events[i][1])
                 i += 1
-            if self.step_count >= step:
-                return events[i:]
             due = events[i][0] if i < len(events) else step
             self.run(min(due, step) - self.step_count)
+        if i < len(events) and events[i][0] < self.step_count:
+            raise ValueError(f'event at step {events[i][0]} is in the past '
+                             f'(now at step {self.step_count})')
+        return events[i:]

@@ -37,6 +37,7 @@ def test_installed_layout(installed, ros_env):
     assert (installed / 'share' / 'ament_index' / 'resource_index' / 'packages'
             / 'rb_sim_ros').is_file()
     assert (installed / 'share' / 'rb_sim_ros' / 'package.xml').is_file()
+    assert (installed / 'share' / 'rb_sim_ros' / 'scenes' / 'example.yaml').is_file()
     out = subprocess.run(
         [sys.executable, '-c', 'from ament_index_python.packages import get_package_prefix;'
          'print(get_package_prefix("rb_sim_ros"))'],

@@ -53,6 +53,7 @@ def test_events_at_steps_equal_the_same_calls_on_a_stepper():
               (12, SetPose((0, 0, 0), (0, 0, 1, 0))), (20, Reset())]
     sim = Simulation(CONFIG)
     assert sim.run_until(30, events) == []
+    assert sim.run_until(30, [(30, Reset())]) == [(30, Reset())]  # due, not yet applied
     s = Stepper(BODY.body(), CONFIG.dt, BODY.initial_state())
     s.set_wrench(w1)
     s.step(7)

@@ -1,0 +1,150 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""What a recording of the simulator holds, written by the node and read back by ``replay``.
+
+One MCAP file (profile ros2, cdr, ros2msg schemas; see ``mcap_io.py``):
+
+* metadata ``rb_sim_ros``: ``config`` (JSON of ``simulation.Config``: the bodies, gravity, dt,
+  integrator, initial states), ``parameters`` (JSON of every node parameter), ``version``,
+  ``format``;
+* inputs, each at the step it took effect (MCAP ``sequence`` = step, log time = step * dt), on
+  ``/rb_sim/input/<body>/wrench`` (WrenchStamped, frame_id 'world' or 'body', as received),
+  ``.../set_pose`` (PoseStamped, world), ``.../set_twist`` (TwistStamped, world) and
+  ``.../reset`` (nav_msgs/Odometry: the state reset to, world frame);
+* outputs at every publish: each body's ``pose``, ``twist`` and ``odom`` on the topics the node
+  published them on, log time = sim time.
+
+Inputs are everything that changed the run; with ``config`` they re-simulate it bit for bit,
+and the outputs are what to compare against.
+"""
+
+from __future__ import annotations
+
+import json
+
+from geometry_msgs.msg import PoseStamped, Twist, TwistStamped, WrenchStamped
+from nav_msgs.msg import Odometry
+
+from rb_sim_ros import __version__
+from rb_sim_ros.mcap_io import RecordingWriter
+from rb_sim_ros.rigid_body import Wrench
+from rb_sim_ros.ros_messages import time_msg
+from rb_sim_ros.simulation import Config, Reset, SetPose, SetTwist, SetWrench
+
+METADATA = 'rb_sim_ros'
+FORMAT = 1
+INPUT_PREFIX = '/rb_sim/input/'
+INPUTS = {'wrench': WrenchStamped, 'set_pose': PoseStamped, 'set_twist': TwistStamped,
+          'reset': Odometry}
+OUTPUTS = {'pose': PoseStamped, 'twist': Twist, 'odom': Odometry}
+
+
+def input_topic(body: str, kind: str) -> str:
+    return f'{INPUT_PREFIX}{body}/{kind}'
+
+
+def parse_input_topic(topic: str) -> tuple[str, str] | None:
+    """(body, kind) of an input topic, or None for any other topic."""
+    if not topic.startswith(INPUT_PREFIX):
+        return None
+    body, _, kind = topic[len(INPUT_PREFIX):].rpartition('/')
+    return (body, kind) if kind in INPUTS and body else None
+
+
+def event_message(event, time_ns: int):
+    """(kind, message) recording ``event`` that took effect at ``time_ns``."""
+    stamp = time_msg(time_ns)
+    if isinstance(event, SetWrench):
+        msg = WrenchStamped()
+        msg.header.stamp = stamp
+        msg.header.frame_id = event.wrench.frame.value
+        f, t = msg.wrench.force, msg.wrench.torque
+        f.x, f.y, f.z = (float(c) for c in event.wrench.force)
+        t.x, t.y, t.z = (float(c) for c in event.wrench.torque)
+        return 'wrench', msg
+    if isinstance(event, SetPose):
+        msg = PoseStamped()
+        msg.header.stamp, msg.header.frame_id = stamp, 'world'
+        p, o = msg.pose.position, msg.pose.orientation
+        p.x, p.y, p.z = event.position
+        o.x, o.y, o.z, o.w = event.orientation_xyzw
+        return 'set_pose', msg
+    if isinstance(event, SetTwist):
+        msg = TwistStamped()
+        msg.header.stamp, msg.header.frame_id = stamp, 'world'
+        lin, ang = msg.twist.linear, msg.twist.angular
+        lin.x, lin.y, lin.z = event.linear
+        ang.x, ang.y, ang.z = event.angular
+        return 'set_twist', msg
+    if isinstance(event, Reset):
+        if event.position is None:
+            raise ValueError('a recorded Reset must name its state (Reset.to_initial)')
+        msg = Odometry()
+        msg.header.stamp, msg.header.frame_id, msg.child_frame_id = stamp, 'world', 'world'
+        p, o = msg.pose.pose.position, msg.pose.pose.orientation
+        p.x, p.y, p.z = event.position
+        o.x, o.y, o.z, o.w = event.orientation_xyzw
+        lin, ang = msg.twist.twist.linear, msg.twist.twist.angular
+        lin.x, lin.y, lin.z = event.linear
+        ang.x, ang.y, ang.z = event.angular
+        return 'reset', msg
+    raise ValueError(f'not an event: {event!r}')
+
+
+def event_from_message(body: str, kind: str, msg):
+    """The simulation event a recorded input message stands for (inverse of event_message)."""
+    if kind == 'wrench':
+        f, t = msg.wrench.force, msg.wrench.torque
+        return SetWrench(Wrench((f.x, f.y, f.z), (t.x, t.y, t.z), msg.header.frame_id), body)
+    if kind == 'set_pose':
+        p, o = msg.pose.position, msg.pose.orientation
+        return SetPose((p.x, p.y, p.z), (o.x, o.y, o.z, o.w), body)
+    if kind == 'set_twist':
+        lin, ang = msg.twist.linear, msg.twist.angular
+        return SetTwist((lin.x, lin.y, lin.z), (ang.x, ang.y, ang.z), body)
+    if kind == 'reset':
+        p, o = msg.pose.pose.position, msg.pose.pose.orientation
+        lin, ang = msg.twist.twist.linear, msg.twist.twist.angular
+        return Reset((p.x, p.y, p.z), (o.x, o.y, o.z, o.w), (lin.x, lin.y, lin.z),
+                     (ang.x, ang.y, ang.z), body)
+    raise ValueError(f'{kind} is not an input')
+
+
+class NodeRecorder:
+    """Records a node's run; every call returns quickly (file I/O is on the writer's thread).
+
+    ``output_topics`` maps each body name to its {'pose': topic, 'twist': ..., 'odom': ...}.
+    """
+
+    def __init__(self, path: str, config: Config, parameters: dict,
+                 output_topics: dict[str, dict[str, str]], overwrite: bool = False) -> None:
+        self._writer = RecordingWriter(path, overwrite=overwrite)
+        self._first = config.bodies[0].name
+        self._outputs = output_topics
+        for spec in config.bodies:
+            for kind, msg_type in INPUTS.items():
+                self._writer.register_topic(input_topic(spec.name, kind), msg_type)
+        for topics in output_topics.values():
+            for kind, topic in topics.items():
+                self._writer.register_topic(topic, OUTPUTS[kind])
+        self._writer.write_metadata(METADATA, {
+            'format': str(FORMAT), 'version': __version__,
+            'config': json.dumps(config.to_dict()),
+            'parameters': json.dumps(parameters, sort_keys=True),
+            'output_topics': json.dumps(output_topics, sort_keys=True),
+        })
+
+    def event(self, step: int, time_ns: int, event) -> None:
+        kind, msg = event_message(event, time_ns)
+        self._writer.write(input_topic(event.body or self._first, kind), msg, time_ns,
+                           sequence=step)
+
+    def output(self, body: str, step: int, time_ns: int, out) -> None:
+        topics = self._outputs[body]
+        w = self._writer
+        w.write(topics['pose'], out.pose, time_ns, sequence=step)
+        w.write(topics['twist'], out.twist, time_ns, sequence=step)
+        w.write(topics['odom'], out.odom, time_ns, sequence=step)
+
+    def close(self) -> None:
+        self._writer.finish()
