@@ -141,7 +141,7 @@ def test_truncated_file_reads_to_its_last_chunk_and_recovers(tmp_path):
     assert not RecordingReader(str(out)).truncated
 
 
-WRITER = '''
+WRITER = """
 import sys
 from geometry_msgs.msg import Twist
 from rb_sim_ros.mcap_io import RecordingWriter
@@ -156,7 +156,7 @@ while True:
     if not told and k % 1000 == 0 and len(open(sys.argv[1], 'rb').read()) > 20000:
         print('chunks on disk', flush=True)
         told = True
-'''
+"""
 
 
 def test_sigkill_leaves_a_readable_prefix(tmp_path):
