@@ -8,8 +8,8 @@
 
 --verify needs no ROS graph: it rebuilds the run from the recording's metadata (body, dt,
 integrator, initial state) and its inputs at the steps they took effect, fills the output
-messages as the node does, and compares them with the recorded ones, field by field and byte
-by byte. Expected: identical.
+messages as the node does, and compares them with the recorded ones, field by field and bit
+by bit. Expected: identical.
 """
 
 from __future__ import annotations
@@ -18,12 +18,11 @@ import argparse
 from dataclasses import dataclass, field
 import json
 import math
+import struct
 import sys
 import time
 
-from rclpy.serialization import serialize_message
-
-from rb_sim_ros import node_recorder
+from rb_sim_ros import node_recorder, ros_arguments
 from rb_sim_ros.mcap_io import ReaderError, RecordingReader, recover, WriterError
 from rb_sim_ros.ros_messages import OutputMessages, time_msg
 from rb_sim_ros.simulation import Config, Simulation
@@ -112,10 +111,22 @@ def _vectors(kind: str, msg):
     return {'linear_velocity': (lin.x, lin.y, lin.z), 'angular_velocity': (ang.x, ang.y, ang.z)}
 
 
-def verify(path: str) -> Verification:
-    """Re-simulate ``path`` offline and compare every recorded output with the re-run."""
-    rec = load(path)
-    result = Verification(inputs=len(rec.inputs), truncated=rec.truncated)
+def identical(kind: str, a, b) -> bool:
+    """Every field equal, and every float the same bits (so 0.0 and -0.0 differ).
+
+    Not the serialised bytes: rclpy's CDR leaves alignment padding uninitialised, so two
+    serialisations of one message can differ there (seen here)."""
+    if a != b:
+        return False
+    va, vb = _vectors(kind, a), _vectors(kind, b)
+    return all(struct.pack(f'<{len(va[q])}d', *va[q]) == struct.pack(f'<{len(vb[q])}d', *vb[q])
+               for q in va)
+
+
+def resimulate(rec: Recording):
+    """Re-run a recording: yields (step, kind, topic, recorded message, re-simulated message)
+    for every recorded output, in step order. Stops early if the run went non-finite (the node
+    paused there and recorded nothing later)."""
     sim = Simulation(rec.config)
     twist_frame = rec.parameters.get('twist_frame', 'body')
     outs = {b.name: OutputMessages(*rec.frames(b.name), twist_frame) for b in rec.config.bodies}
@@ -125,12 +136,19 @@ def verify(path: str) -> Verification:
         try:
             pending = sim.run_until(step, pending)
         except IntegrationError:
-            break  # the node paused at the last finite state; nothing later was recorded
+            return
         out = outs[body]
         if filled.get(body) != step:
             out.fill(sim.time_ns, *sim.pose_twist(body))
             filled[body] = step
-        mine = getattr(out, kind)
+        yield step, kind, topic, msg, getattr(out, kind), log_time
+
+
+def verify(path: str) -> Verification:
+    """Re-simulate ``path`` offline and compare every recorded output with the re-run."""
+    rec = load(path)
+    result = Verification(inputs=len(rec.inputs), truncated=rec.truncated)
+    for step, kind, topic, msg, mine, log_time in resimulate(rec):
         result.outputs += 1
         result.last_time_ns = log_time
         theirs_v, mine_v = _vectors(kind, msg), _vectors(kind, mine)
@@ -138,15 +156,16 @@ def verify(path: str) -> Verification:
             d = max(abs(a - b) for a, b in zip(v, mine_v[q]))
             if not d <= result.max_difference[q]:  # also catches nan
                 result.max_difference[q] = d if not math.isnan(d) else math.inf
-        if serialize_message(msg) != serialize_message(mine):
+        if not identical(kind, msg, mine):
             result.mismatched_messages += 1
             if not result.first_mismatch:
                 result.first_mismatch = f'{topic} at step {step} (t = {log_time * 1e-9:.9f} s)'
     return result
 
 
-def play(path: str, rate: float, clock: bool = True) -> int:
-    """Republish the recorded outputs in sim-time order with /clock, ``rate`` x sim time."""
+def play(path: str, rate: float, clock: bool = True, wait: float = 0.0) -> int:
+    """Republish the recorded outputs in sim-time order with /clock, ``rate`` x sim time;
+    first wait up to ``wait`` seconds for a subscriber on one of them."""
     import rclpy
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rosgraph_msgs.msg import Clock
@@ -154,13 +173,17 @@ def play(path: str, rate: float, clock: bool = True) -> int:
     outputs = [(o[3], o[4], o[5]) for o in load(path).outputs]  # (topic, msg, log time)
     outputs.sort(key=lambda o: o[2])
     rclpy.init()
-    node = rclpy.create_node('rb_sim_replay')
+    node = rclpy.create_node('rb_sim_replay')  # on the ROS graph of the environment
     pubs = {topic: node.create_publisher(type(msg), topic, 10) for topic, msg, _ in outputs}
     clock_pub = node.create_publisher(Clock, '/clock', QoSProfile(
         depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)) if clock else None
     try:
         if not outputs:
             return 0
+        end_wait = time.monotonic() + wait
+        while time.monotonic() < end_wait and not any(
+                p.get_subscription_count() for p in pubs.values()):
+            rclpy.spin_once(node, timeout_sec=0.05)
         t0_sim, t0_wall = outputs[0][2], time.monotonic()
         end = outputs[-1][2]
         last_report = 0.0
@@ -187,7 +210,6 @@ def play(path: str, rate: float, clock: bool = True) -> int:
 
 
 def main(args=None) -> int:
-    from rclpy.utilities import remove_ros_args
     argv = sys.argv if args is None else args
     parser = argparse.ArgumentParser(prog='replay', description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -199,8 +221,10 @@ def main(args=None) -> int:
     parser.add_argument('--rate', type=float, default=1.0,
                         help='playback speed (sim time per wall time; 0: as fast as possible)')
     parser.add_argument('--no-clock', action='store_true', help='do not publish /clock')
+    parser.add_argument('--wait', type=float, default=0.0,
+                        help='seconds to wait for a subscriber before playing')
     parser.add_argument('--overwrite', action='store_true', help='with --recover')
-    opts = parser.parse_args(remove_ros_args(argv)[1:])
+    opts = parser.parse_args(ros_arguments.non_ros_args(argv, 'replay'))
     try:
         if opts.verify:
             return _print_verification(opts.file, verify(opts.file))
@@ -212,7 +236,7 @@ def main(args=None) -> int:
             return 0
         if opts.out:
             parser.error('OUT is only for --recover')
-        return play(opts.file, opts.rate, clock=not opts.no_clock)
+        return play(opts.file, opts.rate, clock=not opts.no_clock, wait=opts.wait)
     except (ReaderError, WriterError, OSError) as e:
         print(f'replay: {e}', file=sys.stderr)
         return 2

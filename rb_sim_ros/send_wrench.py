@@ -25,7 +25,8 @@ from geometry_msgs.msg import Wrench, WrenchStamped
 import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.signals import SignalHandlerOptions
-from rclpy.utilities import remove_ros_args
+
+from rb_sim_ros import ros_arguments
 
 FIELDS = ('t', 'fx', 'fy', 'fz', 'tx', 'ty', 'tz')
 
@@ -84,7 +85,7 @@ def main(args=None) -> int:
                    help='seconds to wait for the simulator to subscribe')
     p.add_argument('--world-frame', default='odom')
     p.add_argument('--body-frame', default='base_link')
-    opts = p.parse_args(remove_ros_args(argv)[1:])
+    opts = p.parse_args(ros_arguments.non_ros_args(argv, 'send_wrench'))
     try:
         profile = (load_profile(opts.csv) if opts.csv
                    else [(0.0, tuple(opts.force) + tuple(opts.torque), opts.frame)])

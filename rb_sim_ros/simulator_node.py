@@ -30,11 +30,10 @@ import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_srvs.srv import Empty, SetBool, Trigger
 
-from rb_sim_ros import node_params, ros_messages
+from rb_sim_ros import node_params, ros_arguments, ros_messages
 from rb_sim_ros.body_ports import APPLIED_QOS, BodyPorts, TwistInput
 from rb_sim_ros.diagnostics import Diagnostics
 from rb_sim_ros.rigid_body import ZERO_WRENCH
@@ -330,7 +329,7 @@ def main(args=None) -> int:
         '(geometry_msgs/Wrench), wrench_stamped, set_pose, set_twist; publishes pose, twist, '
         'odom, /clock, /diagnostics; services reset, pause, step.',
         epilog=node_params.help_text())
-    parser.parse_args(remove_ros_args(argv)[1:])
+    parser.parse_args(ros_arguments.non_ros_args(argv, 'simulator'))
     rclpy.init(args=argv)
     node = None
     try:

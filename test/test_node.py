@@ -317,3 +317,10 @@ def test_diagnostics_report_cost_ticks_and_rejections(start_sim, probe):
     assert float(kv['sim_over_wall']) > 0
     for key in ('tick_lateness_p50_ms', 'tick_lateness_p99_ms', 'dropped_periods_total'):
         assert key in kv
+
+
+def test_malformed_ros_arguments_exit_with_a_message(start_sim):
+    sim = start_sim('-p', 'inertia:=[1, 0.5, 0.5]')  # mixed int and double
+    assert sim.proc.wait(60) == 2
+    assert 'simulator: invalid ROS arguments' in sim.output()
+    assert 'Traceback' not in sim.output()
