@@ -33,7 +33,8 @@ def _wrench_msg(f, t):
 
 
 def test_installed_layout(installed, ros_env):
-    assert (installed / 'lib' / 'rb_sim_ros' / 'simulator').is_file()
+    for exe in ('simulator', 'send_wrench', 'replay'):  # where `ros2 run` looks
+        assert (installed / 'lib' / 'rb_sim_ros' / exe).is_file()
     assert (installed / 'share' / 'ament_index' / 'resource_index' / 'packages'
             / 'rb_sim_ros').is_file()
     assert (installed / 'share' / 'rb_sim_ros' / 'package.xml').is_file()
