@@ -36,6 +36,11 @@ def principal_axes(inertia: np.ndarray) -> tuple[tuple[float, float, float], np.
 ZERO3 = (0.0, 0.0, 0.0)
 
 
+def _all_zero(components) -> bool:
+    """True when every component (a float or an array) is zero."""
+    return all(bool(np.all(np.asarray(c) == 0.0)) for c in components)
+
+
 def make_accelerations(inverse_mass, moments, force, torque, force_in_body: bool,
                        torque_in_body: bool, gravity=ZERO3, linear_damping=0.0,
                        angular_damping=0.0, specialize: bool = True):
@@ -64,8 +69,8 @@ def make_accelerations(inverse_mass, moments, force, torque, force_in_body: bool
     tx0, ty0, tz0 = torque
     gx, gy, gz = gravity
     has_gravity = any(c != 0.0 for c in gravity)
-    force_free = not has_gravity and all(c == 0.0 for c in force)
-    torque_free = all(c == 0.0 for c in torque)
+    force_free = not has_gravity and _all_zero(force)
+    torque_free = _all_zero(torque)
     world_a = (fx + gx, fy + gy, fz + gz) if has_gravity else (fx, fy, fz)
     c_lin, c_ang = linear_damping, angular_damping
     isotropic = specialize and isinstance(ix, float) and ix == iy == iz
