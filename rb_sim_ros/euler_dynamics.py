@@ -90,7 +90,7 @@ def make_accelerations(inverse_mass, moments, force, torque, force_in_body: bool
         bx = r00 * wx + r10 * wy + r20 * wz
         by = r01 * wx + r11 * wy + r21 * wz
         bz = r02 * wx + r12 * wy + r22 * wz
-        if torque_in_body:
+        if torque_in_body or torque_free:  # no change of frame (none is needed for zero)
             tx, ty, tz = tx0, ty0, tz0
         else:
             tx = r00 * tx0 + r10 * ty0 + r20 * tz0
