@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 """What a recording of the simulator holds, written by the node and read back by ``replay``.
 
-One MCAP file (profile ros2, cdr, ros2msg schemas; see ``mcap_io.py``):
+One MCAP file (profile ros2, cdr, ros2msg schemas; see ``recording/``):
 
 * metadata ``rb_sim_ros``: ``config`` (JSON of ``simulation.Config``: the bodies, gravity, dt,
   integrator, initial states), ``parameters`` (JSON of every node parameter), ``version``,
@@ -26,7 +26,7 @@ from geometry_msgs.msg import PoseStamped, Twist, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
 
 from rb_sim_ros import __version__
-from rb_sim_ros.mcap_io import RecordingWriter
+from rb_sim_ros.recording import RecordingWriter
 from rb_sim_ros.rigid_body import Wrench
 from rb_sim_ros.ros_messages import time_msg
 from rb_sim_ros.simulation import Config, Reset, SetPose, SetTwist, SetWrench
@@ -122,6 +122,8 @@ class NodeRecorder:
         self._first = config.bodies[0].name
         self._outputs = output_topics
         for spec in config.bodies:
+            if spec.static:
+                continue
             for kind, msg_type in INPUTS.items():
                 self._writer.register_topic(input_topic(spec.name, kind), msg_type)
         for topics in output_topics.values():

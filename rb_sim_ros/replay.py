@@ -23,7 +23,7 @@ import sys
 import time
 
 from rb_sim_ros import node_recorder, ros_arguments
-from rb_sim_ros.mcap_io import ReaderError, RecordingReader, recover, WriterError
+from rb_sim_ros.recording import ReaderError, RecordingReader, recover, WriterError
 from rb_sim_ros.ros_messages import OutputMessages, time_msg
 from rb_sim_ros.simulation import Config, Simulation
 from rb_sim_ros.stepper import IntegrationError

@@ -316,7 +316,8 @@ def _open_recorder(node: SimulatorNode, values: dict):
         return None
     from rb_sim_ros.node_recorder import NodeRecorder
     topics = {name: {'pose': p.pub_pose.topic_name, 'twist': p.pub_twist.topic_name,
-                     'odom': p.pub_odom.topic_name} for name, p in node.ports.items()}
+                     'odom': p.pub_odom.topic_name} for name, p in node.ports.items()
+              if name in node.sim.steppers}  # a static body never moves: nothing to record
     return NodeRecorder(values['record'], node.config, values, topics,
                         overwrite=bool(values['record_overwrite']))
 
