@@ -11,7 +11,17 @@ if [ ! -x "$venv/bin/python" ]; then
 fi
 stamp="$venv/.rb_sim_ros-$(basename "$req").stamp"
 want=$(cat "$root"/requirements*.txt "$root/setup.py" "$root/setup.cfg" | sha256sum | cut -c1-16)
-if [ "$(cat "$stamp" 2>/dev/null || true)" != "$want" ]; then
+# A file whose requirements include $req (test > bench > runtime) satisfies it too.
+case "$(basename "$req")" in
+  requirements.txt) covers="requirements.txt requirements-bench.txt requirements-test.txt" ;;
+  requirements-bench.txt) covers="requirements-bench.txt requirements-test.txt" ;;
+  *) covers="$(basename "$req")" ;;
+esac
+current=no
+for c in $covers; do
+  [ "$(cat "$venv/.rb_sim_ros-$c.stamp" 2>/dev/null || true)" = "$want" ] && current=yes
+done
+if [ "$current" = no ]; then
   echo "[rb_sim_ros] installing $req into $venv (about 30 s the first time)" >&2
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$root/$req"
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps -e "$root"
