@@ -89,8 +89,7 @@ def method_by_name(name: str) -> Multistep:
             f'integrator must be one of {sorted(METHODS)}, got {name!r}') from None
 
 
-def make_step(method: Multistep, dt, functions=math, translate: bool = True,
-              rotate: bool = True):
+def make_step(method: Multistep, dt, functions=math, rotate: bool = True):
     """One step of ``method`` with a fixed dt (s), as a function of components:
 
         step(x, v, r, w, a, b, a_prev, b_prev) -> (x, v, r, w) at t + dt
@@ -103,9 +102,9 @@ def make_step(method: Multistep, dt, functions=math, translate: bool = True,
 
     ``rotate=False`` builds a step that leaves R and omega as they are, for a body that does
     not turn (omega = beta = beta_prev = 0 under no torque), where the full update would give
-    them back (omega bit for bit, R up to the sign of a zero entry) at four times the cost;
-    ``translate=False`` as well gives a step that changes nothing (a body at rest). A body
-    that only does not translate takes the full step: that part is 3% of it.
+    them back (omega bit for bit, R up to the sign of a zero entry) at four times the cost.
+    (A body at rest is not stepped at all; one that only does not translate takes the full
+    step: translation is 3% of it.)
     """
     vn, vp = method.velocity_now * dt, method.velocity_prev * dt
     pn, pp = method.position_now * dt * dt, method.position_prev * dt * dt
@@ -160,11 +159,7 @@ def make_step(method: Multistep, dt, functions=math, translate: bool = True,
         )
 
     if rotate:
-        if not translate:
-            raise ValueError('a step that rotates must also translate (see make_step)')
         return step
-    if not translate:
-        return lambda x, v, r, w, a, b, a_prev, b_prev: (x, v, r, w)
 
     def translation(x, v, r, w, a, b, a_prev, b_prev):
         ax, ay, az = a
