@@ -1,157 +1,357 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""N free bodies at once: rb_sim_ros's batch path against MuJoCo with the same bodies.
+"""N free rigid bodies at once: rb_sim_ros's BatchStepper next to MuJoCo, same bodies, one run.
 
-    python bench/batch_bench.py [--quick] [--json out.json]
+    python bench/batch_bench.py [--quick] [--sizes 1 100 10000 100000] [--json out.json]
 
-First checks that the batch path agrees with single-body Steppers (to 1e-12) and that MuJoCo's
-bodies agree with ours to its own accuracy; then times ns per body-step at N = 1, 100, 10,000,
-100,000 (MuJoCo: N free joints, gravity and contacts off, Euler and RK4, mj_step with nstep),
-and the memory per body of both.
+First the checks, which stop the run (exit 1) if they fail:
+
+* the batch path against N single-body Steppers (random bodies with full inertia tensors,
+  random states, a world force and a body torque, a change of wrench mid-run, 1500 steps):
+  agreement to 1e-12;
+* the batch path and MuJoCo (Euler, RK4) against a DOP853 reference (rtol 1e-13) for a few
+  free bodies over 1 s at dt and dt/2: each error, and the order it falls at, must be its
+  method's (2 for ours, 1 for Euler, 4 for RK4), which also shows that MuJoCo is given the
+  same bodies (mass, full inertia tensor, orientation, omega).
+
+Then ns per body-step at each N, the minimum over repeats of a block of steps: the batch path
+on free bodies (no wrench; several steps per call, and one step per call as a node would
+step), the batch path under a held world wrench, and MuJoCo's mj_step on the same free bodies
+(free joints, gravity 0, contacts disabled, no geoms) with its Euler and RK4 integrators.
+MuJoCo's model compiler is quadratic in the number of free joints (``engine_setconst.c``
+forms a Jacobian over all nv dofs for every body: 10,000 bodies take about 35 s here, so
+100,000 would take about an hour), so above ``--single-model-max`` bodies MuJoCo steps
+N / tile copies (MjData) of a ``--tile``-body model, all of them at every step, as one model
+of N bodies would. The full run also times one 10,000-body model against its tiles.
+
+Last, memory per body: the batch's arrays (``BatchStepper.nbytes``, allocated once) and the
+peak traced while stepping; MuJoCo's model and data buffers (its arena sized for RK4).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
+import platform
 import sys
 import time
 import tracemalloc
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
+import mujoco
+import numpy as np
+from scipy.integrate import solve_ivp
 
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-
-from rb_sim_ros import RigidBody, so3, State, Stepper  # noqa: E402
-from rb_sim_ros.batch import BatchStepper  # noqa: E402
+from rb_sim_ros import RigidBody, so3, State, Stepper, Wrench
+from rb_sim_ros.batch import BatchStepper
 
 DT = 1e-3
-# MuJoCo refuses models of 65,534 bodies or more, and compiling 20,000 free bodies from XML
-# takes about 90 s here: past that, its (flat) per-body cost is measured at this N.
-MUJOCO_MAX_N = 20_000
 
 
-def bodies(n, seed=0):
+def bodies(n: int, seed: int = 0) -> dict:
+    """Random free bodies: mass (kg), full inertia tensors (kg m^2, body frame: principal
+    moments in [0.5, 1] about random axes), orientation, omega (rad/s) and v (m/s), world."""
     rng = np.random.default_rng(seed)
     moments = np.sort(rng.uniform(0.5, 1.0, (n, 3)), axis=1)
-    return rng.uniform(0.5, 2.0, n), moments, rng.normal(size=(n, 3)) * 2.0
+    axes = _rotations(rng, n)
+    return {'masses': rng.uniform(0.5, 2.0, n),
+            'inertias': axes @ (moments[:, :, None] * np.eye(3)) @ axes.transpose(0, 2, 1),
+            'rotations': _rotations(rng, n), 'angular_velocities': rng.normal(size=(n, 3)) * 2.0,
+            'linear_velocities': rng.normal(size=(n, 3)), 'positions': rng.normal(size=(n, 3))}
 
 
-def n_mb(n: int) -> int:
-    """MuJoCo's arena for n free bodies (its default is too small past a few thousand)."""
-    return n // 20
+def _rotations(rng, n):
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    x, y, z, w = q.T
+    return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
+                     2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+                     2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+                    axis=1).reshape(n, 3, 3)
 
 
-def mujoco_model(masses, moments, omega, integrator):
-    parts = [f'<mujoco><size memory="{max(64, n_mb(len(masses)))}M"/>'
-             f'<option timestep="{DT}" integrator="{integrator}" gravity="0 0 0">'
+def _batch(b: dict, dt: float = DT) -> BatchStepper:
+    return BatchStepper(b['masses'], b['inertias'], dt, b['positions'], b['rotations'],
+                        b['linear_velocities'], b['angular_velocities'])
+
+
+# -- MuJoCo ------------------------------------------------------------------------------------
+def mujoco_model(b: dict, dt: float = DT, integrator: str = 'Euler') -> mujoco.MjModel:
+    """Free bodies with b's masses and full inertia tensors (about the centre of mass, body
+    frame), no geoms, gravity 0, contacts disabled; the arena sized for RK4."""
+    n = len(b['masses'])
+    parts = [f'<mujoco><size memory="{max(1024, n)}K"/>'
+             f'<option timestep="{dt!r}" integrator="{integrator}" gravity="0 0 0">'
              '<flag contact="disable"/></option><worldbody>']
-    for m, (a, b, c) in zip(masses, moments):
+    for m, i in zip(b['masses'], b['inertias']):
+        full = ' '.join(repr(float(c)) for c in (i[0, 0], i[1, 1], i[2, 2], i[0, 1], i[0, 2],
+                                                 i[1, 2]))
         parts.append(f'<body><freejoint/><inertial pos="0 0 0" mass="{float(m)!r}" '
-                     f'diaginertia="{float(a)!r} {float(b)!r} {float(c)!r}"/></body>')
+                     f'fullinertia="{full}"/></body>')
     parts.append('</worldbody></mujoco>')
     model = mujoco.MjModel.from_xml_string(''.join(parts))
+    assert model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT
+    return model
+
+
+def mujoco_data(model: mujoco.MjModel, b: dict) -> mujoco.MjData:
+    """MjData at b's state: a free joint holds (x, quaternion w x y z) and (v world, omega in
+    the body frame)."""
     data = mujoco.MjData(model)
-    data.qvel.reshape(-1, 6)[:, 3:] = omega  # body frame = world frame at R = I
-    return model, data
+    qpos, qvel = data.qpos.reshape(-1, 7), data.qvel.reshape(-1, 6)
+    qpos[:, 0:3] = b['positions']
+    qpos[:, 3:7] = _quaternions_wxyz(b['rotations'])
+    qvel[:, 0:3] = b['linear_velocities']
+    qvel[:, 3:6] = np.einsum('kji,kj->ki', b['rotations'], b['angular_velocities'])
+    mujoco.mj_forward(model, data)
+    return data
 
 
-def check(n=20, steps=500) -> dict:
-    masses, moments, omega = bodies(n, seed=1)
-    batch = BatchStepper(masses, moments, DT, angular_velocities=omega)
-    batch.step(steps)
+def _quaternions_wxyz(rot):
+    return np.array([np.roll(so3.quaternion_xyzw_from_matrix(r), 1) for r in rot])
+
+
+def mujoco_state(data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+    """(rotations, omega in the world frame)."""
+    q = data.qpos.reshape(-1, 7)[:, 3:7]
+    rot = np.array([so3.matrix_from_quaternion_xyzw(np.roll(c, -1)) for c in q])
+    return rot, np.einsum('kij,kj->ki', rot, data.qvel.reshape(-1, 6)[:, 3:6])
+
+
+# -- checks --------------------------------------------------------------------------------------
+def check_against_steppers(n: int = 16, steps: int = 1500) -> float:
+    b = bodies(n, seed=1)
+    batch = _batch(b)
+    singles = [Stepper(RigidBody(m, i), DT, State(x, r, v, w)) for m, i, x, r, v, w in zip(
+        b['masses'], b['inertias'], b['positions'], b['rotations'], b['linear_velocities'],
+        b['angular_velocities'])]
+    rng = np.random.default_rng(2)
     worst = 0.0
-    for k in range(n):
-        s = Stepper(RigidBody(masses[k], moments[k]), DT, State(angular_velocity=omega[k]))
-        s.step(steps)
-        worst = max(worst, float(np.max(np.abs(batch.rotations()[k] - s.state.rotation))))
-    if worst > 1e-12:
-        raise SystemExit(f'batch and single-body paths differ by {worst:.3g}')
-    model, data = mujoco_model(masses, moments, omega, 'RK4')
-    mujoco.mj_step(model, data, nstep=steps)
-    q = data.qpos.reshape(-1, 7)[:, 3:]  # free joint: position, then quaternion w x y z
-    mj_rot = np.array([so3.matrix_from_quaternion_xyzw((x, y, z, w)) for w, x, y, z in q])
-    agree = max(so3.angle_between(a, b) for a, b in zip(mj_rot, batch.rotations()))
-    if agree > 1e-4:
-        raise SystemExit(f'MuJoCo and rb_sim_ros disagree by {agree:.3g} rad')
-    return {'batch_vs_single': worst, 'mujoco_rk4_vs_ours_rad': agree}
+    for part in range(2):  # a change of wrench half way
+        force, torque = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+        batch.set_wrench(None, force, 0.0 * force, 'world')
+        batch.set_wrench(range(n // 2), force[:n // 2], torque[:n // 2], 'body')
+        for k, s in enumerate(singles):
+            s.set_wrench(Wrench(force[k], torque[k] if k < n // 2 else (0, 0, 0),
+                                'body' if k < n // 2 else 'world'))
+            s.step(steps // 2)
+        batch.step(steps // 2)
+        states = [s.state for s in singles]
+        worst = max(worst, float(np.max(np.abs(batch.rotations() - [s.rotation for s in states]))),
+                    float(np.max(np.abs(batch.angular_velocities()
+                                        - [s.angular_velocity for s in states]))),
+                    float(np.max(np.abs(batch.positions() - [s.position for s in states]))))
+    return worst
 
 
-def time_ours(n, steps, repeats) -> float:
-    masses, moments, omega = bodies(n)
-    batch = BatchStepper(masses, moments, DT, angular_velocities=omega)
-    batch.step(2)
-    best = float('inf')
+def _reference(b: dict, t_end: float):
+    """DOP853 on eq. (10) in the world frame (I = R I_body R^T solved with numpy)."""
+    out = []
+    for m, inertia, rot, w in zip(b['masses'], b['inertias'], b['rotations'],
+                                  b['angular_velocities']):
+        def f(_t, y, inertia=inertia):
+            r, om = y[0:9].reshape(3, 3), y[9:12]
+            iw = r @ inertia @ r.T
+            beta = np.linalg.solve(iw, -np.cross(om, iw @ om))
+            return np.concatenate([(so3.hat(om) @ r).reshape(9), beta])
+        y = solve_ivp(f, (0.0, t_end), np.concatenate([rot.reshape(9), w]), method='DOP853',
+                      rtol=1e-13, atol=1e-14).y[:, -1]
+        out.append((so3.orthonormalize(y[0:9].reshape(3, 3)), y[9:12]))
+    return out
+
+
+def check_against_reference(n: int = 4, t_end: float = 1.0) -> dict:
+    """Errors (rad and rad/s, worst body) at dt and dt/2 and the order between them."""
+    b = bodies(n, seed=3)
+    ref = _reference(b, t_end)
+
+    def error(rot, w):
+        return max(max(so3.angle_between(r, rr) for r, (rr, _) in zip(rot, ref)),
+                   float(np.max(np.abs(w - [ww for _, ww in ref]))))
+
+    result = {}
+    for name in ('rb_sim_ros batch', 'MuJoCo Euler', 'MuJoCo RK4'):
+        errs = []
+        for dt in (0.01, 0.005):
+            steps = round(t_end / dt)
+            if name == 'rb_sim_ros batch':
+                batch = _batch(b, dt)
+                batch.step(steps)
+                errs.append(error(batch.rotations(), batch.angular_velocities()))
+            else:
+                model = mujoco_model(b, dt, name.split()[1])
+                data = mujoco_data(model, b)
+                mujoco.mj_step(model, data, nstep=steps)
+                errs.append(error(*mujoco_state(data)))
+        result[name] = {'error_dt_0.01': errs[0], 'error_dt_0.005': errs[1],
+                        'order': math.log2(errs[0] / errs[1])}
+    return result
+
+
+ORDERS = {'rb_sim_ros batch': (1.7, 2.3), 'MuJoCo Euler': (0.7, 1.3), 'MuJoCo RK4': (3.5, 4.5)}
+
+
+# -- timing --------------------------------------------------------------------------------------
+def _best(run, steps: int, repeats: int, n: int) -> float:
+    best = math.inf
     for _ in range(repeats):
         t = time.perf_counter()
-        batch.step(steps)
+        run(steps)
         best = min(best, time.perf_counter() - t)
     return best / (steps * n) * 1e9
 
 
-def time_mujoco(n, steps, repeats, integrators) -> dict:
-    """ns per body-step for each integrator; the model is compiled once (at N = 1e5 that
-    takes minutes) and its integrator switched."""
-    masses, moments, omega = bodies(n)
-    model, data = mujoco_model(masses, moments, omega, 'Euler')
-    out = {}
-    for name in integrators:
-        model.opt.integrator = getattr(mujoco.mjtIntegrator, f'mjINT_{name.upper()}')
-        mujoco.mj_resetData(model, data)
-        data.qvel.reshape(-1, 6)[:, 3:] = omega
-        best = float('inf')
-        for _ in range(repeats):
-            t = time.perf_counter()
-            mujoco.mj_step(model, data, nstep=steps)
-            best = min(best, time.perf_counter() - t)
-        out[name] = best / (steps * n) * 1e9
-    return out
+def _block(run, n: int, seconds: float) -> int:
+    """Steps per timed block: about ``seconds`` of work, at least 1."""
+    t = time.perf_counter()
+    run(1)
+    per_step = max(time.perf_counter() - t, 1e-7)
+    return max(1, int(seconds / per_step))
 
 
-def memory_per_body(n) -> tuple[float, float]:
-    masses, moments, omega = bodies(n)
+def time_batch(b: dict, seconds: float, repeats: int, wrench: bool = False,
+               per_call: int | None = None) -> float:
+    n = len(b['masses'])
+    batch = _batch(b)
+    if wrench:
+        rng = np.random.default_rng(4)
+        batch.set_wrench(None, rng.normal(size=(n, 3)), rng.normal(size=(n, 3)), 'world')
+    batch.step(2)  # start-up
+    if per_call is None:
+        run = batch.step
+    else:
+        def run(steps):
+            for _ in range(steps // per_call):
+                batch.step(per_call)
+    steps = _block(run, n, seconds)
+    if per_call:
+        steps = max(per_call, steps - steps % per_call)
+    return _best(run, steps, repeats, n)
+
+
+def mujoco_tiles(b: dict, n: int, tile: int, single_max: int):
+    """(model, datas): one model of n bodies, or n / tile copies of a tile-body model."""
+    if n <= single_max:
+        model = mujoco_model(b)
+        return model, [mujoco_data(model, b)]
+    first = {k: v[:tile] for k, v in b.items()}
+    model = mujoco_model(first)
+    return model, [mujoco_data(model, {k: v[i:i + tile] for k, v in b.items()})
+                   for i in range(0, n, tile)]
+
+
+def time_mujoco(model, datas, integrator: str, seconds: float, repeats: int) -> float:
+    model.opt.integrator = getattr(mujoco.mjtIntegrator, f'mjINT_{integrator.upper()}')
+    n = model.nbody - 1
+    if len(datas) == 1:
+        def run(steps):
+            mujoco.mj_step(model, datas[0], nstep=steps)
+    else:
+        def run(steps):  # every copy takes each step, as the bodies of one model would
+            for _ in range(steps):
+                for data in datas:
+                    mujoco.mj_step(model, data)
+    steps = _block(run, n * len(datas), seconds)
+    return _best(run, steps, repeats, n * len(datas))
+
+
+def memory(b: dict, model, datas) -> dict:
+    n = len(b['masses'])
+    batch = _batch(b)
+    batch.step(2)
     tracemalloc.start()
-    batch = BatchStepper(masses, moments, DT, angular_velocities=omega)
-    batch.step(5)
-    ours = tracemalloc.get_traced_memory()[1] / n
+    batch.step(10)
+    peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
-    model, data = mujoco_model(masses, moments, omega, 'Euler')
-    theirs = (model.nbuffer + data.nbuffer) / n
-    del batch
-    return ours, theirs
+    return {'batch_arrays_B': batch.nbytes / n, 'batch_step_peak_B': peak / n,
+            'mujoco_model_plus_data_B': (model.nbuffer + len(datas) * datas[0].nbuffer) / n}
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument('--quick', action='store_true')
-    parser.add_argument('--json', help='write the figures here too')
+    parser.add_argument('--quick', action='store_true',
+                        help='N up to 10,000, tiles above 1,000 bodies, shorter timings')
+    parser.add_argument('--sizes', type=int, nargs='+', help='the N to time')
+    parser.add_argument('--seconds', type=float, help='length of one timed block (s)')
+    parser.add_argument('--repeats', type=int, help='timed blocks per figure (the minimum)')
+    parser.add_argument('--tile', type=int, default=1000, help='bodies per MuJoCo copy')
+    parser.add_argument('--single-model-max', type=int,
+                        help='largest N given to MuJoCo as one model (default 10,000)')
+    parser.add_argument('--json', type=Path, help='write the figures here too')
     opts = parser.parse_args()
-    out = {'check': check()}
-    sizes = [1, 100, 10_000] if opts.quick else [1, 100, 10_000, 100_000]
+    sizes = opts.sizes or ([1, 100, 10_000] if opts.quick else [1, 100, 10_000, 100_000])
+    seconds = opts.seconds or (0.1 if opts.quick else 0.3)
+    repeats = opts.repeats or (3 if opts.quick else 5)
+    single_max = opts.single_model_max or (1000 if opts.quick else 10_000)
+    out = {'machine': {'python': platform.python_version(), 'numpy': np.__version__,
+                       'mujoco': mujoco.__version__, 'cpu': platform.processor()
+                       or platform.machine()}}
+
+    worst = check_against_steppers()
+    print(f'batch against single-body Steppers: {worst:.2e} (must be < 1e-12)')
+    out['batch_vs_steppers'] = worst
+    ref = check_against_reference()
+    out['against_reference'] = ref
+    print(f'\n{"against DOP853, 1 s, 4 bodies":<30} {"dt 0.01":>9} {"dt 0.005":>9} {"order":>6}')
+    failed = worst >= 1e-12
+    for name, r in ref.items():
+        lo, hi = ORDERS[name]
+        ok = lo <= r['order'] <= hi
+        failed |= not ok
+        print(f'{name:<30} {r["error_dt_0.01"]:9.2e} {r["error_dt_0.005"]:9.2e} '
+              f'{r["order"]:6.2f}{"" if ok else "  NOT its order"}')
+    if failed:
+        print('checks failed: no timings', file=sys.stderr)
+        return 1
+
+    print(f'\nns per body-step, the minimum of {repeats} blocks of ~{seconds} s.\nbatch: free '
+          'bodies stepped n at a time (step(n)) and one at a time (step(1)), and under a\n'
+          'held world force and torque; MuJoCo: the same free bodies, gravity 0, contacts off')
+    print(f'{"N":>8} {"batch":>8} {"batch":>9} {"batch":>9} {"MuJoCo":>8} {"MuJoCo":>8} '
+          f'{"Euler /":>8}')
+    print(f'{"":>8} {"step(n)":>8} {"step(1)":>9} {"wrench":>9} {"Euler":>8} {"RK4":>8} '
+          f'{"batch":>8}')
     rows = []
     for n in sizes:
-        steps = max(2, min(2000, 2_000_000 // n)) if not opts.quick else max(2, 20_000 // n)
-        repeats = 2 if opts.quick else 3
-        mj_n = min(n, MUJOCO_MAX_N)
-        mj = time_mujoco(mj_n, steps, repeats, ('Euler', 'RK4'))
-        rows.append({'n': n, 'rb_sim_ros_batch_ns': time_ours(n, steps, repeats),
-                     'mujoco_n': mj_n, 'mujoco_euler_ns': mj['Euler'], 'mujoco_rk4_ns': mj['RK4']})
-        r = rows[-1]
-        note = f' (MuJoCo at N = {mj_n})' if mj_n != n else ''
-        print(f'N = {n:>7}: rb_sim_ros batch {r["rb_sim_ros_batch_ns"]:8.1f} ns/body-step, '
-              f'MuJoCo Euler {r["mujoco_euler_ns"]:8.1f}, RK4 {r["mujoco_rk4_ns"]:8.1f}{note}',
-              flush=True)
+        b = bodies(n)
+        row = {'n': n,
+               'batch_free_ns': time_batch(b, seconds, repeats),
+               'batch_free_one_step_per_call_ns': time_batch(b, seconds, repeats, per_call=1),
+               'batch_world_wrench_ns': time_batch(b, seconds, repeats, wrench=True)}
+        t = time.perf_counter()
+        model, datas = mujoco_tiles(b, n, opts.tile, single_max)
+        row['mujoco_layout'] = (f'{len(datas)} x {model.nbody - 1} bodies' if len(datas) > 1
+                                else f'one model of {n}')
+        row['mujoco_build_s'] = time.perf_counter() - t
+        for integrator in ('Euler', 'RK4'):
+            row[f'mujoco_{integrator.lower()}_ns'] = time_mujoco(
+                model, datas, integrator, seconds, repeats)
+        row['memory_per_body'] = memory(b, model, datas)
+        rows.append(row)
+        print(f'{n:>8} {row["batch_free_ns"]:8.1f} {row["batch_free_one_step_per_call_ns"]:9.1f} '
+              f'{row["batch_world_wrench_ns"]:9.1f} {row["mujoco_euler_ns"]:8.1f} '
+              f'{row["mujoco_rk4_ns"]:8.1f} {row["mujoco_euler_ns"] / row["batch_free_ns"]:8.2f}'
+              f'   MuJoCo: {row["mujoco_layout"]}', flush=True)
     out['rows'] = rows
-    ours, theirs = memory_per_body(10_000)
-    out['memory_bytes_per_body'] = {'rb_sim_ros_batch_peak': ours, 'mujoco_buffers': theirs}
-    print(f'memory per body (N = 10,000): rb_sim_ros batch peak {ours:.0f} B, MuJoCo model + '
-          f'data buffers {theirs:.0f} B; agreement: {out["check"]}')
+    if not opts.quick and 10_000 in sizes and single_max >= 10_000:
+        b = bodies(10_000)
+        model, datas = mujoco_tiles(b, 10_000, opts.tile, 0)
+        out['mujoco_10000_as_tiles'] = {
+            i: time_mujoco(model, datas, i, seconds, repeats) for i in ('Euler', 'RK4')}
+        tiles = out['mujoco_10000_as_tiles']
+        print(f'{"":>8} MuJoCo at N = 10,000 as {len(datas)} x {opts.tile} bodies: Euler '
+              f'{tiles["Euler"]:.1f}, RK4 {tiles["RK4"]:.1f} (one model: above)')
+
+    print('\nbytes per body: batch arrays (allocated once) / batch peak while stepping / '
+          'MuJoCo model + data')
+    for row in rows:
+        m = row['memory_per_body']
+        print(f'{row["n"]:>8} {m["batch_arrays_B"]:10.0f} {m["batch_step_peak_B"]:10.1f} '
+              f'{m["mujoco_model_plus_data_B"]:10.0f}')
     if opts.json:
-        Path(opts.json).write_text(json.dumps(out, indent=1))
+        opts.json.write_text(json.dumps(out, indent=1))
     return 0
 
 

@@ -111,8 +111,6 @@ def make_step(method: Multistep, dt, functions=math, rotate: bool = True):
     rn, rp = method.rotation_now * dt * dt, method.rotation_prev * dt * dt
     rc = method.rotation_cross * dt * dt * dt
     sqrt, sin, cos = functions.sqrt, functions.sin, functions.cos
-    # A ``functions`` may bring its own (A, B) of t^2 (the batch path: a series on arrays).
-    rodrigues = getattr(functions, 'rodrigues', None)
     tiny = so3.TINY_ANGLE_SQ
 
     def step(x, v, r, w, a, b, a_prev, b_prev):
@@ -131,13 +129,10 @@ def make_step(method: Multistep, dt, functions=math, rotate: bool = True):
         # half-angle form (see so3.TINY_ANGLE_SQ): no branch, so it runs on arrays too.
         xx2, yy2, zz2 = px * px, py * py, pz * pz
         t2 = xx2 + yy2 + zz2 + tiny
-        if rodrigues is None:
-            t = sqrt(t2)
-            s = sin(0.5 * t)
-            ca = 2.0 * s * cos(0.5 * t) / t
-            cb = 2.0 * s * s / t2
-        else:
-            ca, cb = rodrigues(t2)
+        t = sqrt(t2)
+        s = sin(0.5 * t)
+        ca = 2.0 * s * cos(0.5 * t) / t
+        cb = 2.0 * s * s / t2
         bxy, bxz, byz = cb * px * py, cb * px * pz, cb * py * pz
         ax_, ay_, az_ = ca * px, ca * py, ca * pz
         e00, e01, e02 = 1.0 - cb * (yy2 + zz2), bxy - az_, bxz + ay_

@@ -45,7 +45,8 @@ class IntegrationError(RuntimeError):
         self.step = step
 
 
-def _check_dt(dt: Any) -> float:
+def check_dt(dt: Any) -> float:
+    """dt as a float; ValueError unless it is a finite number of seconds > 0."""
     try:
         dt = float(dt)
     except (TypeError, ValueError):
@@ -76,7 +77,7 @@ class Stepper:
         force or torque; False always takes the general path (for comparison)."""
         if not isinstance(body, RigidBody):
             raise ValueError(f'body must be a RigidBody, got {body!r}')
-        self._dt = _check_dt(dt)
+        self._dt = check_dt(dt)
         self._gravity = finite_floats('gravity', gravity, 3)
         self._linear_damping = rate('linear_damping', linear_damping)
         self._angular_damping = rate('angular_damping', angular_damping)
