@@ -58,7 +58,7 @@ import numpy as np
 from rb_sim_ros import multistep, so3
 from rb_sim_ros.rigid_body import (finite_floats, Frame, RigidBody, ROTATION_TOLERANCE, State,
                                    SYMMETRY_TOLERANCE, TRIANGLE_TOLERANCE)
-from rb_sim_ros.stepper import check_dt, IntegrationError, Stepper
+from rb_sim_ros.stepper import check_dt, FixedStep, IntegrationError, Stepper
 
 CHUNK_SIZE = 8192
 # Rows of one level (one step's state of every body): x, v, R (row-major), omega, beta, a.
@@ -444,7 +444,7 @@ def _frames(value: Any, k: int, default: Frame) -> np.ndarray:
     return np.array([fr is Frame.BODY for fr in frames], dtype=bool)
 
 
-class BatchStepper:
+class BatchStepper(FixedStep):
     """N rigid bodies advanced together with a fixed step dt (s), each under its own held
     wrench (zero-order hold), by the method of ``Stepper``.
 
@@ -576,25 +576,6 @@ class BatchStepper:
     # -- read ------------------------------------------------------------------------------
     def __len__(self) -> int:
         return self._n
-
-    @property
-    def dt(self) -> float:
-        """The fixed step (s)."""
-        return self._dt
-
-    @property
-    def method(self) -> multistep.Multistep:
-        return self._method
-
-    @property
-    def step_count(self) -> int:
-        """Steps taken since construction (``set_state`` does not reset it)."""
-        return self._step_count
-
-    @property
-    def time(self) -> float:
-        """Simulated time (s): step_count * dt."""
-        return self._step_count * self._dt
 
     @property
     def masses(self) -> np.ndarray:

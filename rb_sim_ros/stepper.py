@@ -56,7 +56,31 @@ def check_dt(dt: Any) -> float:
     return dt
 
 
-class Stepper:
+class FixedStep:
+    """The clock of a fixed-step integrator (Stepper and batch.BatchStepper): its subclasses
+    set ``_dt``, ``_method`` and ``_step_count``."""
+
+    @property
+    def dt(self) -> float:
+        """The fixed step (s)."""
+        return self._dt
+
+    @property
+    def method(self) -> multistep.Multistep:
+        return self._method
+
+    @property
+    def step_count(self) -> int:
+        """Steps taken since construction (``set_state`` does not reset it)."""
+        return self._step_count
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s): step_count * dt."""
+        return self._step_count * self._dt
+
+
+class Stepper(FixedStep):
     """Advances one rigid body with a fixed step dt (s) under a held wrench.
 
     Time is ``step_count * dt``, never wall time. Every input is validated before anything
@@ -104,25 +128,6 @@ class Stepper:
     @property
     def body(self) -> RigidBody:
         return self._body
-
-    @property
-    def dt(self) -> float:
-        """The fixed step (s)."""
-        return self._dt
-
-    @property
-    def method(self) -> multistep.Multistep:
-        return self._method
-
-    @property
-    def step_count(self) -> int:
-        """Steps taken since construction (``set_state`` does not reset it)."""
-        return self._step_count
-
-    @property
-    def time(self) -> float:
-        """Simulated time (s): step_count * dt."""
-        return self._step_count * self._dt
 
     @property
     def wrench(self) -> Wrench:
