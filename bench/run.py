@@ -2,14 +2,15 @@
 # Licensed under the Apache License, Version 2.0
 """Regenerate the benchmark report: run time against error, and numerical stress.
 
-    python bench/run.py            # the full report into docs/ (under 10 minutes)
-    python bench/run.py --quick --out /tmp/b   # a few seconds' check that nothing rotted
+    python bench/run.py                          # docs/benchmarks.md and docs/img/*.png
+    python bench/run.py --quick --out /tmp/b     # a few seconds' check that nothing rotted
 
-Work-precision: rb_sim_ros's methods, MuJoCo (Euler, implicitfast, RK4; one free joint) and
-scipy DOP853 on four scenes with references (elliptic oracle, closed-form top, DOP853 at 1e-13).
-Each stepping method must first converge at its order, else nothing is timed (exit 1).
-Stress: Dzhanibekov flip period, extreme inertia (incl. mujoco#3553), fast spin, a long run,
-a blow-up. Writes benchmarks.md, img/*.png and summary.json into --out.
+Work-precision: rb_sim_ros's methods, MuJoCo (Euler, implicitfast, RK4; one free body) and
+scipy's DOP853 on four scenes with references (elliptic oracle, closed-form top, DOP853 at
+1e-13). The references are checked against each other and every fixed-step method must
+converge at its order before anything is timed; if one does not, the run stops with exit
+status 1 (the summary says which). Stress: Dzhanibekov flip period, extreme inertia (with
+mujoco#3553), fast spin, a long run, a blow-up. Also the cost of one step (bench/step_cost.py).
 """
 
 from __future__ import annotations
@@ -23,20 +24,22 @@ import sys
 import time
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-sys.path.insert(0, str(HERE.parent))
+sys.path[:0] = [str(HERE), str(HERE.parent)]
 
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
+import scipy  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from rb_sim_ros import RigidBody, State, Stepper, Wrench  # noqa: E402
-import scenes as sc  # noqa: E402
-import stress  # noqa: E402
+import peers  # noqa: E402
+import report  # noqa: E402, I100, I201 (bench modules)
+import step_cost  # noqa: E402
+import stress  # noqa: E402, I201
 import work_precision as wp  # noqa: E402
 
 
-def machine() -> str:
+def machine() -> dict:
+    """CPU model (from /proc/cpuinfo), core count, OS and the versions that matter."""
     cpu = platform.processor() or 'unknown CPU'
     try:
         for line in Path('/proc/cpuinfo').read_text().splitlines():
@@ -45,152 +48,100 @@ def machine() -> str:
                 break
     except OSError:
         pass
-    return (f'{cpu}, {os.cpu_count()} cores; Python {platform.python_version()}, numpy '
-            f'{np.__version__}, MuJoCo {mujoco.__version__}; {platform.platform()}')
+    return {'cpu': cpu, 'cores': os.cpu_count(), 'os': platform.platform(),
+            'python': platform.python_version(), 'numpy': np.__version__,
+            'scipy': scipy.__version__, 'mujoco': mujoco.__version__}
 
 
-def step_cost(quick: bool) -> list[dict]:
-    """us per step of one body: rb_sim_ros's methods (diagonal torque-free; full inertia with
-    a body-frame wrench) next to MuJoCo's mj_step on one free body."""
-    steps = 20_000 if quick else 200_000
-    full = RigidBody(2.0, [[0.2, 0.01, 0.0], [0.01, 0.3, 0.02], [0.0, 0.02, 0.4]])
-    rows = []
-    for method in ('eq27', 'taylor1'):
-        for label, body, wrench in (('diagonal, torque-free', RigidBody(1.0, [1, 2, 3]),
-                                     Wrench()),
-                                    ('full inertia, body wrench', full,
-                                     Wrench([1, 0, 0], [0.01, 0, 0], 'body'))):
-            s = Stepper(body, 1e-3, State(angular_velocity=[1, 2, 3]), wrench, method=method)
-            best = float('inf')
-            for _ in range(3 if quick else 5):
-                t = time.perf_counter()
-                s.step(steps)
-                best = min(best, time.perf_counter() - t)
-            rows.append({'method': f'rb_sim_ros {method}', 'body': label,
-                         'us_per_step': best / steps * 1e6})
-    for integrator in ('Euler', 'RK4'):
-        runner = sc_peer(integrator)
-        scene = sc.Scene('cost', (1.0, 2.0, 3.0), (1.0, 2.0, 3.0), steps * 1e-3)
-        secs = runner.seconds_per_sim_second(scene, 1e-3, 3 if quick else 5) * scene.t_end
-        rows.append({'method': runner.name, 'body': 'diagonal, torque-free (mj_step, nstep)',
-                     'us_per_step': secs / steps * 1e6})
-    return rows
+def _bar(total: int, desc: str):
+    return tqdm(total=total, desc=f'{desc:15s}', file=sys.stderr, leave=True, dynamic_ncols=True)
 
 
-def sc_peer(integrator):
-    import peers
-    return peers.MuJoCo(integrator)
+def _json_default(x):
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    return str(x)
 
 
-def report(out: Path, summary: dict, quick: bool) -> str:
-    lines = ['# Benchmarks: run time against error, and numerical stress', '',
-             f'Measured {summary["date"]} on {summary["machine"]}.',
-             f'Regenerate: `./tools/bench.sh` (this run took {summary["seconds"]:.0f} s) or, '
-             "for a few seconds' check, `./tools/bench.sh --quick --out DIR`."
-             + (' **Quick mode: small sweeps.**' if quick else ''),
-             '', '## Cost of one step', '', '| method | body | us per step |',
-             '| --- | --- | ---: |']
-    for r in summary['step_cost']:
-        lines.append(f'| {r["method"]} | {r["body"]} | {r["us_per_step"]:.2f} |')
-    lines += ['', 'rb_sim_ros is pure Python (about 270 float operations a step); MuJoCo is C.',
-              '', '## Work-precision', '',
-              'Error: orientation angle (rad) of R at the final time against the reference. '
-              'Time: wall seconds per simulated second (minimum of several runs). Every method '
-              'was first checked to converge at its order (fitted slope below).', '']
-    for name, result in summary['work_precision'].items():
-        img = f'img/work_precision_{name.replace(" ", "_").replace(".", "")}.png'
-        lines += [f'### {name}', '', f'![{name}]({img})', '',
-                  '| method | order (fitted) | finest dt or rtol | error (rad) | '
-                  'max error over run | s per sim s |',
-                  '| --- | ---: | ---: | ---: | ---: | ---: |']
-        for method, data in result.items():
-            p = data['points'][-1]
-            step = p.get('dt', p.get('rtol'))
-            order = f'{data["order"]:.2f}' if data['order'] is not None else '-'
-            lines.append(f'| {method} | {order} | {step:.3g} | {p["angle_final"]:.2e} | '
-                         f'{p["angle_max"]:.2e} | {p["seconds_per_sim_second"]:.2e} |')
-        cheap = wp.cheapest_at(result, 1e-6)
-        best = sorted((v, k) for k, v in cheap.items() if v < float('inf'))
-        if best:
-            lines += ['', 'Cheapest to reach 1e-6 rad: ' + ', '.join(
-                f'{k} {v:.2e} s' for v, k in best[:4]) + '.']
-        lines.append('')
-    s = summary['stress']
-    d = s['dzhanibekov']
-    lines += ['## Stress', '', '### Dzhanibekov flip (dt = 1 ms)', '',
-              f'Period of the body-frame motion: measured {d["measured_period_s"]:.6f} s, '
-              f'elliptic oracle 4K(k)/rate {d["expected_period_s"]:.6f} s, relative error '
-              f'{d["relative_error"]:.1e}.', '', '### Extreme inertia (dt = 1 ms, torque-free)',
-              '', '| case | method | energy drift | momentum drift | finite |',
-              '| --- | --- | ---: | ---: | --- |']
-    for row in s['extreme_inertia']:
-        for method, v in row.items():
-            if isinstance(v, dict):
-                lines.append(f'| {row["case"]} | {method} | {v["energy_drift"]:.2e} | '
-                             f'{v["momentum_drift"]:.2e} | {v["finite"]} |')
-    lines += ['', '### Fast spin: worst orientation error over 100 steps against omega*dt', '']
-    methods = [k for k in s['fast_spin'][0] if k != 'omega_dt']
-    lines += ['| omega dt | ' + ' | '.join(methods) + ' |',
-              '| ---: |' + ' ---: |' * len(methods)]
-    for row in s['fast_spin']:
-        lines.append(f'| {row["omega_dt"]} | ' + ' | '.join(f'{row[m]:.1e}' for m in methods)
-                     + ' |')
-    lines.append('')
-    for m in methods:
-        ok = [row['omega_dt'] for row in s['fast_spin'] if row[m] < 1e-2]
-        lines.append(f'- {m}: stays within 1e-2 rad up to omega*dt = {max(ok) if ok else "-"}')
-    lines += ['', 'Past that the orientation is lost (errors of order pi) but the state stays '
-              'finite: none of these methods blows up on a torque-free spin. MuJoCo warns that '
-              'the simulation is unstable at the largest steps of the stress cases and resets.']
-    lr = s['long_run']
-    lines += ['', f'### Long run: {lr["steps"]:.0e} steps torque-free (eq27, dt = 1 ms)', '',
-              '![long run](img/long_run.png)', '',
-              f'Final relative energy drift {lr["energy_drift"][-1]:.2e}, angular momentum drift '
-              f'{lr["momentum_drift"][-1]:.2e}; worst orthonormality error of R '
-              f'{lr["max_orthonormality_error"]:.1e}.', '']
-    b = s['blow_up']
-    lines += ['### Blow-up', '', f'A state that overflows raises `IntegrationError` at step '
-              f'{b.get("step")} and leaves the last finite state (finite: '
-              f'{b.get("state_finite")}): "{b.get("message", "")[:100]}..."', '']
-    text = '\n'.join(lines)
-    (out / 'benchmarks.md').write_text(text)
-    return text
-
-
-def main() -> int:
+def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument('--quick', action='store_true', help='a few seconds, small sweeps')
-    parser.add_argument('--out', default=str(HERE.parent / 'docs'), help='report folder')
-    opts = parser.parse_args()
-    out = Path(opts.out)
+    parser.add_argument('--quick', action='store_true',
+                        help='short scenes, small sweeps, few repeats (a few seconds); the '
+                             'orders are still checked')
+    parser.add_argument('--out', default=None,
+                        help='folder for benchmarks.md and img/*.png (default: docs/)')
+    parser.add_argument('--json', default=None,
+                        help='where to write the summary (default: bench/out/summary.json, '
+                             'or OUT/summary.json when --out is given)')
+    opts = parser.parse_args(argv)
+    out = HERE.parent / 'docs' if opts.out is None else Path(opts.out)
+    json_path = Path(opts.json) if opts.json else (
+        HERE / 'out' / 'summary.json' if opts.out is None else out / 'summary.json')
     (out / 'img').mkdir(parents=True, exist_ok=True)
+    json_path.parent.mkdir(parents=True, exist_ok=True)
+    quick = opts.quick
     t0 = time.monotonic()
-    summary = {'date': time.strftime('%Y-%m-%d'), 'machine': machine(), 'quick': opts.quick}
-    summary['step_cost'] = step_cost(opts.quick)
-    results = {}
-    with tqdm(total=wp.count(opts.quick), desc='work-precision', file=sys.stderr) as bar:
-        for scene in sc.scenes(opts.quick):
-            try:
-                results[scene.name] = wp.sweep(scene, opts.quick, bar)
-            except wp.OrderError as e:
-                print(f'order check failed: {e}', file=sys.stderr)
-                return 1
-            wp.plot(scene.name, results[scene.name], out / 'img' / (
-                'work_precision_' + scene.name.replace(' ', '_').replace('.', '') + '.png'))
+    summary = {'date': time.strftime('%Y-%m-%d'), 'machine': machine(), 'quick': quick,
+               'steps_n': list(wp.QUICK_STEPS if quick else wp.FULL_STEPS),
+               'rtols': list(wp.rtols(quick)), 'repeats': 2 if quick else 5,
+               'orders_checked': False}
+
+    def save():
+        summary['seconds'] = time.monotonic() - t0
+        json_path.write_text(json.dumps(summary, indent=1, default=_json_default))
+
+    # 1. Correctness first: references, then every method's order. Nothing is timed yet.
+    with _bar(wp.count(quick), 'accuracy') as bar:
+        try:
+            results = wp.accuracy(quick, bar)
+        except wp.OrderError as e:
+            summary['failures'] = [str(e)]
+            save()
+            print(f'FAILED: {e}', file=sys.stderr)
+            return 1
+    failures = wp.check_orders(results)
     summary['work_precision'] = results
-    with tqdm(total=200, desc='long run', file=sys.stderr) as bar:
-        long_run = stress.long_run(opts.quick, bar)
-    stress.plot_long_run(long_run, out / 'img' / 'long_run.png')
-    summary['stress'] = {'dzhanibekov': stress.dzhanibekov(opts.quick),
-                         'extreme_inertia': stress.extreme_inertia(opts.quick),
-                         'fast_spin': stress.fast_spin(opts.quick), 'long_run': long_run,
-                         'blow_up': stress.blow_up()}
-    summary['seconds'] = time.monotonic() - t0
+    if failures:
+        summary['failures'] = failures
+        save()
+        print('FAILED: not at their order, so nothing was timed:\n  ' + '\n  '.join(failures),
+              file=sys.stderr)
+        return 1
     summary['orders_checked'] = True
-    (out / 'summary.json').write_text(json.dumps(summary, indent=1, default=float))
-    report(out, summary, opts.quick)
-    print(f'wrote {out / "benchmarks.md"} in {summary["seconds"]:.0f} s', file=sys.stderr)
+    summary['step_cost_check'] = step_cost.check()
+
+    # 2. Timing.
+    summary['step_cost_steps'] = 20_000 if quick else 100_000
+    with _bar(step_cost.count(), 'step cost') as bar:
+        summary['step_cost'] = step_cost.measure(summary['step_cost_steps'],
+                                                 summary['repeats'], bar)
+    with _bar(wp.count(quick), 'timing') as bar:
+        wp.timing(results, quick, bar)
+    for name, scene in results.items():
+        wp.plot(name, scene, out / report.image(scene['scene']['key']))
+
+    # 3. Stress.
+    st = summary['stress'] = {'blow_up': stress.blow_up()}
+    with _bar(len(stress.dzhanibekov_runs(quick)), 'Dzhanibekov') as bar:
+        st['dzhanibekov'] = stress.dzhanibekov(quick, bar)
+    with _bar(stress.extreme_count(quick), 'extreme inertia') as bar:
+        st['extreme_inertia'] = stress.extreme_inertia(quick, bar)
+    n_runners = len(peers.steppers())
+    spins = stress.QUICK_SPINS if quick else stress.FULL_SPINS
+    with _bar(len(spins) * n_runners, 'fast spin') as bar:
+        st['fast_spin'] = stress.fast_spin(quick, bar)
+    stress.plot_fast_spin(st['fast_spin'], out / 'img' / 'fast_spin.png')
+    with _bar(n_runners * stress.long_run_steps(quick), 'long run') as bar:
+        st['long_run'] = stress.long_run(quick, bar)
+    stress.plot_long_run(st['long_run'], out / 'img' / 'long_run.png')
+
+    save()
+    path = report.write(out, summary)
+    print(report.console(summary))
+    print(f'wrote {path} and {json_path} in {summary["seconds"]:.0f} s', file=sys.stderr)
     return 0
 
 

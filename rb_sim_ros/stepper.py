@@ -145,6 +145,11 @@ class Stepper(FixedStep):
         r = self._r if self._q is None else tuple(float(c) for c in self._rotation().reshape(9))
         return self._x, so3.quaternion_xyzw_from_components(*r), self._v, self._w
 
+    def rotation(self) -> np.ndarray:
+        """R (body to world) as integrated: not projected onto SO(3) as ``State`` does, so
+        its orthonormality error is the integrator's own."""
+        return self._rotation()
+
     def _rotation(self) -> np.ndarray:
         """R of the user's body frame: the principal-frame R Q, times Q^T."""
         r = np.array(self._r).reshape(3, 3)
