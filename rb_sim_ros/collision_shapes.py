@@ -1,0 +1,240 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Collision shapes: sphere, box, capsule on any body; infinite plane on static bodies only.
+
+    Sphere(radius=0.1)
+    Box(size=(0.4, 0.3, 0.2), position=(0.0, 0.0, 0.1))      # full edge lengths, like scene.py
+    Capsule(radius=0.05, length=0.3)                            # cylinder part along local z
+    Plane(normal=(0.0, 0.0, 1.0), offset=0.0)                   # the ground z = 0
+
+A shape's ``position`` (m) and ``orientation_xyzw`` place its centre and axes in the frame of
+the body that carries it (the body frame: origin at the centre of mass, R maps it to the
+world); both are optional. A plane is the set {p : normal . p = offset} in its body's frame
+(the world for ``CollisionWorld(planes=...)``); its solid side is normal . p < offset, so the
+normal points into the free space. Values are immutable and validated once: a ValueError names
+the field. ``shape_from_dict`` reads the form a scene file would use
+(``{'type': 'box', 'size': [...], 'position': [...], 'orientation': [x, y, z, w]}``) and
+``shape_to_dict`` writes it back, exactly (floats kept as they are).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import math
+from typing import Any, Union
+
+import numpy as np
+
+from rb_sim_ros import so3
+from rb_sim_ros.rigid_body import finite_floats
+
+IDENTITY_XYZW = (0.0, 0.0, 0.0, 1.0)
+ORIGIN = (0.0, 0.0, 0.0)
+
+
+def _positive(name: str, value: Any, unit: str = 'm', allow_zero: bool = False) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f'{name} must be a number ({unit}), got {value!r}') from None
+    if not math.isfinite(value) or value < 0.0 or (value == 0.0 and not allow_zero):
+        bound = '>= 0' if allow_zero else '> 0'
+        raise ValueError(f'{name} must be finite and {bound} {unit}, got {value!r}')
+    return value
+
+
+def _placement(shape) -> None:
+    """Validate and store position/orientation; precompute the local rotation Q (shape axes
+    in the body frame) and whether the placement is the identity."""
+    position = finite_floats('position', shape.position, 3)
+    q = finite_floats('orientation_xyzw', shape.orientation_xyzw, 4)
+    if not any(q):
+        raise ValueError(f'orientation_xyzw must be a non-zero quaternion, got {list(q)}')
+    rotation = so3.matrix_from_quaternion_xyzw(q)
+    rotation.flags.writeable = False
+    object.__setattr__(shape, 'position', position)
+    object.__setattr__(shape, 'orientation_xyzw', q)
+    object.__setattr__(shape, 'rotation', rotation)
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """A ball of ``radius`` (m) centred at ``position`` (m, body frame)."""
+
+    radius: float
+    position: tuple[float, ...] = ORIGIN
+    orientation_xyzw: tuple[float, ...] = IDENTITY_XYZW
+    rotation: np.ndarray = field(init=False, repr=False, compare=False)
+
+    kind = 'sphere'
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, 'radius', _positive('radius', self.radius))
+        _placement(self)
+
+    @property
+    def bounding_radius(self) -> float:
+        """Radius (m) of the smallest ball about the shape's centre that holds it."""
+        return self.radius
+
+
+@dataclass(frozen=True)
+class Box:
+    """A box of full edge lengths ``size`` (m) along its local x, y, z axes, centred at
+    ``position`` (m, body frame) with axes turned by ``orientation_xyzw``."""
+
+    size: tuple[float, ...]
+    position: tuple[float, ...] = ORIGIN
+    orientation_xyzw: tuple[float, ...] = IDENTITY_XYZW
+    rotation: np.ndarray = field(init=False, repr=False, compare=False)
+
+    kind = 'box'
+
+    def __post_init__(self) -> None:
+        size = finite_floats('size', self.size, 3)
+        for i, s in enumerate(size):
+            _positive(f'size[{i}]', s)
+        object.__setattr__(self, 'size', size)
+        _placement(self)
+
+    @property
+    def half_extents(self) -> tuple[float, float, float]:
+        """Half edge lengths (m)."""
+        return (0.5 * self.size[0], 0.5 * self.size[1], 0.5 * self.size[2])
+
+    @property
+    def bounding_radius(self) -> float:
+        return 0.5 * math.sqrt(sum(s * s for s in self.size))
+
+
+@dataclass(frozen=True)
+class Capsule:
+    """The points within ``radius`` (m) of a segment of ``length`` (m) along the local z axis,
+    centred at ``position`` (m, body frame); total length is length + 2 radius. ``length`` 0
+    is a sphere."""
+
+    radius: float
+    length: float
+    position: tuple[float, ...] = ORIGIN
+    orientation_xyzw: tuple[float, ...] = IDENTITY_XYZW
+    rotation: np.ndarray = field(init=False, repr=False, compare=False)
+
+    kind = 'capsule'
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, 'radius', _positive('radius', self.radius))
+        object.__setattr__(self, 'length', _positive('length', self.length, allow_zero=True))
+        _placement(self)
+
+    @property
+    def half_length(self) -> float:
+        return 0.5 * self.length
+
+    @property
+    def bounding_radius(self) -> float:
+        return 0.5 * self.length + self.radius
+
+
+@dataclass(frozen=True)
+class Plane:
+    """The half-space normal . p <= offset (m) of its body's frame; ``normal`` (any non-zero
+    length, stored normalised) points out of the solid. Only on static bodies."""
+
+    normal: tuple[float, ...] = (0.0, 0.0, 1.0)
+    offset: float = 0.0
+    rotation: np.ndarray = field(init=False, repr=False, compare=False)
+
+    kind = 'plane'
+
+    def __post_init__(self) -> None:
+        n = finite_floats('normal', self.normal, 3)
+        norm = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+        if norm == 0.0:
+            raise ValueError('normal must be a non-zero vector, got [0.0, 0.0, 0.0]')
+        object.__setattr__(self, 'normal', (n[0] / norm, n[1] / norm, n[2] / norm))
+        try:
+            offset = float(self.offset)
+        except (TypeError, ValueError):
+            raise ValueError(f'offset must be a number (m), got {self.offset!r}') from None
+        if not math.isfinite(offset):
+            raise ValueError(f'offset must be finite (m), got {offset!r}')
+        object.__setattr__(self, 'offset', offset)
+        rotation = np.eye(3)
+        rotation.flags.writeable = False
+        object.__setattr__(self, 'rotation', rotation)
+
+    @property
+    def position(self) -> tuple[float, float, float]:
+        """The point of the plane nearest the body origin (m, body frame): offset * normal."""
+        return tuple(self.offset * c for c in self.normal)
+
+    @property
+    def bounding_radius(self) -> float:
+        return math.inf
+
+
+Shape = Union[Sphere, Box, Capsule, Plane]
+SHAPE_TYPES = (Sphere, Box, Capsule, Plane)
+# Narrow-phase order of the kinds: a pair (a, b) is tested with rank(a) <= rank(b).
+RANK = {'sphere': 0, 'capsule': 1, 'box': 2, 'plane': 3}
+
+
+def is_shape(value: Any) -> bool:
+    return isinstance(value, SHAPE_TYPES)
+
+
+def world_pose(shape: Shape, body_position: np.ndarray,
+               body_rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(centre (m), rotation of the shape's axes), world frame, for a body at ``body_position``
+    with rotation ``body_rotation`` (body to world). For a plane the centre is a point of the
+    plane and rotation @ normal is its world normal."""
+    body_rotation = np.asarray(body_rotation, dtype=float)
+    centre = np.asarray(body_position, dtype=float) + body_rotation @ np.array(shape.position)
+    return centre, body_rotation @ shape.rotation
+
+
+_FIELDS = {'sphere': ('radius',), 'box': ('size',), 'capsule': ('radius', 'length'),
+           'plane': ('normal', 'offset')}
+_CLASSES = {'sphere': Sphere, 'box': Box, 'capsule': Capsule, 'plane': Plane}
+
+
+def shape_from_dict(data: dict[str, Any]) -> Shape:
+    """A shape from ``{'type': 'sphere' | 'box' | 'capsule' | 'plane', <its fields>,
+    'position': [m], 'orientation': [x, y, z, w]}``; unknown or missing keys are errors."""
+    if not isinstance(data, dict):
+        raise ValueError(f'a collider must be a mapping, got {data!r}')
+    kind = data.get('type')
+    if kind not in _CLASSES:
+        raise ValueError(f'type must be one of {sorted(_CLASSES)}, got {kind!r}')
+    allowed = set(_FIELDS[kind]) | {'type'}
+    if kind != 'plane':
+        allowed |= {'position', 'orientation'}
+    unknown = sorted(set(data) - allowed)
+    if unknown:
+        raise ValueError(f'{kind}: unknown keys {unknown} (allowed: {sorted(allowed)})')
+    kwargs = {}
+    for key in _FIELDS[kind]:
+        if key not in data:
+            if kind == 'plane':
+                continue
+            raise ValueError(f'{key} missing (a {kind} needs {list(_FIELDS[kind])})')
+        kwargs[key] = data[key]
+    if 'position' in data:
+        kwargs['position'] = data['position']
+    if 'orientation' in data:
+        kwargs['orientation_xyzw'] = data['orientation']
+    return _CLASSES[kind](**kwargs)
+
+
+def shape_to_dict(shape: Shape) -> dict[str, Any]:
+    """The JSON-able form read by ``shape_from_dict`` (placement only when not the identity)."""
+    out: dict[str, Any] = {'type': shape.kind}
+    for key in _FIELDS[shape.kind]:
+        value = getattr(shape, key)
+        out[key] = list(value) if isinstance(value, tuple) else value
+    if shape.kind != 'plane':
+        if shape.position != ORIGIN:
+            out['position'] = list(shape.position)
+        if shape.orientation_xyzw != IDENTITY_XYZW:
+            out['orientation'] = list(shape.orientation_xyzw)
+    return out

@@ -1,0 +1,534 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Bodies that collide: one Stepper per moving body, static colliders and planes, and contacts.
+
+    world = CollisionWorld([BodySpec('ball', mass=1.0, inertia=(4e-3,) * 3,
+                                     initial_position=(0.0, 0.0, 1.0),
+                                     colliders=(Sphere(0.1),))],
+                           dt=1e-3, gravity=(0.0, 0.0, -9.81), restitution=0.5, friction=0.5,
+                           planes=(Plane((0.0, 0.0, 1.0), 0.0),))
+    world.step(1000)
+    world.state('ball').position, world.last_stats.contacts
+
+Each step, in this order (all deterministic: stable sorts, contacts in pair order, no
+iteration over sets or dicts, no randomness):
+
+1. every moving body takes one step of its own ``Stepper`` (Proof 3, its wrench, gravity and
+   damping), exactly as without collisions;
+2. broad phase (``broad_phase.sweep_and_prune`` on the colliders' world AABBs, each widened by
+   its body's speculative margin; every collider against every plane by its support distance);
+3. narrow phase (``narrow_phase``; sphere-sphere and sphere-plane pairs as numpy batches);
+4. impulses and position correction (``contact_solver.solve``, warm-started from the impulses
+   of the same contact features at the step before);
+5. every body whose velocity or pose changed gets ``Stepper.set_state``: its multistep history
+   restarts there, as at a change of wrench, so the next step does not extrapolate
+   accelerations across the impulse. Bodies not touched keep their history.
+
+The first step, and the first after ``CollisionWorld.set_state`` (use it, not the Stepper's,
+to teleport a body), runs 2-5 on the starting state before it integrates. A world without
+colliders on moving bodies skips 2-5 and costs what the Steppers cost. Wrenches are held as
+usual: ``world.steppers[name].set_wrench(...)``.
+
+The speculative margin of a body is the distance it can move in a step,
+(|v| + |omega| rho) dt + |g| dt^2 with rho its colliders' reach from its centre of mass: a
+contact with a gap smaller than the margin is solved as one that may close the gap in this step
+but not more, so nothing tunnels (docs/collisions.md). ``speculative=False`` gives the
+plain discrete method, which tunnels above about (r + w/2) / dt.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import math
+import time
+from typing import Any, Sequence
+
+import numpy as np
+
+from rb_sim_ros import broad_phase, contact_solver, narrow_phase, so3
+from rb_sim_ros.collision_shapes import is_shape, Plane, Shape
+from rb_sim_ros.rigid_body import finite_floats, State
+from rb_sim_ros.simulation import BodySpec, Config
+from rb_sim_ros.stepper import IntegrationError, Stepper
+
+# Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
+FEATURE_BITS = 12
+# Position corrections that turn a body by less than this (rad) are not applied: they are the
+# rounding noise of contacts whose lever arm is parallel to the normal (a sphere's), and
+# skipping them saves an exp() per body. A real correction is ~depth / size, 1e-6 rad or more.
+MIN_TURN = 1e-12
+
+
+@dataclass
+class StepStats:
+    """What the last step did: ``candidate_pairs`` from the sweep, ``plane_pairs`` near a
+    plane (both tested by the narrow phase: ``pairs_tested`` is their sum), ``contacts``
+    found (speculative ones included), ``active`` (normal impulse > 0), ``touched`` bodies
+    (set_state), solver ``colours``, the iterations each solver pass ran, and wall
+    ``seconds`` per phase (statistics only). ``CollisionWorld.totals`` sums them over the
+    steps taken."""
+
+    candidate_pairs: int = 0
+    plane_pairs: int = 0
+    contacts: int = 0
+    active: int = 0
+    touched: int = 0
+    colours: int = 0
+    velocity_iterations: int = 0
+    position_iterations: int = 0
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def pairs_tested(self) -> int:
+        return self.candidate_pairs + self.plane_pairs
+
+
+@dataclass(frozen=True)
+class WorldContact:
+    """A contact of the last step, world frame: bodies ``a``, ``b`` (names; '' for a plane of
+    ``planes``), point (m), normal (from a to b), depth (m), normal impulse (N s) on b."""
+
+    a: str
+    b: str
+    point: np.ndarray
+    normal: np.ndarray
+    depth: float
+    normal_impulse: float
+
+
+@dataclass
+class _Collider:
+    shape: Shape
+    owner: int          # index of the BodySpec (or -1 for ``planes``)
+    body: int           # index among the moving bodies with colliders, or -1 if static
+    position: np.ndarray
+    rotation: np.ndarray
+
+
+def _quaternions_to_matrices(q: np.ndarray) -> np.ndarray:
+    x, y, z, w = q.T
+    return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
+                     2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+                     2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+                    axis=1).reshape(-1, 3, 3)
+
+
+class CollisionWorld:
+    """Moving and static bodies with collision shapes, stepped with a fixed dt (s).
+
+    bodies: ``simulation.BodySpec`` values; ``colliders`` holds shapes of
+    ``collision_shapes`` in the body frame; a ``static`` body never moves (infinite mass).
+    planes: extra static ``Plane`` values in the world frame. gravity (m/s^2, world).
+    restitution e in [0, 1] and friction mu >= 0 apply to every contact. The other keywords
+    are ``contact_solver.SolverSettings`` fields; ``bounce_threshold`` (m/s) must stay above
+    |g| dt, or resting bodies bounce on the speed gravity gives them in one step. Every
+    argument is validated (ValueError naming it) before anything is built.
+    """
+
+    def __init__(self, bodies: Sequence[BodySpec], dt: float, gravity: Any = (0.0, 0.0, 0.0),
+                 restitution: float = 0.0, friction: float = 0.5,
+                 planes: Sequence[Plane] = (), integrator: str = 'eq27',
+                 velocity_iterations: int = 10, position_iterations: int = 4,
+                 slop: float = 1e-4, position_fraction: float = 0.8,
+                 bounce_threshold: float = 0.1, tolerance: float = 1e-6,
+                 speculative: bool = True, warm_start: bool = True,
+                 batch_threshold: int = 48) -> None:
+        bodies = tuple(bodies)
+        if not bodies or not all(isinstance(b, BodySpec) for b in bodies):
+            raise ValueError('bodies must be one or more BodySpec')
+        names = [b.name for b in bodies]
+        if len(set(names)) != len(names):
+            raise ValueError(f'body names must be unique, got {names}')
+        self._gravity = finite_floats('gravity', gravity, 3)
+        self.settings = contact_solver.SolverSettings(
+            restitution=restitution, friction=friction, dt=dt,
+            velocity_iterations=velocity_iterations, position_iterations=position_iterations,
+            slop=slop, position_fraction=position_fraction, bounce_threshold=bounce_threshold,
+            tolerance=tolerance, batch_threshold=batch_threshold)
+        for name, flag in (('speculative', speculative), ('warm_start', warm_start)):
+            if not isinstance(flag, bool):
+                raise ValueError(f'{name} must be true or false, got {flag!r}')
+        self.speculative, self.warm_start = speculative, warm_start
+        planes = tuple(planes)
+        for i, p in enumerate(planes):
+            if not isinstance(p, Plane):
+                raise ValueError(f'planes[{i}] must be a Plane, got {p!r}')
+        for spec in bodies:
+            for i, c in enumerate(spec.colliders):
+                if not is_shape(c):
+                    raise ValueError(f"body '{spec.name}': colliders[{i}] must be a Sphere, "
+                                     f'Box, Capsule or Plane, got {c!r}')
+                if isinstance(c, Plane) and not spec.static:
+                    raise ValueError(f"body '{spec.name}': colliders[{i}]: a Plane must be on "
+                                     'a static body')
+        self.bodies = bodies
+        self.dt = self.settings.dt
+        self.steppers: dict[str, Stepper] = {}
+        self.static: dict[str, State] = {}
+        for spec in bodies:
+            if spec.static:
+                self.static[spec.name] = spec.initial_state()
+            else:
+                self.steppers[spec.name] = Stepper(
+                    spec.body(), dt, spec.initial_state(), method=integrator,
+                    gravity=self._gravity, linear_damping=spec.linear_damping,
+                    angular_damping=spec.angular_damping)
+        self._all_steppers = tuple(self.steppers.values())
+        self._step_count = 0
+        self.last_stats = StepStats()
+        self.totals = StepStats()
+        self._last = None
+        self._warm_keys = np.zeros(0, dtype=np.int64)
+        self._warm_normal = np.zeros(0)
+        self._warm_tangent = np.zeros((0, 3))
+        self._unchecked = True
+        self._build(planes)
+
+    @classmethod
+    def from_config(cls, config: Config, **kwargs) -> 'CollisionWorld':
+        """The bodies, dt, gravity and integrator of a ``simulation.Config``."""
+        return cls(config.bodies, config.dt, config.gravity, integrator=config.integrator,
+                   **kwargs)
+
+    # -- set-up --------------------------------------------------------------------------------
+    def _build(self, planes) -> None:
+        moving: list[int] = []         # BodySpec index of each moving body with colliders
+        colliders: list[_Collider] = []
+        plane_normals, plane_points, plane_owner = [], [], []
+        for owner, spec in enumerate(self.bodies):
+            if not spec.colliders:
+                continue
+            if spec.static:
+                st = self.static[spec.name]
+                for shape in spec.colliders:
+                    centre, rot = (st.position + st.rotation @ np.array(shape.position),
+                                   st.rotation @ shape.rotation)
+                    if isinstance(shape, Plane):
+                        plane_normals.append(rot @ np.array(shape.normal))
+                        plane_points.append(centre)
+                        plane_owner.append(owner)
+                    else:
+                        colliders.append(_Collider(shape, owner, -1, centre, rot))
+            else:
+                index = len(moving)
+                moving.append(owner)
+                for shape in spec.colliders:
+                    colliders.append(_Collider(shape, owner, index,
+                                               np.array(shape.position, dtype=float),
+                                               np.array(shape.rotation)))
+        for p in planes:
+            plane_normals.append(np.array(p.normal))
+            plane_points.append(np.array(p.position))
+            plane_owner.append(-1)
+        self._moving_specs = moving
+        self._moving_steppers = [self.steppers[self.bodies[i].name] for i in moving]
+        self._colliders = colliders
+        self._plane_normals = np.array(plane_normals, dtype=float).reshape(-1, 3)
+        self._plane_points = np.array(plane_points, dtype=float).reshape(-1, 3)
+        self._plane_owner = plane_owner
+        # World planes as shapes at the identity, for the narrow phase's generic pairs.
+        self._plane_shapes = [Plane(tuple(n), 0.0) for n in self._plane_normals.tolist()]
+        self._identity = np.eye(3)
+        self.enabled = bool(moving) and (len(colliders) + len(plane_normals) > 0)
+        if not self.enabled:
+            return
+        nb = len(moving)
+        self._static_slot = nb
+        inv_mass, inv_inertia = [], []
+        for i in moving:
+            body = self.bodies[i].body()
+            inv_mass.append(1.0 / body.mass)
+            inv_inertia.append(np.linalg.inv(body.inertia))
+        self._inverse_mass = np.array(inv_mass + [0.0])
+        self._inverse_inertia_body = np.array(inv_inertia).reshape(nb, 3, 3)
+        # Per-collider arrays.
+        self._kind = np.array([c.shape.kind for c in colliders])
+        self._cbody = np.array([c.body if c.body >= 0 else nb for c in colliders],
+                               dtype=np.int64)
+        self._cowner = np.array([c.owner for c in colliders], dtype=np.int64)
+        self._cstatic = self._cbody == nb
+        self._cdyn = np.flatnonzero(~self._cstatic)
+        self._local_pos = np.array([c.position for c in colliders]).reshape(-1, 3)
+        self._local_rot = np.array([c.rotation for c in colliders]).reshape(-1, 3, 3)
+        self._radius = np.array([getattr(c.shape, 'radius', 0.0) for c in colliders])
+        self._half_length = np.array([c.shape.half_length if c.shape.kind == 'capsule'
+                                      else 0.0 for c in colliders])
+        self._half = np.array([c.shape.half_extents if c.shape.kind == 'box' else (0.0,) * 3
+                               for c in colliders]).reshape(-1, 3)
+        reach = np.zeros(nb)
+        for c in colliders:
+            if c.body >= 0:
+                r = float(np.linalg.norm(c.position)) + c.shape.bounding_radius
+                reach[c.body] = max(reach[c.body], r)
+        self._reach = reach
+        self._centres = np.array([c.position if c.body < 0 else np.zeros(3)
+                                  for c in colliders]).reshape(-1, 3)
+        self._rotations = np.array([c.rotation if c.body < 0 else np.eye(3)
+                                    for c in colliders]).reshape(-1, 3, 3)
+        self._lower = np.zeros((len(colliders), 3))
+        self._upper = np.zeros((len(colliders), 3))
+        static = np.flatnonzero(self._cstatic)
+        ext = self._extents(static)
+        self._lower[static] = self._centres[static] - ext
+        self._upper[static] = self._centres[static] + ext
+        self._sphere = self._kind == 'sphere'
+        self._collider_count = len(colliders) + len(plane_normals)
+
+    def _extents(self, idx: np.ndarray) -> np.ndarray:
+        """Half widths (m) of the world AABBs of colliders ``idx`` at their current poses."""
+        rot = self._rotations[idx]
+        ext = np.einsum('nij,nj->ni', np.abs(rot), self._half[idx])
+        ext += (self._half_length[idx][:, None] * np.abs(rot[:, :, 2])
+                + self._radius[idx][:, None])
+        return ext
+
+    # -- read ----------------------------------------------------------------------------------
+    @property
+    def step_count(self) -> int:
+        return self._step_count
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s): step_count * dt."""
+        return self._step_count * self.dt
+
+    def state(self, name: str) -> State:
+        """The state (world frame) of the body called ``name``."""
+        if name in self.steppers:
+            return self.steppers[name].state
+        if name in self.static:
+            return self.static[name]
+        raise ValueError(f"no body named '{name}'")
+
+    def last_contacts(self) -> list[WorldContact]:
+        """The contacts of the last step (speculative ones too), in solver order."""
+        if self._last is None:
+            return []
+        contacts, owners, impulse = self._last
+        names = [b.name for b in self.bodies] + ['']
+        return [WorldContact(names[oa], names[ob], contacts.point[k].copy(),
+                             contacts.normal[k].copy(), float(contacts.depth[k]),
+                             float(impulse[k]))
+                for k, (oa, ob) in enumerate(owners)]
+
+    # -- step ----------------------------------------------------------------------------------
+    def step(self, n: int = 1) -> None:
+        """Advance ``n`` >= 0 steps. If a body's state becomes non-finite the others still
+        advance that step and its IntegrationError is raised after it."""
+        if not isinstance(n, int) or isinstance(n, bool) or n < 0:
+            raise ValueError(f'n must be an int >= 0, got {n!r}')
+        if not self.enabled:
+            error = None
+            for s in self._all_steppers:
+                try:
+                    s.step(n)
+                except IntegrationError as e:
+                    error = error or e
+            self._step_count += n
+            if error is not None:
+                raise error
+            return
+        for _ in range(n):
+            self._step_once()
+
+    def set_state(self, name: str, state: State) -> None:
+        """Teleport the moving body ``name`` to ``state`` (world frame); its history restarts,
+        and the next step checks contacts before it integrates (as the first step does)."""
+        if name not in self.steppers:
+            raise ValueError(f"no moving body named '{name}'")
+        self.steppers[name].set_state(state)
+        self._unchecked = True
+
+    def _step_once(self) -> None:
+        if self._unchecked:
+            # The first step (or the first after a teleport) starts from a state no collision
+            # pass has seen: check it first, so that a speculative contact already holds for
+            # this step's integration.
+            self._unchecked = False
+            self._collide(time.perf_counter())
+        clock = time.perf_counter
+        t0 = clock()
+        error = None
+        for s in self._all_steppers:
+            try:
+                s.step(1)
+            except IntegrationError as e:
+                error = error or e
+        self._step_count += 1
+        if error is not None:
+            raise error
+        self._collide(t0)
+
+    def _collide(self, t0: float) -> None:
+        """Detect and resolve the contacts of the bodies' current states (a step's 2-5)."""
+        clock = time.perf_counter
+        t1 = clock()
+        nb = len(self._moving_steppers)
+        pts = [s.pose_twist() for s in self._moving_steppers]
+        x = np.array([p[0] for p in pts] + [(0.0, 0.0, 0.0)])
+        rot = _quaternions_to_matrices(np.array([p[1] for p in pts]))
+        v = np.array([p[2] for p in pts] + [(0.0, 0.0, 0.0)])
+        w = np.array([p[3] for p in pts] + [(0.0, 0.0, 0.0)])
+        dt = self.dt
+        if self.speculative:
+            g = math.sqrt(sum(c * c for c in self._gravity))
+            speed = np.linalg.norm(v[:nb], axis=1) + np.linalg.norm(w[:nb], axis=1) * self._reach
+            margin = np.append(speed * dt + g * dt * dt, 0.0)
+        else:
+            margin = np.zeros(nb + 1)
+        # World poses and AABBs of the moving colliders.
+        dyn = self._cdyn
+        cb = self._cbody[dyn]
+        self._rotations[dyn] = rot[cb] @ self._local_rot[dyn]
+        self._centres[dyn] = x[cb] + np.einsum('nij,nj->ni', rot[cb], self._local_pos[dyn])
+        ext = self._extents(dyn) + margin[cb][:, None]
+        self._lower[dyn] = self._centres[dyn] - ext
+        self._upper[dyn] = self._centres[dyn] + ext
+        pairs = broad_phase.sweep_and_prune(self._lower, self._upper, self._cowner,
+                                            self._cstatic)
+        plane_pairs = self._plane_candidates(dyn, cb, margin)
+        t2 = clock()
+        contacts, owners, keys = self._narrow(pairs, plane_pairs, margin)
+        t3 = clock()
+        stats = StepStats(len(pairs), len(plane_pairs), len(contacts))
+        if len(contacts):
+            bodies = contact_solver.Bodies(
+                x, v, w, self._inverse_mass,
+                np.concatenate([contact_solver.inverse_inertia_world(
+                    rot, self._inverse_inertia_body), np.zeros((1, 3, 3))]))
+            warm_n = warm_t = None
+            if self.warm_start and len(self._warm_keys):
+                warm_n, warm_t = self._match(keys)
+            result = contact_solver.solve(contacts, bodies, self.settings, warm_n, warm_t)
+            if self.warm_start:
+                order = np.argsort(keys, kind='stable')
+                self._warm_keys = keys[order]
+                self._warm_normal = result.normal_impulse[order]
+                self._warm_tangent = result.tangent_impulse[order]
+            t4 = clock()
+            touched = np.flatnonzero(result.touched[:nb])
+            turn = np.einsum('ij,ij->i', result.rotation, result.rotation) > MIN_TURN ** 2
+            for i in touched.tolist():
+                r_new = rot[i]
+                if turn[i]:
+                    r_new = so3.exp(result.rotation[i]) @ r_new
+                self._moving_steppers[i].set_state(State(
+                    x[i] + result.displacement[i], r_new, result.velocity[i],
+                    result.angular_velocity[i]))
+            stats.active = int(np.count_nonzero(result.normal_impulse > 0.0))
+            stats.touched = len(touched)
+            stats.colours = result.colours
+            stats.velocity_iterations = result.velocity_iterations
+            stats.position_iterations = result.position_iterations
+            self._last = (contacts, owners, result.normal_impulse)
+        else:
+            self._warm_keys = np.zeros(0, dtype=np.int64)
+            t4 = clock()
+            self._last = None
+        t5 = clock()
+        stats.seconds = {'integrate': t1 - t0, 'broad': t2 - t1, 'narrow': t3 - t2,
+                         'solve': t4 - t3, 'write': t5 - t4}
+        self.last_stats = stats
+        tot = self.totals
+        tot.candidate_pairs += stats.candidate_pairs
+        tot.plane_pairs += stats.plane_pairs
+        tot.contacts += stats.contacts
+        tot.active += stats.active
+        tot.touched += stats.touched
+        tot.velocity_iterations += stats.velocity_iterations
+        tot.position_iterations += stats.position_iterations
+        for k, s in stats.seconds.items():
+            tot.seconds[k] = tot.seconds.get(k, 0.0) + s
+
+    def _plane_candidates(self, dyn, cb, margin) -> np.ndarray:
+        if not len(self._plane_normals) or not len(dyn):
+            return np.zeros((0, 2), dtype=np.int64)
+        normals = self._plane_normals
+        rot = self._rotations[dyn]
+        # Extent of each collider towards each plane: sum_i h_i |n . axis_i| + h |n . z| + r.
+        proj = np.abs(np.einsum('nij,pi->npj', rot, normals))       # |axis_j . n_p|
+        support = (np.einsum('npj,nj->np', proj, self._half[dyn])
+                   + self._half_length[dyn][:, None] * proj[:, :, 2]
+                   + self._radius[dyn][:, None])
+        found = broad_phase.plane_pairs(support, normals, self._plane_points,
+                                        self._centres[dyn], margin[cb])
+        found[:, 0] = dyn[found[:, 0]]
+        return found
+
+    def _narrow(self, pairs, plane_pairs, margin):
+        """Contacts of the candidate pairs: (ContactArrays, [(owner a, owner b)], keys)."""
+        cbody = self._cbody
+        centres, rotations = self._centres, self._rotations
+        parts = []        # (a collider, b collider or plane id, body a, body b, pt, n, depth, f)
+        nc = len(self._colliders)
+        # Sphere-sphere as one batch.
+        if len(pairs):
+            ss = self._sphere[pairs[:, 0]] & self._sphere[pairs[:, 1]]
+            if np.any(ss):
+                i, j = pairs[ss, 0], pairs[ss, 1]
+                keep, pt, nrm, depth = narrow_phase.sphere_sphere_batch(
+                    centres[i], self._radius[i], centres[j], self._radius[j],
+                    margin[cbody[i]] + margin[cbody[j]])
+                parts.append((i[keep], j[keep], pt, nrm, depth, np.zeros(len(depth), int)))
+            rest = pairs[~ss]
+        else:
+            rest = pairs
+        for i, j in rest.tolist():
+            found = narrow_phase.collide(
+                self._colliders[i].shape, (centres[i], rotations[i]),
+                self._colliders[j].shape, (centres[j], rotations[j]),
+                float(margin[cbody[i]] + margin[cbody[j]]))
+            if found:
+                parts.append(_gather(i, j, found))
+        if len(plane_pairs):
+            sp = self._sphere[plane_pairs[:, 0]]
+            if np.any(sp):
+                i, p = plane_pairs[sp, 0], plane_pairs[sp, 1]
+                keep, pt, nrm, depth = narrow_phase.sphere_plane_batch(
+                    centres[i], self._radius[i], self._plane_points[p], self._plane_normals[p],
+                    margin[cbody[i]])
+                parts.append((i[keep], nc + p[keep], pt, nrm, depth,
+                              np.zeros(len(depth), int)))
+            for i, p in plane_pairs[~sp].tolist():
+                found = narrow_phase.collide(
+                    self._colliders[i].shape, (centres[i], rotations[i]),
+                    self._plane_shapes[p], (self._plane_points[p], self._identity),
+                    float(margin[cbody[i]]))
+                if found:
+                    parts.append(_gather(i, nc + p, found))
+        if not parts:
+            empty = contact_solver.ContactArrays(np.zeros(0, int), np.zeros(0, int),
+                                                 np.zeros((0, 3)), np.zeros((0, 3)),
+                                                 np.zeros(0))
+            return empty, [], np.zeros(0, dtype=np.int64)
+        ca = np.concatenate([p[0] for p in parts]).astype(np.int64)
+        cbb = np.concatenate([p[1] for p in parts]).astype(np.int64)
+        body_b = np.where(cbb < nc, cbody[np.minimum(cbb, nc - 1)] if nc else 0,
+                          self._static_slot)
+        contacts = contact_solver.ContactArrays(
+            cbody[ca], body_b, np.concatenate([p[2] for p in parts]).reshape(-1, 3),
+            np.concatenate([p[3] for p in parts]).reshape(-1, 3),
+            np.concatenate([p[4] for p in parts]).astype(float))
+        feature = np.concatenate([p[5] for p in parts]).astype(np.int64)
+        total = max(self._collider_count, 1)
+        keys = (ca * total + cbb) * (1 << FEATURE_BITS) + (feature % (1 << FEATURE_BITS))
+        owner_a = self._cowner[ca].tolist()
+        owner_b = [self._cowner[c] if c < nc else self._plane_owner[c - nc]
+                   for c in cbb.tolist()]
+        return contacts, list(zip(owner_a, [int(o) for o in owner_b])), keys
+
+    def _match(self, keys: np.ndarray):
+        """Impulses of the previous step's contacts with the same keys (0 for new ones)."""
+        old = self._warm_keys
+        pos = np.minimum(np.searchsorted(old, keys), len(old) - 1)
+        hit = old[pos] == keys
+        normal = np.where(hit, self._warm_normal[pos], 0.0)
+        tangent = np.where(hit[:, None], self._warm_tangent[pos], 0.0)
+        return normal, tangent
+
+
+def _gather(i: int, j: int, found: list) -> tuple:
+    count = len(found)
+    return (np.full(count, i), np.full(count, j), np.array([c.point for c in found]),
+            np.array([c.normal for c in found]), np.array([c.depth for c in found]),
+            np.array([c.feature for c in found]))

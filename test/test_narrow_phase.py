@@ -1,0 +1,349 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Shapes, the narrow phase against analytic cases, and the broad phase against brute force.
+
+Convention checked throughout: the normal points from A to B, depth > 0 is overlap, and the
+point is midway between the two surfaces (see narrow_phase's module doc).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from rb_sim_ros import broad_phase, narrow_phase as nph, so3
+from rb_sim_ros.collision_shapes import (Box, Capsule, Plane, shape_from_dict, shape_to_dict,
+                                         Sphere, world_pose)
+
+I3 = np.eye(3)
+ORIGIN = np.zeros(3)
+
+
+def pose(position=(0.0, 0.0, 0.0), rotation_vector=(0.0, 0.0, 0.0)):
+    return np.array(position, dtype=float), so3.exp(rotation_vector)
+
+
+def points(contacts):
+    return sorted(tuple(np.round(c.point, 9)) for c in contacts)
+
+
+# -- shapes ------------------------------------------------------------------------------------
+@pytest.mark.parametrize('make, field', [
+    (lambda: Sphere(0.0), 'radius'), (lambda: Sphere(-1.0), 'radius'),
+    (lambda: Sphere(math.nan), 'radius'), (lambda: Sphere('x'), 'radius'),
+    (lambda: Box((1.0, 0.0, 1.0)), r'size\[1\]'), (lambda: Box((1.0, 1.0)), 'size'),
+    (lambda: Capsule(0.1, -1.0), 'length'), (lambda: Capsule(0.0, 1.0), 'radius'),
+    (lambda: Sphere(0.1, position=(0.0, math.inf, 0.0)), 'position'),
+    (lambda: Box((1, 1, 1), orientation_xyzw=(0, 0, 0, 0)), 'orientation_xyzw'),
+    (lambda: Plane((0.0, 0.0, 0.0)), 'normal'), (lambda: Plane(offset=math.nan), 'offset'),
+])
+def test_shapes_refuse_bad_fields_naming_them(make, field):
+    with pytest.raises(ValueError, match=field):
+        make()
+
+
+def test_shape_values_and_dict_round_trip():
+    box = Box((0.4, 0.3, 0.2), position=(0.0, 0.0, 0.1), orientation_xyzw=(0, 0, 1, 1))
+    assert box.half_extents == (0.2, 0.15, 0.1)
+    np.testing.assert_allclose(box.rotation, so3.exp((0.0, 0.0, math.pi / 2)), atol=1e-15)
+    assert Plane((0.0, 0.0, 2.0)).normal == (0.0, 0.0, 1.0)
+    for shape in (box, Sphere(0.1), Capsule(0.05, 0.3, position=(1.0, 2.0, 3.0)),
+                  Plane((1.0, 0.0, 0.0), -2.5)):
+        data = shape_to_dict(shape)
+        assert shape_from_dict(data) == shape
+    assert shape_to_dict(Sphere(0.1)) == {'type': 'sphere', 'radius': 0.1}
+    with pytest.raises(ValueError, match='type'):
+        shape_from_dict({'type': 'cone', 'radius': 1.0})
+    with pytest.raises(ValueError, match='unknown keys'):
+        shape_from_dict({'type': 'sphere', 'radius': 1.0, 'size': [1, 1, 1]})
+    with pytest.raises(ValueError, match='radius missing'):
+        shape_from_dict({'type': 'capsule', 'length': 1.0})
+
+
+def test_world_pose_places_the_shape_in_the_body():
+    body_rotation = so3.exp((0.0, 0.0, math.pi / 2))
+    centre, rot = world_pose(Box((1, 1, 1), position=(1.0, 0.0, 0.0)), (0.0, 0.0, 5.0),
+                             body_rotation)
+    np.testing.assert_allclose(centre, (0.0, 1.0, 5.0), atol=1e-15)
+    np.testing.assert_allclose(rot, body_rotation)
+
+
+# -- sphere ------------------------------------------------------------------------------------
+def test_sphere_sphere_depth_normal_point_and_margin():
+    (c,) = nph.collide(Sphere(0.5), pose(), Sphere(0.3), pose((0.0, 0.6, 0.0)))
+    assert c.depth == pytest.approx(0.2, abs=1e-15)
+    np.testing.assert_allclose(c.normal, (0.0, 1.0, 0.0))
+    np.testing.assert_allclose(c.point, (0.0, 0.4, 0.0), atol=1e-15)   # midway of 0.5, 0.3
+    assert nph.collide(Sphere(0.5), pose(), Sphere(0.3), pose((0.0, 0.81, 0.0))) == []
+    (s,) = nph.collide(Sphere(0.5), pose(), Sphere(0.3), pose((0.0, 0.81, 0.0)), margin=0.02)
+    assert s.depth == pytest.approx(-0.01, abs=1e-15)                  # speculative: a gap
+
+
+def test_sphere_plane_on_a_tilted_plane():
+    n = np.array([0.0, 1.0, 1.0]) / math.sqrt(2.0)
+    plane = Plane(tuple(n), 1.0)
+    centre = 1.05 * n + np.array([2.0, 0.3, -0.3])          # 0.05 above it, moved along it
+    (c,) = nph.collide(Sphere(0.1), (centre, I3), plane, world_pose(plane, ORIGIN, I3))
+    assert c.depth == pytest.approx(0.05, abs=1e-15)
+    np.testing.assert_allclose(c.normal, -n, atol=1e-15)               # sphere -> plane
+    np.testing.assert_allclose(c.point, centre - 0.075 * n, atol=1e-15)
+
+
+@pytest.mark.parametrize('centre, depth, normal', [
+    ((0.0, 0.0, 0.55), 0.05, (0.0, 0.0, -1.0)),                       # face
+    ((0.55, 0.0, 0.55), 0.1 - math.sqrt(0.005), (-1.0, 0.0, -1.0)),   # edge
+    ((0.55, 0.55, 0.55), 0.1 - math.sqrt(0.0075), (-1.0, -1.0, -1.0)),  # vertex
+    ((0.1, 0.2, 0.45), 0.15, (0.0, 0.0, -1.0)),                       # centre inside
+])
+def test_sphere_box_face_edge_vertex_inside(centre, depth, normal):
+    (c,) = nph.collide(Sphere(0.1), pose(centre), Box((1.0, 1.0, 1.0)), pose())
+    assert c.depth == pytest.approx(depth, abs=1e-14)
+    np.testing.assert_allclose(c.normal, np.array(normal) / np.linalg.norm(normal), atol=1e-14)
+
+
+def test_sphere_box_turned_box_and_swapped_order():
+    rot = so3.exp((0.0, 0.0, math.pi / 4))
+    box = Box((1.0, 1.0, 1.0))
+    # The box's x axis now points along (1, 1, 0)/sqrt2: a face at distance 0.5 that way.
+    u = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
+    (c,) = nph.collide(Sphere(0.2), (0.65 * u, I3), box, (ORIGIN, rot))
+    assert c.depth == pytest.approx(0.05, abs=1e-14)
+    np.testing.assert_allclose(c.normal, -u, atol=1e-14)
+    (d,) = nph.collide(box, (ORIGIN, rot), Sphere(0.2), (0.65 * u, I3))
+    np.testing.assert_allclose(d.normal, u, atol=1e-14)
+    np.testing.assert_allclose(d.point, c.point, atol=1e-15)
+    assert d.depth == c.depth
+
+
+def test_sphere_capsule_side_and_cap():
+    capsule = Capsule(0.1, 1.0)                    # segment z in [-0.5, 0.5]
+    (side,) = nph.collide(Sphere(0.2), pose((0.25, 0.0, 0.3)), capsule, pose())
+    assert side.depth == pytest.approx(0.05, abs=1e-14)
+    np.testing.assert_allclose(side.normal, (-1.0, 0.0, 0.0), atol=1e-15)
+    (cap,) = nph.collide(Sphere(0.2), pose((0.0, 0.0, 0.75)), capsule, pose())
+    assert cap.depth == pytest.approx(0.05, abs=1e-14)
+    np.testing.assert_allclose(cap.normal, (0.0, 0.0, -1.0), atol=1e-15)
+
+
+# -- capsule -----------------------------------------------------------------------------------
+def test_capsule_plane_lying_two_contacts_tilted_one():
+    lying = pose((0.0, 0.0, 0.09), (0.0, math.pi / 2, 0.0))
+    contacts = nph.collide(Capsule(0.1, 1.0), lying, Plane(), pose())
+    assert [c.feature for c in contacts] == [0, 1]
+    for c in contacts:
+        assert c.depth == pytest.approx(0.01, abs=1e-15)
+        np.testing.assert_allclose(c.normal, (0.0, 0.0, -1.0))
+    assert points(contacts) == [(-0.5, 0.0, -0.005), (0.5, 0.0, -0.005)]
+    tilted = pose((0.0, 0.0, 0.3), (0.0, 0.6, 0.0))
+    (c,) = nph.collide(Capsule(0.1, 1.0), tilted, Plane(), pose())
+    assert c.depth == pytest.approx(0.1 - (0.3 - 0.5 * math.cos(0.6)), abs=1e-14)
+
+
+def test_capsule_capsule_crossed_and_parallel():
+    crossed = nph.collide(Capsule(0.1, 1.0), pose(), Capsule(0.1, 1.0),
+                          pose((0.19, 0.0, 0.3), (math.pi / 2, 0.0, 0.0)))
+    assert len(crossed) == 1
+    assert crossed[0].depth == pytest.approx(0.01, abs=1e-14)
+    np.testing.assert_allclose(crossed[0].normal, (1.0, 0.0, 0.0), atol=1e-14)
+    np.testing.assert_allclose(crossed[0].point, (0.095, 0.0, 0.3), atol=1e-14)
+    parallel = nph.collide(Capsule(0.1, 1.0), pose(), Capsule(0.1, 1.0), pose((0.19, 0, 0.3)))
+    assert points(parallel) == [(0.095, 0.0, -0.2), (0.095, 0.0, 0.5)]   # ends of the overlap
+    assert all(c.depth == pytest.approx(0.01, abs=1e-14) for c in parallel)
+
+
+def test_capsule_box_lying_on_a_face_across_an_edge_and_standing():
+    box = Box((1.0, 1.0, 1.0))
+    lying = nph.collide(Capsule(0.1, 2.0), pose((0.0, 0.0, 0.59), (0.0, math.pi / 2, 0.0)),
+                        box, pose())
+    assert points(lying) == [(-0.5, 0.0, 0.495), (0.5, 0.0, 0.495)]     # the span of the face
+    for c in lying:
+        assert c.depth == pytest.approx(0.01, abs=1e-14)
+        np.testing.assert_allclose(c.normal, (0.0, 0.0, -1.0), atol=1e-15)
+    # Along the top +x edge, touching it from the diagonal.
+    off = 0.09 / math.sqrt(2.0)
+    edge = nph.collide(Capsule(0.1, 2.0), pose((0.5 + off, 0.0, 0.5 + off), (math.pi / 2, 0, 0)),
+                       box, pose())
+    assert len(edge) == 2
+    for c in edge:
+        assert c.depth == pytest.approx(0.01, abs=1e-14)
+        np.testing.assert_allclose(c.normal, (-math.sqrt(0.5), 0.0, -math.sqrt(0.5)),
+                                   atol=1e-14)
+    (stand,) = nph.collide(Capsule(0.1, 0.4), pose((0.2, 0.1, 0.79)), box, pose())
+    assert stand.depth == pytest.approx(0.01, abs=1e-14)
+    np.testing.assert_allclose(stand.point, (0.2, 0.1, 0.495), atol=1e-14)
+
+
+def test_capsule_box_deep_uses_least_penetration_axis():
+    contacts = nph.collide(Capsule(0.1, 1.0), pose((0.0, 0.0, 0.4), (0.0, math.pi / 2, 0.0)),
+                           Box((1.0, 1.0, 1.0)), pose())
+    assert contacts and all(c.depth == pytest.approx(0.2, abs=1e-14) for c in contacts)
+    for c in contacts:
+        np.testing.assert_allclose(c.normal, (0.0, 0.0, -1.0), atol=1e-15)
+
+
+def test_segment_box_distance_is_the_minimum_over_the_segment():
+    rng = np.random.default_rng(3)
+    half = [0.5, 0.3, 0.2]
+    for _ in range(200):
+        p0, d = rng.normal(size=3) * 1.5, rng.normal(size=3)
+        t, dist2 = nph._segment_box_distance(p0.tolist(), d.tolist(), half)
+        ts = np.linspace(0.0, 1.0, 4001)
+        pts = p0 + ts[:, None] * d
+        excess = np.maximum(np.abs(pts) - half, 0.0)
+        sampled = (excess ** 2).sum(axis=1).min()
+        assert dist2 <= sampled + 1e-12
+        assert dist2 >= sampled - 1e-5 * (1.0 + sampled)
+
+
+# -- box ---------------------------------------------------------------------------------------
+def test_box_plane_resting_four_corners_and_a_corner_down():
+    contacts = nph.collide(Box((0.4, 0.2, 0.1)), pose((0.0, 0.0, 0.049)), Plane(), pose())
+    assert sorted(c.feature for c in contacts) == [0, 2, 4, 6]   # the z = -h vertices
+    assert points(contacts) == [(-0.2, -0.1, -0.0005), (-0.2, 0.1, -0.0005),
+                                (0.2, -0.1, -0.0005), (0.2, 0.1, -0.0005)]
+    for c in contacts:
+        assert c.depth == pytest.approx(0.001, abs=1e-15)
+    # Corner down: the body diagonal (1, 1, 1) turned onto -z.
+    axis = np.array([-1.0, 1.0, 0.0]) / math.sqrt(2.0)      # (1, 1, 1) x (0, 0, -1), unit
+    rot = so3.exp(axis * math.acos(-1.0 / math.sqrt(3.0)))
+    half_diagonal = math.sqrt(3.0) * 0.5
+    (c,) = nph.collide(Box((1.0, 1.0, 1.0)), (np.array([0.0, 0.0, half_diagonal - 0.01]), rot),
+                       Plane(), pose())
+    assert c.depth == pytest.approx(0.01, abs=1e-12)
+    np.testing.assert_allclose(c.point, (0.0, 0.0, -0.005), atol=1e-12)
+
+
+def test_box_box_face_face_clipped_to_the_reference_face():
+    contacts = nph.collide(Box((1.0, 1.0, 1.0)), pose(), Box((1.0, 1.0, 1.0)),
+                           pose((0.2, 0.1, 0.99)))
+    assert points(contacts) == [(-0.3, -0.4, 0.495), (-0.3, 0.5, 0.495), (0.5, -0.4, 0.495),
+                                (0.5, 0.5, 0.495)]
+    for c in contacts:
+        assert c.depth == pytest.approx(0.01, abs=1e-14)
+        np.testing.assert_allclose(c.normal, (0.0, 0.0, 1.0))
+    # Swapped: the same points and depths, the normal negated.
+    swapped = nph.collide(Box((1.0, 1.0, 1.0)), pose((0.2, 0.1, 0.99)), Box((1.0, 1.0, 1.0)),
+                          pose())
+    assert points(swapped) == points(contacts)
+    for c in swapped:
+        np.testing.assert_allclose(c.normal, (0.0, 0.0, -1.0))
+
+
+def test_box_box_turned_about_the_normal_keeps_four_of_eight_points():
+    contacts = nph.collide(Box((1.0, 1.0, 1.0)), pose(), Box((1.0, 1.0, 1.0)),
+                           pose((0.0, 0.0, 0.99), (0.0, 0.0, math.pi / 4)))
+    assert len(contacts) == 4                      # the octagon reduced to 4 points
+    for c in contacts:
+        assert c.depth == pytest.approx(0.01, abs=1e-14)
+        assert abs(c.point[2] - 0.495) < 1e-14
+        assert max(abs(c.point[0]), abs(c.point[1])) == pytest.approx(0.5, abs=1e-12)
+
+
+def test_box_box_edge_edge():
+    # A's top edge along x (A turned 45 deg about x), B's bottom edge along y (B about y).
+    h = 0.5 * math.sqrt(2.0)
+    (c,) = nph.collide(Box((1.0, 1.0, 1.0)), pose(ORIGIN, (math.pi / 4, 0.0, 0.0)),
+                       Box((1.0, 1.0, 1.0)), pose((0.0, 0.0, 2 * h - 0.01), (0, math.pi / 4, 0)))
+    assert c.depth == pytest.approx(0.01, abs=1e-12)
+    np.testing.assert_allclose(c.normal, (0.0, 0.0, 1.0), atol=1e-12)
+    np.testing.assert_allclose(c.point, (0.0, 0.0, h - 0.005), atol=1e-12)
+    assert c.feature >= 200
+    # Offset along both edges: the closest points move with them.
+    (d,) = nph.collide(Box((1.0, 1.0, 1.0)), pose((0.1, 0.0, 0.0), (math.pi / 4, 0.0, 0.0)),
+                       Box((1.0, 1.0, 1.0)), pose((0.0, 0.2, 2 * h - 0.01), (0, math.pi / 4, 0)))
+    np.testing.assert_allclose(d.point, (0.0, 0.0, h - 0.005), atol=1e-12)
+    assert d.depth == pytest.approx(0.01, abs=1e-12)
+
+
+def test_box_box_separated_on_a_face_or_an_edge_axis():
+    assert nph.collide(Box((1, 1, 1)), pose(), Box((1, 1, 1)), pose((0.0, 0.0, 1.01))) == []
+    h = 0.5 * math.sqrt(2.0)
+    apart = pose((0.0, 0.0, 2 * h + 0.01), (0.0, math.pi / 4, 0.0))
+    a = pose(ORIGIN, (math.pi / 4, 0.0, 0.0))
+    assert nph.collide(Box((1, 1, 1)), a, Box((1, 1, 1)), apart) == []
+    (s,) = nph.collide(Box((1, 1, 1)), a, Box((1, 1, 1)), apart, margin=0.02)
+    assert s.depth == pytest.approx(-0.01, abs=1e-12)
+
+
+def test_every_pair_swaps_consistently():
+    rng = np.random.default_rng(7)
+    shapes = [Sphere(0.3), Capsule(0.2, 0.6), Box((0.5, 0.4, 0.3))]
+    for _ in range(100):
+        for a in shapes:
+            for b in shapes:
+                if isinstance(a, Box) and isinstance(b, Box):
+                    continue                      # box-box may pick the other reference face
+                pa = (rng.normal(size=3) * 0.3, so3.exp(rng.normal(size=3)))
+                pb = (rng.normal(size=3) * 0.3, so3.exp(rng.normal(size=3)))
+                ab, ba = nph.collide(a, pa, b, pb, 0.1), nph.collide(b, pb, a, pa, 0.1)
+                assert len(ab) == len(ba)
+                for c, d in zip(ab, ba):
+                    np.testing.assert_allclose(c.normal, -d.normal, atol=1e-12)
+                    np.testing.assert_allclose(c.point, d.point, atol=1e-12)
+                    assert c.depth == pytest.approx(d.depth, abs=1e-12)
+                    assert abs(np.linalg.norm(c.normal) - 1.0) < 1e-12
+
+
+def test_batches_equal_the_pair_functions():
+    rng = np.random.default_rng(1)
+    m = 300
+    ca, cb = rng.normal(size=(m, 3)), rng.normal(size=(m, 3))
+    ra, rb = rng.uniform(0.1, 1.0, m), rng.uniform(0.1, 1.0, m)
+    keep, pt, nrm, depth = nph.sphere_sphere_batch(ca, ra, cb, rb, 0.05)
+    k = 0
+    for i in range(m):
+        found = nph.sphere_sphere(ca[i], ra[i], cb[i], rb[i], 0.05)
+        assert bool(found) == keep[i]
+        if found:
+            np.testing.assert_allclose(pt[k], found[0].point, atol=1e-15)
+            np.testing.assert_allclose(nrm[k], found[0].normal, atol=1e-15)
+            assert depth[k] == pytest.approx(found[0].depth, abs=1e-15)
+            k += 1
+    n = rng.normal(size=(m, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    p0 = rng.normal(size=(m, 3)) * 0.5
+    keep, pt, nrm, depth = nph.sphere_plane_batch(ca, ra, p0, n, 0.0)
+    k = 0
+    for i in range(m):
+        found = nph.sphere_plane(ca[i], ra[i], p0[i], n[i], 0.0)
+        assert bool(found) == keep[i]
+        if found:
+            np.testing.assert_allclose(pt[k], found[0].point, atol=1e-15)
+            np.testing.assert_allclose(nrm[k], found[0].normal)
+            assert depth[k] == pytest.approx(found[0].depth, abs=1e-15)
+            k += 1
+
+
+# -- broad phase -------------------------------------------------------------------------------
+def test_sweep_and_prune_finds_exactly_the_overlapping_pairs():
+    rng = np.random.default_rng(5)
+    for count in (0, 1, 2, 50, 400):
+        lower = rng.uniform(0.0, 10.0, (count, 3))
+        upper = lower + rng.uniform(0.0, 1.5, (count, 3))
+        group = rng.integers(0, max(count // 2, 1), count)
+        static = rng.random(count) < 0.3
+        for axis in (None, 0, 1, 2):
+            got = broad_phase.sweep_and_prune(lower, upper, group, static, axis)
+            want = broad_phase.brute_force_pairs(lower, upper, group, static)
+            np.testing.assert_array_equal(got, want)
+    # Touching boxes count; equal bounds in any order give the same sorted pairs.
+    lower = np.array([[0.0, 0, 0], [1.0, 0, 0], [1.0, 0, 0]])
+    pairs = broad_phase.sweep_and_prune(lower, lower + 1.0)
+    np.testing.assert_array_equal(pairs, [[0, 1], [0, 2], [1, 2]])
+
+
+def test_sweep_and_prune_is_not_quadratic_when_few_touch():
+    count = 20000                           # a row of boxes, each touching its neighbours only
+    lower = np.zeros((count, 3))
+    lower[:, 0] = np.arange(count) * 1.0
+    pairs = broad_phase.sweep_and_prune(lower, lower + [1.0, 1.0, 1.0])
+    assert len(pairs) == count - 1
+
+
+def test_plane_pairs_use_the_support_distance():
+    normals = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]])    # the ground, a wall at x = 5
+    plane_points = np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.0]])
+    centres = np.array([[0.0, 0.0, 0.5], [4.6, 0.0, 3.0], [0.0, 0.0, 2.0]])
+    support = np.array([[0.5, 0.5], [0.5, 0.5], [0.5, 0.5]])
+    pairs = broad_phase.plane_pairs(support, normals, plane_points, centres, np.zeros(3))
+    np.testing.assert_array_equal(pairs, [[0, 0], [1, 1]])
