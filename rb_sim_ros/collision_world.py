@@ -49,7 +49,7 @@ from rb_sim_ros import broad_phase, contact_solver, narrow_phase, so3
 from rb_sim_ros.collision_shapes import is_shape, Plane, Shape
 from rb_sim_ros.rigid_body import finite_floats, State
 from rb_sim_ros.simulation import BodySpec, Config
-from rb_sim_ros.stepper import IntegrationError, Stepper
+from rb_sim_ros.stepper import IntegrationError, step_all, Stepper
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
 FEATURE_BITS = 12
@@ -318,15 +318,10 @@ class CollisionWorld:
         if not isinstance(n, int) or isinstance(n, bool) or n < 0:
             raise ValueError(f'n must be an int >= 0, got {n!r}')
         if not self.enabled:
-            error = None
-            for s in self._all_steppers:
-                try:
-                    s.step(n)
-                except IntegrationError as e:
-                    error = error or e
-            self._step_count += n
-            if error is not None:
-                raise error
+            try:
+                step_all(self._all_steppers, n)
+            finally:
+                self._step_count += n
             return
         for _ in range(n):
             self._step_once()

@@ -19,7 +19,7 @@ import numpy as np
 from rb_sim_ros import multistep
 from rb_sim_ros.rigid_body import (finite_floats, rate, RigidBody, State, Wrench,
                                    ZERO_WRENCH)
-from rb_sim_ros.stepper import IntegrationError, Stepper
+from rb_sim_ros.stepper import step_all, Stepper
 
 
 @dataclass(frozen=True)
@@ -264,15 +264,10 @@ class Simulation:
     def run(self, n: int) -> None:
         """Advance every moving body n steps. If one goes non-finite the others still advance
         and its IntegrationError is raised after (it stays at its last finite state)."""
-        error = None
-        for s in self._moving:
-            try:
-                s.step(n)
-            except IntegrationError as e:
-                error = error or e
-        self._step_count += n
-        if error is not None:
-            raise error
+        try:
+            step_all(self._moving, n)
+        finally:
+            self._step_count += n
 
     def run_until(self, step: int, events: list[tuple[int, Event]]) -> list[tuple[int, Event]]:
         """Advance to ``step``, applying each (step, event) of ``events`` (sorted by step) when

@@ -45,6 +45,19 @@ class IntegrationError(RuntimeError):
         self.step = step
 
 
+def step_all(steppers, n: int) -> None:
+    """Step every stepper n steps; if one goes non-finite the others still advance, and the
+    first IntegrationError is raised after (that stepper stays at its last finite state)."""
+    error = None
+    for s in steppers:
+        try:
+            s.step(n)
+        except IntegrationError as e:
+            error = error or e
+    if error is not None:
+        raise error
+
+
 def check_dt(dt: Any) -> float:
     """dt as a float; ValueError unless it is a finite number of seconds > 0."""
     try:
