@@ -183,6 +183,31 @@ class Stepper(FixedStep):
         self._history_stale = previous is not None
         self._orthonormalize_countdown = self.ORTHONORMALIZE_EVERY
 
+    def components(self):
+        """(position m, R row-major (9 floats, body to world), linear velocity m/s, angular
+        velocity rad/s), world frame, R as integrated: the cheap read of the collision world."""
+        r = self._r if self._q is None else tuple(float(c) for c in self._rotation().reshape(9))
+        return self._x, r, self._v, self._w
+
+    def apply_contact(self, position, rotation: np.ndarray, linear_velocity,
+                      angular_velocity) -> None:
+        """The collision world's write after an impulse or a position correction: ``set_state``
+        without validating (the values come from ``components`` and the contact solver; a
+        non-finite one raises IntegrationError at the next step). rotation: 3x3 or 9
+        row-major values, body to world. The history restarts; the orthonormalization count
+        goes on, since a body resting in contact is written every step."""
+        rot = np.asarray(rotation, dtype=float).reshape(3, 3)
+        if self._q is not None:
+            rot = rot @ self._q
+        self._x = tuple(float(c) for c in position)
+        self._v = tuple(float(c) for c in linear_velocity)
+        self._r = tuple(float(c) for c in rot.reshape(9))
+        self._w = tuple(float(c) for c in angular_velocity)
+        self._a, self._b = self._accelerations(self._r, self._w, self._v)
+        self._prev = None
+        self._pa = self._pb = None
+        self._history_stale = False
+
     def restart_history(self) -> None:
         """Forget the previous step (after an impulse: do not extrapolate across it)."""
         self._prev = None
