@@ -9,7 +9,7 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
-        ('share/' + package_name + '/scenes', ['scenes/example.yaml']),
+        ('share/' + package_name + '/scenes', ['scenes/example.yaml', 'scenes/collisions.yaml']),
     ],
     # ROS dependencies come from package.xml (rosdep); PyPI-only ones (mcap for recording)
     # are in requirements.txt, used by the README's commands, never forced on colcon.

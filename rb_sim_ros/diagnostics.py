@@ -1,6 +1,7 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""The node's /diagnostics: step cost, late ticks, tick jitter, sim/wall ratio, rejections."""
+"""The node's /diagnostics: step cost, late ticks, tick jitter, sim/wall ratio, rejections,
+and the contacts of the last step when bodies collide."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ class Diagnostics:
         self.rejected = 0
         self.dropped_periods = 0
         self.error = ''
+        self.contacts = None  # collision_world.StepStats of the last step, when bodies collide
         self.ticks = 0
         self.late_ticks = 0
         self._lateness_ns: list[float] = []
@@ -66,6 +68,9 @@ class Diagnostics:
             'dropped_periods_total': self.dropped_periods,
             'rejected_inputs_total': self.rejected,
         }
+        if self.contacts is not None:
+            values['contacts'] = self.contacts.contacts
+            values['active_contacts'] = self.contacts.active
         status = DiagnosticStatus(name='rb_sim: simulator', hardware_id='rb_sim_ros')
         if self.error:
             status.level, status.message = DiagnosticStatus.ERROR, self.error

@@ -3,6 +3,7 @@
 """Scene files: several bodies, gravity and damping, in YAML.
 
     gravity: [0.0, 0.0, -9.81]          # m/s^2, world frame; optional (default none)
+    contact: {restitution: 0.3, friction: 0.6}   # optional; simulation.ContactSettings fields
     bodies:
       - name: satellite                 # topics satellite/wrench, satellite/pose, ...
         mass: 120.0                     # kg, with inertia (kg m^2): 3 moments or a 3x3 tensor
@@ -14,24 +15,34 @@
         density: 500                    #   sphere: radius; cylinder: radius, length (along z)
         position: [2.0, 0.0, 1.0]       # m; orientation [x, y, z, w]; linear_velocity m/s;
         linear_damping: 0.1             # angular_velocity rad/s (world); damping rates 1/s
-      - name: floor_marker
-        static: true                    # never moves, costs nothing
-        position: [0, 0, 0]
-        colliders: []                   # room for collision shapes (not simulated yet)
+        colliders: shape                # collide as the box above (box or sphere shapes)
+      - name: dumbbell
+        mass: 2.0
+        inertia: [0.05, 0.05, 0.01]
+        colliders:                      # shapes in the body frame (collision_shapes)
+          - {type: capsule, radius: 0.03, length: 0.3}
+          - {type: sphere, radius: 0.06, position: [0, 0, 0.18]}
+          - {type: box, size: [0.1, 0.1, 0.1], position: [0, 0, -0.18],
+             orientation: [0, 0, 0.3826834, 0.9238795]}
+      - name: ground
+        static: true                    # never moves, costs nothing, infinite mass
+        colliders: [{type: plane, normal: [0, 0, 1], offset: 0}]   # the plane z = 0
 
-Every error names the file, the body and the field; unknown keys are errors, not ignored.
+A scene in which no moving body has colliders runs no collision code. Every error names the
+file, the body and the field; unknown keys are errors, not ignored.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import yaml
 
-from rb_sim_ros.simulation import BodySpec
+from rb_sim_ros.collision_shapes import Box, shape_from_dict, Sphere
+from rb_sim_ros.simulation import BodySpec, ContactSettings
 
-TOP_KEYS = {'gravity', 'bodies'}
+TOP_KEYS = {'gravity', 'contact', 'bodies'}
 BODY_KEYS = {'name', 'mass', 'inertia', 'shape', 'size', 'radius', 'length', 'density',
              'position', 'orientation', 'linear_velocity', 'angular_velocity', 'linear_damping',
              'angular_damping', 'static', 'colliders'}
@@ -40,6 +51,14 @@ SHAPES = {'box': {'size'}, 'sphere': {'radius'}, 'cylinder': {'radius', 'length'
 
 class SceneError(ValueError):
     """A scene file that cannot be used; the message names the file, body and field."""
+
+
+class Scene(NamedTuple):
+    """What a scene file holds: gravity (m/s^2, world), the bodies, the contact settings."""
+
+    gravity: tuple[float, float, float]
+    bodies: tuple[BodySpec, ...]
+    contact: ContactSettings
 
 
 def _positive(where: str, value: Any) -> float:
@@ -130,12 +149,7 @@ def _body(path: str, index: int, data: Any) -> BodySpec:
     for key in ('linear_damping', 'angular_damping', 'static'):
         if key in data:
             kwargs[key] = data[key]
-    colliders = data.get('colliders', [])
-    if not isinstance(colliders, list):
-        raise SceneError(f'{where}: colliders: must be a list')
-    if colliders:
-        raise SceneError(f'{where}: colliders: collision shapes are not simulated yet; '
-                         'leave the list empty')
+    kwargs['colliders'] = _colliders(where, data.get('colliders', []), shape, data)
     try:
         return BodySpec(**kwargs)
     except (ValueError, TypeError) as e:
@@ -143,8 +157,30 @@ def _body(path: str, index: int, data: Any) -> BodySpec:
         raise SceneError(f'{where}: {field}: {e}') from None
 
 
-def load_scene(path: str) -> tuple[tuple[float, float, float], tuple[BodySpec, ...]]:
-    """(gravity, bodies) of the scene file ``path``; SceneError says what and where."""
+def _colliders(where: str, colliders: Any, shape: Any, data: dict) -> tuple:
+    """The collision shapes of a body: a list of collision_shapes mappings, or 'shape' for the
+    body's own box or sphere."""
+    if colliders == 'shape':
+        if shape == 'box':
+            return (Box(tuple(float(v) for v in data['size'])),)
+        if shape == 'sphere':
+            return (Sphere(float(data['radius'])),)
+        raise SceneError(f"{where}: colliders: 'shape' needs a box or sphere shape, got "
+                         f'{shape!r} (list the colliders instead)')
+    if not isinstance(colliders, list):
+        raise SceneError(f"{where}: colliders: must be a list of shapes or 'shape', "
+                         f'got {colliders!r}')
+    out = []
+    for i, c in enumerate(colliders):
+        try:
+            out.append(shape_from_dict(c))
+        except (ValueError, TypeError) as e:
+            raise SceneError(f'{where}: colliders[{i}]: {e}') from None
+    return tuple(out)
+
+
+def load_scene(path: str) -> Scene:
+    """The scene of the file ``path``; SceneError says what and where."""
     try:
         with open(path) as f:
             data = yaml.safe_load(f)
@@ -166,9 +202,13 @@ def load_scene(path: str) -> tuple[tuple[float, float, float], tuple[BodySpec, .
     bodies = data.get('bodies')
     if not isinstance(bodies, list) or not bodies:
         raise SceneError(f'{path}: bodies: must be a non-empty list')
+    try:
+        contact = ContactSettings.from_dict(data.get('contact', {}))
+    except (ValueError, TypeError) as e:
+        raise SceneError(f'{path}: contact: {e}') from None
     specs = tuple(_body(path, i, b) for i, b in enumerate(bodies))
     names = [s.name for s in specs]
     for i, n in enumerate(names):
         if n in names[:i]:
             raise SceneError(f"{path}: body {i} ('{n}'): name: used twice")
-    return tuple(float(g) for g in gravity), specs
+    return Scene(tuple(float(g) for g in gravity), specs, contact)

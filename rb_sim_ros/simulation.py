@@ -11,12 +11,13 @@ events at the same steps reproduce a run bit for bit, whatever the scheduling wa
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any, Union
 
 import numpy as np
 
-from rb_sim_ros import multistep
+from rb_sim_ros import contact_solver, multistep
+from rb_sim_ros.collision_shapes import is_shape, Plane, shape_from_dict, shape_to_dict
 from rb_sim_ros.rigid_body import (finite_floats, rate, RigidBody, State, Wrench,
                                    ZERO_WRENCH)
 from rb_sim_ros.stepper import step_all, Stepper
@@ -28,7 +29,9 @@ class BodySpec:
 
     inertia: 3 principal moments or 9 row-major components of the body-frame tensor (kg m^2).
     initial_*: the state at step 0 and after a reset. linear/angular_damping: rates (1/s).
-    static: never moves and costs nothing. colliders: reserved for collision shapes.
+    static: never moves and costs nothing (infinite mass in contacts). colliders: shapes of
+    ``collision_shapes`` in the body frame (a Plane only on a static body); a scene in which no
+    moving body has one skips collision detection entirely.
     """
 
     name: str = 'body'
@@ -60,6 +63,13 @@ class BodySpec:
         if not isinstance(self.static, bool):
             raise ValueError(f'static must be true or false, got {self.static!r}')
         object.__setattr__(self, 'colliders', tuple(self.colliders))
+        for i, c in enumerate(self.colliders):
+            if not is_shape(c):
+                raise ValueError(f'colliders[{i}] must be a Sphere, Box, Capsule or Plane, '
+                                 f'got {c!r}')
+            if isinstance(c, Plane) and not self.static:
+                raise ValueError(f'colliders[{i}] is a Plane, which only a static body may '
+                                 'have')
         self.body()  # validates mass and inertia
         self.initial_state()  # validates the orientation
 
@@ -75,12 +85,49 @@ class BodySpec:
 
 
 @dataclass(frozen=True)
+class ContactSettings:
+    """How bodies with colliders respond when they touch (docs/collisions.md): restitution e
+    in [0, 1], Coulomb friction mu >= 0, for every contact; Gauss-Seidel iterations of the
+    velocity and the position pass; slop (m) of penetration left uncorrected;
+    position_fraction of the rest corrected per step; approaches slower than
+    bounce_threshold (m/s) do not bounce (keep it above |g| dt); speculative contacts keep
+    fast bodies from tunnelling. Unused by a scene without colliders."""
+
+    restitution: float = 0.0
+    friction: float = 0.5
+    velocity_iterations: int = 10
+    position_iterations: int = 4
+    slop: float = 1e-4
+    position_fraction: float = 0.8
+    bounce_threshold: float = 0.1
+    speculative: bool = True
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.speculative, bool):
+            raise ValueError(f'speculative must be true or false, got {self.speculative!r}')
+        contact_solver.SolverSettings(**self.solver_fields())  # validates the rest
+
+    def solver_fields(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name != 'speculative'}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> 'ContactSettings':
+        if not isinstance(data, dict):
+            raise ValueError(f'contact must be a mapping, got {data!r}')
+        unknown = sorted(set(data) - set(cls.__dataclass_fields__))
+        if unknown:
+            raise ValueError(f'unknown contact keys {unknown} (known: '
+                             f'{sorted(cls.__dataclass_fields__)})')
+        return cls(**data)
+
+
+@dataclass(frozen=True)
 class Config:
     """Everything needed to (re-)simulate a run: the scene and the clock.
 
     dt: physics step (s); steps_per_publish: physics steps between two published states;
     integrator: a name of multistep.METHODS; gravity: m/s^2, world frame; bodies: at least one,
-    names unique.
+    names unique; contact: the response of bodies with colliders.
     """
 
     dt: float = 1e-3
@@ -88,6 +135,7 @@ class Config:
     integrator: str = multistep.EQ27.name
     gravity: tuple[float, ...] = (0.0, 0.0, 0.0)
     bodies: tuple[BodySpec, ...] = (BodySpec(),)
+    contact: ContactSettings = ContactSettings()
 
     def __post_init__(self) -> None:
         if (not isinstance(self.steps_per_publish, int) or isinstance(self.steps_per_publish, bool)
@@ -103,6 +151,8 @@ class Config:
         if len(set(names)) != len(names):
             raise ValueError(f'body names must be unique, got {names}')
         object.__setattr__(self, 'bodies', bodies)
+        if not isinstance(self.contact, ContactSettings):
+            raise ValueError(f'contact must be a ContactSettings, got {self.contact!r}')
         Stepper(bodies[0].body(), self.dt)  # validates dt
 
     def body(self, name: str = '') -> BodySpec:
@@ -114,12 +164,19 @@ class Config:
                 return b
         raise ValueError(f"no body named '{name}' (have {[b.name for b in self.bodies]})")
 
+    @property
+    def collides(self) -> bool:
+        """Whether any body has a collider (else no collision code runs at all)."""
+        return any(b.colliders for b in self.bodies)
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-able form; floats are written with repr, so a round trip is exact."""
         def plain(v):
             return list(v) if isinstance(v, tuple) else v
-        out = {k: plain(v) for k, v in self.__dict__.items() if k != 'bodies'}
-        out['bodies'] = [{k: plain(v) for k, v in b.__dict__.items()} for b in self.bodies]
+        out = {k: plain(v) for k, v in self.__dict__.items() if k not in ('bodies', 'contact')}
+        out['bodies'] = [{k: ([shape_to_dict(c) for c in v] if k == 'colliders' else plain(v))
+                          for k, v in b.__dict__.items()} for b in self.bodies]
+        out['contact'] = dict(self.contact.__dict__)
         return out
 
     @classmethod
@@ -133,9 +190,14 @@ class Config:
             unknown = set(b) - set(BodySpec.__dataclass_fields__)
             if unknown:
                 raise ValueError(f'unknown body keys {sorted(unknown)}')
-            bodies.append(BodySpec(**{k: (tuple(v) if isinstance(v, list) else v)
+            b = dict(b)
+            colliders = tuple(shape_from_dict(c) for c in b.pop('colliders', ()))
+            bodies.append(BodySpec(colliders=colliders,
+                                   **{k: (tuple(v) if isinstance(v, list) else v)
                                       for k, v in b.items()}))
-        return cls(bodies=tuple(bodies),
+        # Recordings made before collisions existed have no 'contact': the defaults.
+        contact = ContactSettings.from_dict(data.pop('contact', {}))
+        return cls(bodies=tuple(bodies), contact=contact,
                    **{k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items()})
 
 
@@ -197,21 +259,35 @@ class Simulation:
 
     Bodies marked static get no stepper: they cost nothing and never move. ``stepper`` is the
     first body's (the single-body case); ``steppers`` maps every moving body's name to its own.
+    When a body has colliders, ``world`` is the ``collision_world.CollisionWorld`` that steps
+    them (its Steppers are ``steppers``) and teleports go through it; else ``world`` is None
+    and no collision code runs.
     """
 
     def __init__(self, config: Config) -> None:
         self.config = config
         self._step_count = 0
-        self.steppers: dict[str, Stepper] = {}
-        self.static: dict[str, State] = {}
-        for spec in config.bodies:
-            if spec.static:
-                self.static[spec.name] = spec.initial_state()
-            else:
-                self.steppers[spec.name] = Stepper(
-                    spec.body(), config.dt, spec.initial_state(), method=config.integrator,
-                    gravity=config.gravity, linear_damping=spec.linear_damping,
-                    angular_damping=spec.angular_damping)
+        self.world = None
+        if config.collides:
+            # Imported here: collision_world builds on this module's BodySpec and Config.
+            from rb_sim_ros.collision_world import CollisionWorld
+            self.world = CollisionWorld.from_config(
+                config, speculative=config.contact.speculative,
+                **config.contact.solver_fields())
+            self.steppers = self.world.steppers
+            self.static = self.world.static
+        else:
+            self.steppers: dict[str, Stepper] = {}
+            self.static: dict[str, State] = {}
+            for spec in config.bodies:
+                if spec.static:
+                    self.static[spec.name] = spec.initial_state()
+                else:
+                    self.steppers[spec.name] = Stepper(
+                        spec.body(), config.dt, spec.initial_state(),
+                        method=config.integrator, gravity=config.gravity,
+                        linear_damping=spec.linear_damping,
+                        angular_damping=spec.angular_damping)
         self._moving = tuple(self.steppers.values())
 
     @property
@@ -249,21 +325,31 @@ class Simulation:
         s = self.steppers[spec.name]
         if isinstance(event, SetWrench):
             s.set_wrench(event.wrench)
-        elif isinstance(event, SetPose):
-            old = s.state
-            s.set_state(State.from_quaternion_xyzw(event.position, event.orientation_xyzw,
-                                                   old.linear_velocity, old.angular_velocity))
+            return
+        old = s.state
+        if isinstance(event, SetPose):
+            state = State.from_quaternion_xyzw(event.position, event.orientation_xyzw,
+                                               old.linear_velocity, old.angular_velocity)
         elif isinstance(event, SetTwist):
-            old = s.state
-            s.set_state(State(old.position, old.rotation, event.linear, event.angular))
+            state = State(old.position, old.rotation, event.linear, event.angular)
         else:
             state = event.state(spec)
             s.set_wrench(ZERO_WRENCH)
+        if self.world is not None:
+            self.world.set_state(spec.name, state)  # contacts are checked before the next step
+        else:
             s.set_state(state)
 
     def run(self, n: int) -> None:
         """Advance every moving body n steps. If one goes non-finite the others still advance
-        and its IntegrationError is raised after (it stays at its last finite state)."""
+        and its IntegrationError is raised after (it stays at its last finite state). With
+        collisions, the run stops after the step that raised."""
+        if self.world is not None:
+            try:
+                self.world.step(n)
+            finally:
+                self._step_count = self.world.step_count
+            return
         try:
             step_all(self._moving, n)
         finally:

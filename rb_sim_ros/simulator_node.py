@@ -38,7 +38,8 @@ from rb_sim_ros.body_ports import APPLIED_QOS, BodyPorts, TwistInput
 from rb_sim_ros.diagnostics import Diagnostics
 from rb_sim_ros.rigid_body import ZERO_WRENCH
 from rb_sim_ros.scene import load_scene
-from rb_sim_ros.simulation import BodySpec, Config, Reset, SetTwist, SetWrench, Simulation
+from rb_sim_ros.simulation import (BodySpec, Config, ContactSettings, Reset, SetTwist,
+                                   SetWrench, Simulation)
 from rb_sim_ros.stepper import IntegrationError
 
 __all__ = ['APPLIED_QOS', 'SimulatorNode', 'main']
@@ -206,6 +207,8 @@ class SimulatorNode(Node):
             self.get_logger().error(f'{e}; paused at the last finite state (reset to go on)')
         self.diagnostics.stepped(self.config.steps_per_publish, time.perf_counter_ns() - t0,
                                  sim.time_ns)
+        if sim.world is not None:
+            self.diagnostics.contacts = sim.world.last_stats
         self._periods += 1
         self._publish()
 
@@ -298,8 +301,9 @@ def _config(v: dict, scene=None) -> Config:
     if abs(steps - round(steps)) > 1e-6 * steps or round(steps) < 1:
         raise ValueError(f"publish_rate {v['publish_rate']} Hz must divide 1/dt = "
                          f"{1.0 / v['dt']:.9g} Hz into a whole number of steps >= 1")
+    contact = ContactSettings()
     if scene is not None:
-        gravity, bodies = scene
+        gravity, bodies, contact = scene
     else:
         gravity = (0.0, 0.0, 0.0)
         bodies = (BodySpec(name='body', mass=float(v['mass']), inertia=tuple(v['inertia']),
@@ -308,7 +312,7 @@ def _config(v: dict, scene=None) -> Config:
                            initial_linear_velocity=tuple(v['initial_linear_velocity']),
                            initial_angular_velocity=tuple(v['initial_angular_velocity'])),)
     return Config(dt=float(v['dt']), steps_per_publish=int(round(steps)),
-                  integrator=v['integrator'], gravity=gravity, bodies=bodies)
+                  integrator=v['integrator'], gravity=gravity, bodies=bodies, contact=contact)
 
 
 def _open_recorder(node: SimulatorNode, values: dict):

@@ -279,8 +279,8 @@ def test_a_scene_gives_each_body_its_topics(start_sim, probe, tmp_path):
     assert poses['a'][0].header.frame_id == 'odom'
 
     from rb_sim_ros.scene import load_scene
-    gravity, bodies = load_scene(str(scene))
-    sim = Simulation(Config(gravity=gravity, bodies=bodies))
+    gravity, bodies, contact = load_scene(str(scene))
+    sim = Simulation(Config(gravity=gravity, bodies=bodies, contact=contact))
     events = [(stamp_ns(applied[0].header.stamp) // DT_NS,
                SetWrench(CoreWrench((0.0, 0.0, 19.62), (0.0, 0.01, 0.0)), 'a'))]
     for pa, pb in zip(poses['a'], poses['b']):

@@ -8,19 +8,40 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rb_sim_ros.collision_shapes import Box, Capsule, Plane, Sphere
 from rb_sim_ros.scene import load_scene, mass_and_inertia, SceneError
+from rb_sim_ros.simulation import ContactSettings
 
-EXAMPLE = Path(__file__).resolve().parents[1] / 'scenes' / 'example.yaml'
+SCENES = Path(__file__).resolve().parents[1] / 'scenes'
+EXAMPLE = SCENES / 'example.yaml'
 
 
 def test_example_scene_loads():
-    gravity, bodies = load_scene(str(EXAMPLE))
+    gravity, bodies, contact = load_scene(str(EXAMPLE))
     assert gravity == (0.0, 0.0, -9.81)
     assert [b.name for b in bodies] == ['satellite', 'crate', 'ball', 'pillar']
     crate = bodies[1]
     assert crate.mass == pytest.approx(500 * 0.4 * 0.3 * 0.2)
     assert bodies[3].static and not bodies[0].static
     assert bodies[2].angular_damping == 0.05
+
+
+def test_collision_scene_loads_colliders_and_contact_settings():
+    gravity, bodies, contact = load_scene(str(SCENES / 'collisions.yaml'))
+    assert contact == ContactSettings(restitution=0.5, friction=0.6)
+    by_name = {b.name: b for b in bodies}
+    assert by_name['ball'].colliders == (Sphere(0.1),)           # 'shape': the body's own
+    assert by_name['crate'].colliders == (Box((0.4, 0.3, 0.2)),)
+    assert by_name['dumbbell'].colliders == (
+        Capsule(0.02, 0.3), Sphere(0.06, position=(0.0, 0.0, 0.18)),
+        Sphere(0.06, position=(0.0, 0.0, -0.18)))
+    assert by_name['ground'].static and by_name['ground'].colliders == (Plane(),)
+    wall = by_name['wall'].colliders[0]
+    assert wall.size == (0.1, 4.0, 1.0) and by_name['wall'].initial_position == (2.5, 0.0, 0.5)
+
+
+def test_contact_settings_default_when_absent():
+    assert load_scene(str(EXAMPLE)).contact == ContactSettings()
 
 
 def test_shapes_against_textbook_and_a_point_cloud():
@@ -65,7 +86,21 @@ def test_shapes_against_textbook_and_a_point_cloud():
     ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], linear_damping: -1}]',
      "body 0 ('a'): linear_damping:"),
     ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], colliders: [{sphere: 1}]}]',
-     "body 0 ('a'): colliders: collision shapes are not simulated yet"),
+     "body 0 ('a'): colliders[0]: type must be one of"),
+    ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], colliders: [{type: box, size: [1, 1]}]}]',
+     "body 0 ('a'): colliders[0]: size"),
+    ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], colliders: [{type: sphere}]}]',
+     "body 0 ('a'): colliders[0]: radius missing"),
+    ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], colliders: [{type: plane}]}]',
+     "body 0 ('a'): colliders[0]: colliders[0] is a Plane, which only a static body"),
+    ('bodies: [{name: a, shape: cylinder, radius: 1, length: 1, density: 1, colliders: shape}]',
+     "body 0 ('a'): colliders: 'shape' needs a box or sphere shape"),
+    ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], colliders: {type: sphere}}]',
+     "body 0 ('a'): colliders: must be a list"),
+    ('contact: {restitution: 1.5}\nbodies: [{name: a, mass: 1, inertia: [1, 1, 1]}]',
+     'contact: restitution'),
+    ('contact: {bounciness: 1}\nbodies: [{name: a, mass: 1, inertia: [1, 1, 1]}]',
+     "contact: unknown contact keys ['bounciness']"),
     ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1]}, {name: a, static: true}]',
      "body 1 ('a'): name: used twice"),
     ('bodies: [{name: my-body, mass: 1, inertia: [1, 1, 1]}]', "body 0 ('my-body'): name:"),

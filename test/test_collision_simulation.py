@@ -1,0 +1,171 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Collisions in a Simulation: scenes with colliders, events, and what replay relies on."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from rb_sim_ros.collision_shapes import Box, Capsule, Plane, Sphere
+from rb_sim_ros.collision_world import CollisionWorld
+from rb_sim_ros.rigid_body import State, Wrench
+from rb_sim_ros.scene import load_scene
+from rb_sim_ros.simulation import (BodySpec, Config, ContactSettings, Reset, SetPose,
+                                   SetTwist, SetWrench, Simulation)
+
+G = (0.0, 0.0, -9.81)
+GROUND = BodySpec('ground', static=True, colliders=(Plane(),))
+
+
+def _ball(name='ball', position=(0.0, 0.0, 1.0), radius=0.1, **kwargs):
+    mass = 1.0
+    return BodySpec(name, mass, (0.4 * mass * radius ** 2,) * 3, initial_position=position,
+                    colliders=(Sphere(radius),), **kwargs)
+
+
+def _crowd() -> Config:
+    """Spheres, boxes and a capsule falling into a walled corner, with friction."""
+    bodies = [GROUND, BodySpec('wall', static=True, initial_position=(0.6, 0.0, 0.5),
+                               colliders=(Box((0.1, 2.0, 1.0)),))]
+    rng = np.random.default_rng(7)
+    for i in range(4):
+        bodies.append(_ball(f'ball_{i}', position=(0.2 * i - 0.3, 0.05 * i, 0.3 + 0.25 * i),
+                            initial_linear_velocity=tuple(rng.normal(0.0, 0.5, 3))))
+    bodies.append(BodySpec('crate', 2.0, (0.02, 0.03, 0.04), initial_position=(0.1, 0.0, 1.4),
+                           initial_orientation_xyzw=(0.2, 0.1, 0.0, 0.97),
+                           initial_angular_velocity=(1.0, -2.0, 0.5),
+                           colliders=(Box((0.3, 0.2, 0.15)),)))
+    bodies.append(BodySpec('rod', 0.5, (0.01, 0.01, 0.001), initial_position=(-0.2, 0.2, 1.8),
+                           initial_orientation_xyzw=(0.38, 0.0, 0.0, 0.92),
+                           colliders=(Capsule(0.03, 0.4),)))
+    return Config(dt=1e-3, gravity=G, bodies=tuple(bodies),
+                  contact=ContactSettings(restitution=0.3, friction=0.6))
+
+
+EVENTS = [(120, SetWrench(Wrench((3.0, 0.0, 0.0), (0.0, 0.0, 0.2)), 'crate')),
+          (250, SetPose((0.0, 0.0, 0.05), (0.0, 0.0, 0.0, 1.0), 'ball_0')),  # into the ground
+          (300, SetTwist((0.0, 0.0, -30.0), (5.0, 0.0, 0.0), 'ball_1')),
+          (420, Reset(body='rod')),
+          (500, SetWrench(Wrench((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), 'crate'))]
+
+
+def _snapshot(sim: Simulation) -> list:
+    return [sim.pose_twist(b.name) for b in sim.config.bodies if not b.static]
+
+
+def test_config_with_colliders_round_trips_exactly_through_json():
+    config = _crowd()
+    again = Config.from_dict(json.loads(json.dumps(config.to_dict())))
+    assert again == config
+    assert again.body('rod').colliders == (Capsule(0.03, 0.4),)
+    # A recording made before collisions has no 'contact': the defaults.
+    old = config.to_dict()
+    del old['contact']
+    assert Config.from_dict(old).contact == ContactSettings()
+
+
+def test_simulation_steps_the_collision_world_it_is_made_of():
+    """The Simulation is the CollisionWorld driven through events: the same calls on a world
+    built by hand give the same states, bit for bit."""
+    config = _crowd()
+    sim = Simulation(config)
+    world = CollisionWorld.from_config(config, restitution=0.3, friction=0.6)
+    pending = sim.run_until(600, list(EVENTS))
+    assert not pending
+    for step, event in EVENTS + [(600, None)]:
+        world.step(step - world.step_count)
+        if event is None:
+            break
+        name = event.body
+        s = world.steppers[name]
+        if isinstance(event, SetWrench):
+            s.set_wrench(event.wrench)
+        elif isinstance(event, SetPose):
+            old = s.state
+            world.set_state(name, State.from_quaternion_xyzw(
+                event.position, event.orientation_xyzw, old.linear_velocity,
+                old.angular_velocity))
+        elif isinstance(event, SetTwist):
+            world.set_state(name, State(s.state.position, s.state.rotation, event.linear,
+                                        event.angular))
+        else:
+            s.set_wrench(Wrench())
+            world.set_state(name, config.body(name).initial_state())
+    for b in config.bodies:
+        if not b.static:
+            assert sim.pose_twist(b.name) == world.steppers[b.name].pose_twist(), b.name
+    assert world.totals.active > 100  # the run is one of many contacts
+
+
+def test_chunking_does_not_change_a_run():
+    """The node steps in publish periods, replay from event to event: same states."""
+    config = _crowd()
+    by_period = Simulation(config)
+    events = list(EVENTS)
+    for _ in range(60):
+        events = by_period.run_until(by_period.step_count + 10, events)
+    one_go = Simulation(config)
+    assert not one_go.run_until(600, list(EVENTS))
+    assert _snapshot(by_period) == _snapshot(one_go)
+
+
+def test_a_teleport_into_the_ground_is_resolved_before_integrating():
+    sim = Simulation(Config(dt=1e-3, gravity=G, bodies=(_ball(), GROUND)))
+    sim.run(10)
+    # 5 cm deep and falling at 50 m/s: one unchecked step would put it 10 cm under.
+    sim.apply(SetPose((0.0, 0.0, 0.05), (0.0, 0.0, 0.0, 1.0)))
+    sim.apply(SetTwist((0.0, 0.0, -50.0), (0.0, 0.0, 0.0)))
+    sim.run(1)
+    assert sim.pose_twist()[0][2] > 0.05
+    sim.run(200)
+    assert sim.pose_twist()[0][2] == pytest.approx(0.1, abs=1e-3)
+
+
+def test_scene_restitution_sets_the_bounce_height(tmp_path):
+    """A ball dropped from h (its lowest point) rises to e^2 h: the scene's contact section
+    reaches the solver. Exact for a frictionless point impact; the tolerance is the height
+    gravity changes in a step, g dt^2-ish, and the drop's integration error."""
+    h, r, e = 1.0, 0.1, 0.6
+    f = tmp_path / 'bounce.yaml'
+    f.write_text(f'gravity: [0, 0, -9.81]\ncontact: {{restitution: {e}, friction: 0.0}}\n'
+                 'bodies:\n'
+                 f'  - {{name: ball, shape: sphere, radius: {r}, density: 100, '
+                 f'position: [0, 0, {h + r}], colliders: shape}}\n'
+                 '  - {name: ground, static: true, colliders: [{type: plane}]}\n')
+    scene = load_scene(str(f))
+    sim = Simulation(Config(dt=1e-4, gravity=scene.gravity, bodies=scene.bodies,
+                            contact=scene.contact))
+    heights, rising = [], False
+    for _ in range(9000):          # 0.9 s: the fall (0.45 s) and the rise (0.27 s)
+        sim.run(1)
+        z, vz = sim.pose_twist()[0][2], sim.pose_twist()[2][2]
+        rising = rising or vz > 0.0
+        if rising:
+            heights.append(z)
+    assert max(heights) - r == pytest.approx(e * e * h, abs=2e-3)
+
+
+def test_a_scene_without_colliders_runs_no_collision_code():
+    code = ('import sys; from rb_sim_ros.simulation import Config, Simulation; '
+            'sim = Simulation(Config()); sim.run(10); '
+            "print(sim.world, 'rb_sim_ros.collision_world' in sys.modules)")
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         check=True, timeout=60).stdout
+    assert out.split() == ['None', 'False']
+
+
+def test_apply_contact_round_trips_the_components_of_a_non_principal_body():
+    from rb_sim_ros.stepper import Stepper
+    spec = BodySpec('b', 2.0, (0.3, 0.02, 0.01, 0.02, 0.5, -0.03, 0.01, -0.03, 0.4),
+                    initial_orientation_xyzw=(0.1, 0.7, -0.2, 0.6),
+                    initial_angular_velocity=(1.0, -2.0, 3.0))
+    s = Stepper(spec.body(), 1e-3, spec.initial_state(), gravity=G)
+    s.step(50)
+    x, r, v, w = s.components()
+    s.apply_contact(x, r, v, w)
+    x2, r2, v2, w2 = s.components()
+    assert (x2, v2, w2) == (x, v, w)
+    np.testing.assert_allclose(r2, r, rtol=0, atol=1e-15)
