@@ -14,6 +14,10 @@ services, so it sleeps while nothing arrives: rclpy's executor rebuilds its wait
 wake-up (ros2/design#305), which at 1 kHz would cost most of a core if it also drove the steps.
 Inputs take effect at the start of the next period (at once while paused); what a run does
 depends only on the inputs and the step at which each took effect, never on scheduling.
+
+Collisions. When a body of the scene has colliders the Simulation steps a CollisionWorld, and
+``collision_markers`` (visualization_msgs/MarkerArray: the colliders and the last step's
+contact points) is published each period to whoever subscribes.
 """
 
 from __future__ import annotations
@@ -32,9 +36,11 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_srvs.srv import Empty, SetBool, Trigger
+from visualization_msgs.msg import MarkerArray
 
 from rb_sim_ros import node_params, ros_arguments, ros_messages
 from rb_sim_ros.body_ports import APPLIED_QOS, BodyPorts, TwistInput
+from rb_sim_ros.collision_markers import CollisionMarkers
 from rb_sim_ros.diagnostics import Diagnostics
 from rb_sim_ros.rigid_body import ZERO_WRENCH
 from rb_sim_ros.scene import load_scene
@@ -83,6 +89,10 @@ class SimulatorNode(Node):
             else None)
         self._clock_msg = ClockMsg()
         self.diagnostics.create_publisher(self)
+        self._markers = self._pub_markers = None
+        if self.config.collides:
+            self._markers = CollisionMarkers(self.config, values['world_frame'])
+            self._pub_markers = self.create_publisher(MarkerArray, 'collision_markers', 1)
         self.create_service(Empty, 'reset', self._on_reset)
         self.create_service(SetBool, 'pause', self._on_pause)
         self.create_service(Trigger, 'step', self._on_step)
@@ -245,6 +255,9 @@ class SimulatorNode(Node):
             moving = port.name in sim.steppers  # a static body is not recorded: it never moves
             port.publish(t_ns, sim.pose_twist(port.name), self._recorder if moving else None,
                          sim.step_count)
+        if self._pub_markers is not None and self._pub_markers.get_subscription_count():
+            poses = {b.name: sim.pose_twist(b.name)[:2] for b in self.config.bodies}
+            self._pub_markers.publish(self._markers.fill(t_ns, poses, sim.world.last_contacts()))
         if self._pub_clock is not None:
             self._clock_msg.clock = ros_messages.time_msg(t_ns)
             self._pub_clock.publish(self._clock_msg)

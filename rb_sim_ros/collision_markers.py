@@ -1,0 +1,104 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The colliders and contacts of a scene as visualization_msgs/MarkerArray, for RViz or Foxglove.
+
+One marker per collider, in namespace ``<body>``, with ids in the order of the scene's
+colliders: a sphere is a SPHERE, a box a CUBE, a capsule a CYLINDER with two SPHERE caps (ids
+``3 k``, ``3 k + 1``, ``3 k + 2`` for collider k, so that every collider's ids stay fixed), a
+plane a thin square CUBE of ``PLANE_SIZE`` m centred on the point of the plane nearest its body's
+origin. Moving bodies are blue-grey, static ones grey. ``contacts`` (namespace ``contacts``, id
+0) is a SPHERE_LIST of the last step's contact points that carried an impulse, in red. All
+poses are in ``world_frame``; the messages are built once and only their poses change.
+"""
+
+from __future__ import annotations
+
+from geometry_msgs.msg import Point
+import numpy as np
+from std_msgs.msg import ColorRGBA
+from visualization_msgs.msg import Marker, MarkerArray
+
+from rb_sim_ros import so3
+from rb_sim_ros.collision_shapes import Plane
+from rb_sim_ros.ros_messages import time_msg
+
+PLANE_SIZE = 20.0       # m, edge of the square drawn for an infinite plane
+PLANE_THICKNESS = 1e-3  # m
+MOVING = ColorRGBA(r=0.45, g=0.6, b=0.8, a=0.9)
+STATIC = ColorRGBA(r=0.6, g=0.6, b=0.6, a=0.5)
+CONTACT = ColorRGBA(r=0.9, g=0.1, b=0.1, a=1.0)
+CONTACT_SIZE = 0.02     # m
+
+
+def _z_to(normal: np.ndarray) -> np.ndarray:
+    """A rotation taking +z to the unit ``normal``."""
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(z, normal)
+    s, c = np.linalg.norm(axis), float(normal @ z)
+    if s < 1e-12:
+        return np.eye(3) if c > 0.0 else np.diag([1.0, -1.0, -1.0])
+    return so3.exp(axis / s * np.arctan2(s, c))
+
+
+class CollisionMarkers:
+    """Markers of every collider of ``config`` (a ``simulation.Config``)."""
+
+    def __init__(self, config, world_frame: str) -> None:
+        self.array = MarkerArray()
+        self._parts = []  # (body name, marker, position in the body frame, rotation in it)
+        for spec in config.bodies:
+            colour = STATIC if spec.static else MOVING
+            for k, shape in enumerate(spec.colliders):
+                for j, (kind, scale, pos, rot) in enumerate(_pieces(shape)):
+                    m = Marker(ns=spec.name, id=3 * k + j, type=kind, action=Marker.ADD,
+                               color=colour)
+                    m.header.frame_id = world_frame
+                    m.scale.x, m.scale.y, m.scale.z = scale
+                    self.array.markers.append(m)
+                    self._parts.append((spec.name, m, pos, rot))
+        self.contacts = Marker(ns='contacts', id=0, type=Marker.SPHERE_LIST, action=Marker.ADD,
+                               color=CONTACT)
+        self.contacts.header.frame_id = world_frame
+        self.contacts.pose.orientation.w = 1.0
+        self.contacts.scale.x = self.contacts.scale.y = self.contacts.scale.z = CONTACT_SIZE
+        self.array.markers.append(self.contacts)
+
+    def fill(self, time_ns: int, poses, contacts=()) -> MarkerArray:
+        """Place the markers: ``poses`` maps a body name to its (position, quaternion x-y-z-w)
+        in the world frame; ``contacts`` are ``collision_world.WorldContact`` values."""
+        stamp = time_msg(time_ns)
+        rotations = {}
+        for name, m, pos, rot in self._parts:
+            x, q = poses[name]
+            if name not in rotations:
+                rotations[name] = so3.matrix_from_quaternion_xyzw(q)
+            r = rotations[name]
+            c = np.asarray(x, dtype=float) + r @ pos
+            qx, qy, qz, qw = so3.quaternion_xyzw_from_matrix(r @ rot)
+            m.header.stamp = stamp
+            m.pose.position.x, m.pose.position.y, m.pose.position.z = (float(v) for v in c)
+            o = m.pose.orientation
+            o.x, o.y, o.z, o.w = float(qx), float(qy), float(qz), float(qw)
+        self.contacts.header.stamp = stamp
+        self.contacts.points = [Point(x=float(p[0]), y=float(p[1]), z=float(p[2]))
+                                for p in (c.point for c in contacts if c.normal_impulse > 0.0)]
+        return self.array
+
+
+def _pieces(shape):
+    """(marker type, scale, position, rotation in the body frame) of the markers of ``shape``."""
+    pos, rot = np.array(shape.position, dtype=float), np.array(shape.rotation)
+    if isinstance(shape, Plane):
+        n = np.array(shape.normal)
+        return [(Marker.CUBE, (PLANE_SIZE, PLANE_SIZE, PLANE_THICKNESS),
+                 n * shape.offset - n * PLANE_THICKNESS / 2, _z_to(n))]
+    if shape.kind == 'sphere':
+        d = 2.0 * shape.radius
+        return [(Marker.SPHERE, (d, d, d), pos, rot)]
+    if shape.kind == 'box':
+        return [(Marker.CUBE, tuple(shape.size), pos, rot)]
+    d, h = 2.0 * shape.radius, shape.half_length
+    axis = rot[:, 2]
+    return [(Marker.CYLINDER, (d, d, 2.0 * h), pos, rot),
+            (Marker.SPHERE, (d, d, d), pos + h * axis, rot),
+            (Marker.SPHERE, (d, d, d), pos - h * axis, rot)]

@@ -1,0 +1,80 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""RViz markers of colliders: placed where the shapes are, by hand-worked poses."""
+
+import math
+
+import numpy as np
+import pytest
+from visualization_msgs.msg import Marker
+
+from rb_sim_ros import so3
+from rb_sim_ros.collision_markers import CollisionMarkers, PLANE_THICKNESS
+from rb_sim_ros.collision_shapes import Box, Capsule, Plane, Sphere
+from rb_sim_ros.collision_world import WorldContact
+from rb_sim_ros.simulation import BodySpec, Config
+
+S = math.sqrt(0.5)
+Z90 = (0.0, 0.0, S, S)   # 90 degrees about z: x -> y, y -> -x
+X90 = (S, 0.0, 0.0, S)   # 90 degrees about x: z -> -y
+
+
+def _config():
+    return Config(bodies=(
+        BodySpec('a', colliders=(Sphere(0.05, position=(0.1, 0.0, 0.0)),
+                                 Box((0.2, 0.4, 0.6), orientation_xyzw=Z90))),
+        BodySpec('rod', colliders=(Capsule(0.03, 0.5),)),
+        BodySpec('wall', static=True, colliders=(Plane((2.0, 0.0, 0.0), 2.0),))))
+
+
+def _position(m):
+    return np.array([m.pose.position.x, m.pose.position.y, m.pose.position.z])
+
+
+def _rotation(m):
+    o = m.pose.orientation
+    return so3.matrix_from_quaternion_xyzw((o.x, o.y, o.z, o.w))
+
+
+def test_markers_sit_on_the_shapes():
+    markers = CollisionMarkers(_config(), 'odom')
+    poses = {'a': ((1.0, 2.0, 3.0), Z90), 'rod': ((0.0, 0.0, 1.0), X90),
+             'wall': ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))}
+    contacts = [WorldContact('a', 'rod', np.array([0.5, 0.0, 0.0]), np.array([1.0, 0, 0]),
+                             0.0, 2.0),
+                WorldContact('a', 'wall', np.array([9.0, 0.0, 0.0]), np.array([1.0, 0, 0]),
+                             -0.01, 0.0)]  # speculative, no impulse: not drawn
+    array = markers.fill(1_500_000_000, poses, contacts)
+    by_key = {(m.ns, m.id): m for m in array.markers}
+    assert sorted(by_key) == [('a', 0), ('a', 3), ('contacts', 0), ('rod', 0), ('rod', 1),
+                              ('rod', 2), ('wall', 0)]
+    assert all(m.header.frame_id == 'odom' and m.header.stamp.sec == 1
+               and m.header.stamp.nanosec == 500_000_000 for m in array.markers)
+    sphere = by_key[('a', 0)]
+    assert sphere.type == Marker.SPHERE and sphere.scale.x == pytest.approx(0.1)
+    np.testing.assert_allclose(_position(sphere), (1.0, 2.1, 3.0), atol=1e-12)
+    box = by_key[('a', 3)]
+    assert (box.type, box.scale.x, box.scale.y, box.scale.z) == (Marker.CUBE, 0.2, 0.4, 0.6)
+    # Two turns of 90 degrees about z: the box's x axis points along -x in the world.
+    np.testing.assert_allclose(_rotation(box)[:, 0], (-1.0, 0.0, 0.0), atol=1e-12)
+    cylinder, cap_up, cap_down = by_key[('rod', 0)], by_key[('rod', 1)], by_key[('rod', 2)]
+    assert cylinder.type == Marker.CYLINDER and cylinder.scale.z == pytest.approx(0.5)
+    np.testing.assert_allclose(_rotation(cylinder)[:, 2], (0.0, -1.0, 0.0), atol=1e-12)
+    np.testing.assert_allclose(_position(cap_up), (0.0, -0.25, 1.0), atol=1e-12)
+    np.testing.assert_allclose(_position(cap_down), (0.0, 0.25, 1.0), atol=1e-12)
+    wall = by_key[('wall', 0)]
+    np.testing.assert_allclose(_position(wall), (2.0 - PLANE_THICKNESS / 2, 0.0, 0.0),
+                               atol=1e-12)
+    np.testing.assert_allclose(_rotation(wall)[:, 2], (1.0, 0.0, 0.0), atol=1e-12)
+    points = by_key[('contacts', 0)].points
+    assert [(p.x, p.y, p.z) for p in points] == [(0.5, 0.0, 0.0)]
+
+
+@pytest.mark.parametrize('normal', [(0.0, 0.0, 1.0), (0.0, 0.0, -1.0), (0.3, -0.4, 0.5)])
+def test_a_plane_is_drawn_square_to_its_normal(normal):
+    config = Config(bodies=(BodySpec('g', static=True, colliders=(Plane(normal, 0.5),)),))
+    m = CollisionMarkers(config, 'odom').fill(0, {'g': ((0.0, 0.0, 0.0), (0, 0, 0, 1.0))})
+    n = np.array(normal) / np.linalg.norm(normal)
+    np.testing.assert_allclose(_rotation(m.markers[0])[:, 2], n, atol=1e-12)
+    np.testing.assert_allclose(_position(m.markers[0]) @ n, 0.5 - PLANE_THICKNESS / 2,
+                               atol=1e-12)
