@@ -19,7 +19,7 @@ every sphere inside the box and above the floor, and the heaps agree (mean heigh
 centres within a radius of each other). Then the table: cost of a step, contacts per step and
 contacts per second (contacts found per wall second of stepping), pairs tested by the narrow
 phase, and where rb_sim_ros spends a step (integrate: the Steppers; broad: read the poses,
-AABBs, sweep and prune; narrow; solve: impulses and position correction; write: set_state of
+AABBs, sweep and prune; narrow; solve: impulses and position correction; write: apply_contact of
 every touched body). Last, the same N spheres without colliders: what a world that skips the
 collision pass costs next to the bare Steppers.
 """
@@ -233,7 +233,7 @@ def main() -> int:
     ratio = ours['seconds_per_step'] / theirs['CG']['seconds_per_step']
     print(f'\nrb_sim_ros / MuJoCo CG: {ratio:.1f}x the time per step. rb_sim_ros per step: '
           f'{ours["active_contacts"]:.0f} contacts with an impulse, {ours["touched"]:.0f} '
-          f'bodies touched (set_state), {ours["colours"]:.1f} colours, '
+          f'bodies touched (apply_contact), {ours["colours"]:.1f} colours, '
           f'{ours["velocity_iterations"]:.1f} velocity and {ours["position_iterations"]:.1f} '
           'position iterations.')
     print('\n| rb_sim_ros phase | ms per step | share |\n| --- | ---: | ---: |')
