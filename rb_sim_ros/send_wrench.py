@@ -23,6 +23,7 @@ import time
 
 from geometry_msgs.msg import Wrench, WrenchStamped
 import rclpy
+from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.signals import SignalHandlerOptions
 
@@ -132,6 +133,11 @@ def main(args=None) -> int:
     finally:
         if rclpy.ok():
             pub.publish(_message(zero[1], zero[2], opts.world_frame, opts.body_frame))
+            # Destroying the writer at once can drop the zero before the simulator has it,
+            # leaving the last wrench held: wait for the (reliable) delivery to be acked.
+            if not pub.wait_for_all_acked(Duration(seconds=2.0)):
+                print('send_wrench: the final zero wrench was not acknowledged within 2 s',
+                      file=sys.stderr)
         node.destroy_node()
         rclpy.try_shutdown()
     return 0
