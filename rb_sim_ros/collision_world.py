@@ -24,6 +24,14 @@ iteration over sets or dicts, no randomness):
    restarts there, as at a change of wrench, so the next step does not extrapolate
    accelerations across the impulse. Bodies not touched keep their history.
 
+Sleeping (``sleep_time`` > 0, default 0.5 s): a body pressed by a contact whose points all
+move slower than ``sleep_speed`` for sleep_time falls asleep at exact rest, together with every
+body near it (broad-phase pairs, transitively) and only if they are all ready. A sleeper is not
+integrated, and pairs like a static collider, so a resting pile costs no contacts. It wakes when
+an awake body's AABB reaches it (the whole pile at once, in that step, taking the integration
+it missed and its resting impulses as warm start), when its wrench changes, or when it is
+teleported.
+
 The first step, and the first after ``CollisionWorld.set_state`` (use it, not the Stepper's,
 to teleport a body), runs 2-5 on the starting state before it integrates. A world without
 colliders on moving bodies skips 2-5 and costs what the Steppers cost. Wrenches are held as
@@ -64,7 +72,7 @@ class StepStats:
     """What the last step did: ``candidate_pairs`` from the sweep, ``plane_pairs`` near a
     plane (both tested by the narrow phase: ``pairs_tested`` is their sum), ``contacts``
     found (speculative ones included), ``active`` (normal impulse > 0), ``touched`` bodies
-    (set_state), solver ``colours``, the iterations each solver pass ran, and wall
+    (written), ``sleeping`` bodies, solver ``colours``, the iterations each pass ran, and wall
     ``seconds`` per phase (statistics only). ``CollisionWorld.totals`` sums them over the
     steps taken."""
 
@@ -73,6 +81,7 @@ class StepStats:
     contacts: int = 0
     active: int = 0
     touched: int = 0
+    sleeping: int = 0
     colours: int = 0
     velocity_iterations: int = 0
     position_iterations: int = 0
@@ -113,7 +122,8 @@ class CollisionWorld:
     planes: extra static ``Plane`` values in the world frame. gravity (m/s^2, world).
     restitution e in [0, 1] and friction mu >= 0 apply to every contact. The other keywords
     are ``contact_solver.SolverSettings`` fields; ``bounce_threshold`` (m/s) must stay above
-    |g| dt, or resting bodies bounce on the speed gravity gives them in one step. Every
+    |g| dt, or resting bodies bounce on the speed gravity gives them in one step.
+    ``sleep_time`` (s, 0: never) and ``sleep_speed`` (m/s): see Sleeping above. Every
     argument is validated (ValueError naming it) before anything is built.
     """
 
@@ -124,7 +134,8 @@ class CollisionWorld:
                  slop: float = 1e-4, position_fraction: float = 0.8,
                  bounce_threshold: float = 0.1, tolerance: float = 1e-6,
                  speculative: bool = True, warm_start: bool = True,
-                 batch_threshold: int = 48) -> None:
+                 batch_threshold: int = 48, sleep_time: float = 0.5,
+                 sleep_speed: float = 1e-3) -> None:
         bodies = tuple(bodies)
         if not bodies or not all(isinstance(b, BodySpec) for b in bodies):
             raise ValueError('bodies must be one or more BodySpec')
@@ -141,6 +152,13 @@ class CollisionWorld:
             if not isinstance(flag, bool):
                 raise ValueError(f'{name} must be true or false, got {flag!r}')
         self.speculative, self.warm_start = speculative, warm_start
+        for name, value in (('sleep_time', sleep_time), ('sleep_speed', sleep_speed)):
+            if (isinstance(value, bool) or not isinstance(value, (int, float))
+                    or not math.isfinite(value) or value < 0.0):
+                raise ValueError(f'{name} must be a finite number >= 0, got {value!r}')
+        # Steps a supported body must stay slow before it sleeps (0: never).
+        self._sleep_steps = math.ceil(sleep_time / self.settings.dt - 1e-9) if sleep_time else 0
+        self._sleep_speed = float(sleep_speed)
         planes = tuple(planes)
         for i, p in enumerate(planes):
             if not isinstance(p, Plane):
@@ -257,6 +275,10 @@ class CollisionWorld:
         self._upper[static] = self._centres[static] + ext
         self._sphere = self._kind == 'sphere'
         self._collider_count = len(colliders) + len(plane_normals)
+        self._asleep = np.zeros(nb + 1, dtype=bool)   # the last slot: static colliders
+        self._slow_steps = np.zeros(nb, dtype=np.int64)
+        self._sleep_wrench = [None] * nb
+        self._stepping = self._all_steppers
 
     def _extents(self, idx: np.ndarray) -> np.ndarray:
         """Half widths (m) of the world AABBs of colliders ``idx`` at their current poses."""
@@ -317,6 +339,32 @@ class CollisionWorld:
             raise ValueError(f"no moving body named '{name}'")
         self.steppers[name].set_state(state)
         self._unchecked = True
+        if self.enabled:
+            self._wake(np.array([i for i, s in enumerate(self._moving_steppers)
+                                 if s is self.steppers[name]], dtype=np.int64))
+
+    @property
+    def sleeping(self) -> list[str]:
+        """Names of the bodies asleep: at rest in contact, not integrated or solved until an
+        awake body comes near, their wrench changes or they are teleported."""
+        if not self.enabled:
+            return []
+        return [self.bodies[self._moving_specs[i]].name
+                for i in np.flatnonzero(self._asleep[:-1]).tolist()]
+
+    def _wake(self, bodies: np.ndarray) -> None:
+        bodies = bodies[self._asleep[bodies]]
+        if not len(bodies):
+            return
+        self._asleep[bodies] = False
+        self._slow_steps[bodies] = 0
+        for i in bodies.tolist():
+            self._sleep_wrench[i] = None
+        self._restep()
+
+    def _restep(self) -> None:
+        asleep = {id(self._moving_steppers[i]) for i in np.flatnonzero(self._asleep[:-1])}
+        self._stepping = tuple(s for s in self._all_steppers if id(s) not in asleep)
 
     def _step_once(self) -> None:
         if self._unchecked:
@@ -324,11 +372,17 @@ class CollisionWorld:
             # pass has seen: check it first, so that a speculative contact already holds for
             # this step's integration.
             self._unchecked = False
-            self._collide(time.perf_counter())
+            self._collide(time.perf_counter(), integrated=False)
         clock = time.perf_counter
         t0 = clock()
+        if self._sleep_steps and self._asleep.any():
+            # A sleeper whose wrench was changed wakes before it would miss the step.
+            changed = [i for i in np.flatnonzero(self._asleep[:-1]).tolist()
+                       if self._moving_steppers[i].wrench is not self._sleep_wrench[i]]
+            if changed:
+                self._wake(np.array(changed, dtype=np.int64))
         error = None
-        for s in self._all_steppers:
+        for s in self._stepping:
             try:
                 s.step(1)
             except IntegrationError as e:
@@ -338,34 +392,37 @@ class CollisionWorld:
             raise error
         self._collide(t0)
 
-    def _collide(self, t0: float) -> None:
-        """Detect and resolve the contacts of the bodies' current states (a step's 2-5)."""
+    def _collide(self, t0: float, integrated: bool = True) -> None:
+        """Detect and resolve the contacts of the bodies' current states (a step's 2-5);
+        ``integrated``: the awake bodies have taken this step's integration (1)."""
         clock = time.perf_counter
         t1 = clock()
         nb = len(self._moving_steppers)
-        pts = [s.components() for s in self._moving_steppers]
-        x = np.array([p[0] for p in pts] + [(0.0, 0.0, 0.0)])
-        rot = np.array([p[1] for p in pts]).reshape(nb, 3, 3)
-        v = np.array([p[2] for p in pts] + [(0.0, 0.0, 0.0)])
-        w = np.array([p[3] for p in pts] + [(0.0, 0.0, 0.0)])
-        dt = self.dt
-        if self.speculative:
-            g = math.sqrt(sum(c * c for c in self._gravity))
-            speed = np.linalg.norm(v[:nb], axis=1) + np.linalg.norm(w[:nb], axis=1) * self._reach
-            margin = np.append(speed * dt + g * dt * dt, 0.0)
-        else:
-            margin = np.zeros(nb + 1)
-        # World poses and AABBs of the moving colliders.
         dyn = self._cdyn
         cb = self._cbody[dyn]
-        self._rotations[dyn] = rot[cb] @ self._local_rot[dyn]
-        self._centres[dyn] = x[cb] + np.einsum('nij,nj->ni', rot[cb], self._local_pos[dyn])
-        ext = self._extents(dyn) + margin[cb][:, None]
-        self._lower[dyn] = self._centres[dyn] - ext
-        self._upper[dyn] = self._centres[dyn] + ext
-        pairs = broad_phase.sweep_and_prune(self._lower, self._upper, self._cowner,
-                                            self._cstatic)
-        plane_pairs = self._plane_candidates(dyn, cb, margin)
+        asleep = self._asleep
+        while True:
+            x, rot, v, w, margin = self._read(nb, dyn, cb)
+            # Sleepers pair like static colliders (not with each other or the static ones);
+            # a sleeper near an awake body wakes, and the pairs are found again with it
+            # awake, so a whole resting pile wakes in the step something reaches it.
+            pairs = broad_phase.sweep_and_prune(self._lower, self._upper, self._cowner,
+                                                self._cstatic | asleep[self._cbody])
+            if not asleep.any() or not len(pairs):
+                break
+            sa, sb = asleep[self._cbody[pairs[:, 0]]], asleep[self._cbody[pairs[:, 1]]]
+            woken = np.concatenate([self._cbody[pairs[sa & ~sb, 0]],
+                                    self._cbody[pairs[sb & ~sa, 1]]])
+            woken = np.unique(woken[woken < nb])
+            if not len(woken):
+                break
+            self._wake(woken)
+            if integrated:
+                # Asleep when (1) ran: take that step now, so that they meet the solve as an
+                # awake body would, with this step's gravity and wrench, and read again.
+                step_all([self._moving_steppers[i] for i in woken.tolist()], 1)
+        awake = ~asleep[cb]
+        plane_pairs = self._plane_candidates(dyn[awake], cb[awake], margin)
         t2 = clock()
         contacts, owners, keys = self._narrow(pairs, plane_pairs, margin)
         t3 = clock()
@@ -380,10 +437,7 @@ class CollisionWorld:
                 warm_n, warm_t = self._match(keys)
             result = contact_solver.solve(contacts, bodies, self.settings, warm_n, warm_t)
             if self.warm_start:
-                order = np.argsort(keys, kind='stable')
-                self._warm_keys = keys[order]
-                self._warm_normal = result.normal_impulse[order]
-                self._warm_tangent = result.tangent_impulse[order]
+                self._store_warm(keys, result.normal_impulse, result.tangent_impulse)
             t4 = clock()
             touched = np.flatnonzero(result.touched[:nb])
             turn = np.einsum('ij,ij->i', result.rotation, result.rotation) > MIN_TURN ** 2
@@ -394,6 +448,8 @@ class CollisionWorld:
                 self._moving_steppers[i].apply_contact(
                     x[i] + result.displacement[i], r_new, result.velocity[i],
                     result.angular_velocity[i])
+            if self._sleep_steps:
+                self._fall_asleep(contacts, result, nb, pairs)
             stats.active = int(np.count_nonzero(result.normal_impulse > 0.0))
             stats.touched = len(touched)
             stats.colours = result.colours
@@ -401,9 +457,11 @@ class CollisionWorld:
             stats.position_iterations = result.position_iterations
             self._last = (contacts, owners, result.normal_impulse)
         else:
-            self._warm_keys = np.zeros(0, dtype=np.int64)
+            self._store_warm(np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 3)))
+            self._slow_steps[:] = 0
             t4 = clock()
             self._last = None
+        stats.sleeping = int(np.count_nonzero(self._asleep[:nb]))
         t5 = clock()
         stats.seconds = {'integrate': t1 - t0, 'broad': t2 - t1, 'narrow': t3 - t2,
                          'solve': t4 - t3, 'write': t5 - t4}
@@ -418,6 +476,68 @@ class CollisionWorld:
         tot.position_iterations += stats.position_iterations
         for k, s in stats.seconds.items():
             tot.seconds[k] = tot.seconds.get(k, 0.0) + s
+
+    def _read(self, nb: int, dyn: np.ndarray, cb: np.ndarray):
+        """(x, R, v, omega, speculative margin) of the moving bodies with colliders (a zero
+        row appended for the static slot but for R); places their colliders and AABBs."""
+        pts = [s.components() for s in self._moving_steppers]
+        x = np.array([p[0] for p in pts] + [(0.0, 0.0, 0.0)])
+        rot = np.array([p[1] for p in pts]).reshape(nb, 3, 3)
+        v = np.array([p[2] for p in pts] + [(0.0, 0.0, 0.0)])
+        w = np.array([p[3] for p in pts] + [(0.0, 0.0, 0.0)])
+        dt = self.dt
+        if self.speculative:
+            g = math.sqrt(sum(c * c for c in self._gravity))
+            speed = np.linalg.norm(v[:nb], axis=1) + np.linalg.norm(w[:nb], axis=1) * self._reach
+            margin = np.append(speed * dt + g * dt * dt, 0.0)
+        else:
+            margin = np.zeros(nb + 1)
+        self._rotations[dyn] = rot[cb] @ self._local_rot[dyn]
+        self._centres[dyn] = x[cb] + np.einsum('nij,nj->ni', rot[cb], self._local_pos[dyn])
+        ext = self._extents(dyn) + margin[cb][:, None]
+        self._lower[dyn] = self._centres[dyn] - ext
+        self._upper[dyn] = self._centres[dyn] + ext
+        return x, rot, v, w, margin
+
+    def _fall_asleep(self, contacts, result, nb: int, pairs: np.ndarray) -> None:
+        """Count the steps each awake body has been slow (every point of its colliders under
+        sleep_speed) while pressed by a contact; bodies that have been so for sleep_time
+        sleep, at exact rest, together with every body near them (the broad phase's pairs,
+        transitively), and only if all of those are ready too: a body never sleeps next to
+        an awake one, which would wake it at the next step."""
+        active = result.normal_impulse > 0.0
+        supported = np.zeros(nb + 1, dtype=bool)
+        supported[contacts.body_a[active]] = True
+        supported[contacts.body_b[active]] = True
+        speed = (np.linalg.norm(result.velocity[:nb], axis=1)
+                 + np.linalg.norm(result.angular_velocity[:nb], axis=1) * self._reach)
+        slow = supported[:nb] & (speed < self._sleep_speed) & ~self._asleep[:nb]
+        self._slow_steps = np.where(slow, self._slow_steps + 1, 0)
+        ready = self._slow_steps >= self._sleep_steps
+        if not ready.any():
+            return
+        # Spread "not ready" along the pairs of moving bodies until nothing changes.
+        a, b = self._cbody[pairs[:, 0]], self._cbody[pairs[:, 1]]
+        moving = (a < nb) & (b < nb)
+        a, b = a[moving], b[moving]
+        blocked = np.append(~ready, False)
+        while len(a):
+            spread = blocked.copy()
+            spread[a] |= blocked[b]
+            spread[b] |= blocked[a]
+            if np.array_equal(spread, blocked):
+                break
+            blocked = spread
+        tired = np.flatnonzero(ready & ~blocked[:nb])
+        if not len(tired):
+            return
+        for i in tired.tolist():
+            s = self._moving_steppers[i]
+            x, r, _, _ = s.components()
+            s.apply_contact(x, r, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+            self._sleep_wrench[i] = s.wrench
+        self._asleep[tired] = True
+        self._restep()
 
     def _plane_candidates(self, dyn, cb, margin) -> np.ndarray:
         if not len(self._plane_normals) or not len(dyn):
@@ -495,6 +615,29 @@ class CollisionWorld:
         owner_b = [self._cowner[c] if c < nc else self._plane_owner[c - nc]
                    for c in cbb.tolist()]
         return contacts, list(zip(owner_a, [int(o) for o in owner_b])), keys
+
+    def _store_warm(self, keys, normal, tangent) -> None:
+        """Keep this step's impulses for the next one's warm start, and the kept impulses of
+        contacts between sleepers (or a sleeper and the static world): they are not found
+        while asleep, and a pile that wakes resumes from its resting impulses, not from 0."""
+        old = self._warm_keys
+        if len(old) and self._asleep.any():
+            pair = old >> FEATURE_BITS
+            total = max(self._collider_count, 1)
+            ca, cb = pair // total, pair % total
+            nc = len(self._colliders)
+            slot = self._static_slot
+            body_a = self._cbody[ca]
+            body_b = np.where(cb < nc, self._cbody[np.minimum(cb, nc - 1)], slot)
+            keep = ((self._asleep[body_a] | (body_a == slot))
+                    & (self._asleep[body_b] | (body_b == slot)))
+            keys = np.concatenate([keys, old[keep]])
+            normal = np.concatenate([normal, self._warm_normal[keep]])
+            tangent = np.concatenate([tangent, self._warm_tangent[keep]])
+        order = np.argsort(keys, kind='stable')
+        self._warm_keys = keys[order]
+        self._warm_normal = normal[order]
+        self._warm_tangent = tangent[order]
 
     def _match(self, keys: np.ndarray):
         """Impulses of the previous step's contacts with the same keys (0 for new ones)."""

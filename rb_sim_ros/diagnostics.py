@@ -71,6 +71,7 @@ class Diagnostics:
         if self.contacts is not None:
             values['contacts'] = self.contacts.contacts
             values['active_contacts'] = self.contacts.active
+            values['sleeping_bodies'] = self.contacts.sleeping
         status = DiagnosticStatus(name='rb_sim: simulator', hardware_id='rb_sim_ros')
         if self.error:
             status.level, status.message = DiagnosticStatus.ERROR, self.error

@@ -12,6 +12,7 @@ events at the same steps reproduce a run bit for bit, whatever the scheduling wa
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+import math
 from typing import Any, Union
 
 import numpy as np
@@ -91,7 +92,10 @@ class ContactSettings:
     velocity and the position pass; slop (m) of penetration left uncorrected;
     position_fraction of the rest corrected per step; approaches slower than
     bounce_threshold (m/s) do not bounce (keep it above |g| dt); speculative contacts keep
-    fast bodies from tunnelling. Unused by a scene without colliders."""
+    fast bodies from tunnelling. A body pressed by a contact whose points all move slower
+    than sleep_speed (m/s) for sleep_time (s) sleeps, at rest and at no cost, until an awake
+    body comes near, its wrench changes or it is teleported (sleep_time 0: never). Unused by
+    a scene without colliders."""
 
     restitution: float = 0.0
     friction: float = 0.5
@@ -101,14 +105,24 @@ class ContactSettings:
     position_fraction: float = 0.8
     bounce_threshold: float = 0.1
     speculative: bool = True
+    sleep_time: float = 0.5
+    sleep_speed: float = 1e-3
 
     def __post_init__(self) -> None:
         if not isinstance(self.speculative, bool):
             raise ValueError(f'speculative must be true or false, got {self.speculative!r}')
-        contact_solver.SolverSettings(**self.solver_fields())  # validates the rest
+        for name in ('sleep_time', 'sleep_speed'):
+            value = getattr(self, name)
+            if (isinstance(value, bool) or not isinstance(value, (int, float))
+                    or not math.isfinite(value) or value < 0.0):
+                raise ValueError(f'{name} must be a finite number >= 0, got {value!r}')
+        contact_solver.SolverSettings(**{  # validates the rest
+            f.name: getattr(self, f.name) for f in fields(self)
+            if f.name in contact_solver.SolverSettings.__dataclass_fields__})
 
-    def solver_fields(self) -> dict[str, Any]:
-        return {f.name: getattr(self, f.name) for f in fields(self) if f.name != 'speculative'}
+    def world_arguments(self) -> dict[str, Any]:
+        """Keyword arguments of ``collision_world.CollisionWorld``."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> 'ContactSettings':
@@ -271,9 +285,7 @@ class Simulation:
         if config.collides:
             # Imported here: collision_world builds on this module's BodySpec and Config.
             from rb_sim_ros.collision_world import CollisionWorld
-            self.world = CollisionWorld.from_config(
-                config, speculative=config.contact.speculative,
-                **config.contact.solver_fields())
+            self.world = CollisionWorld.from_config(config, **config.contact.world_arguments())
             self.steppers = self.world.steppers
             self.static = self.world.static
         else:

@@ -240,9 +240,10 @@ def test_ball_bounces_to_e_squared_h(speculative):
 
 
 def test_resting_box_stays_still_for_10_s():
-    """dt = 1 ms, 10 s: no sinking (penetration <= slop + g dt^2 / 2), no drift, no jitter."""
+    """dt = 1 ms, 10 s: no sinking (penetration <= slop + g dt^2 / 2), no drift, no jitter.
+    Without sleeping, which would freeze the box after 0.5 s: this is the solver's test."""
     world = CollisionWorld([cube('box', (0.4, 0.3, 0.2), (0.0, 0.0, 0.1), mass=3.0)], 1e-3, G,
-                           restitution=0.5, friction=0.5, planes=GROUND)
+                           restitution=0.5, friction=0.5, planes=GROUND, sleep_time=0.0)
     start = world.state('box').position
     depth, speed = 0.0, 0.0
     for _ in range(10000):
@@ -261,7 +262,7 @@ def test_resting_box_stays_still_for_10_s():
 def test_box_stack_of_three_stands_for_10_s():
     size = (0.2, 0.2, 0.2)
     world = CollisionWorld([cube(f'box{i}', size, (0.0, 0.0, 0.1 + 0.2 * i)) for i in range(3)],
-                           1e-3, G, friction=0.5, planes=GROUND)
+                           1e-3, G, friction=0.5, planes=GROUND, sleep_time=0.0)  # the solver
     start = [world.state(f'box{i}').position for i in range(3)]
     depth, speed = 0.0, 0.0
     for k in range(10000):

@@ -329,11 +329,11 @@ def test_malformed_ros_arguments_exit_with_a_message(start_sim):
 
 def test_colliding_bodies_land_and_are_drawn(start_sim, probe, tmp_path):
     """A ball dropped on the ground comes to rest on it, and the markers show it there with
-    its contact point on the ground; /diagnostics counts the contact."""
+    its contact point on the ground; after sleep_time at rest it sleeps (/diagnostics)."""
     from diagnostic_msgs.msg import DiagnosticArray
     from visualization_msgs.msg import MarkerArray
     scene = tmp_path / 'scene.yaml'
-    scene.write_text('gravity: [0, 0, -9.81]\nbodies:\n'
+    scene.write_text('gravity: [0, 0, -9.81]\ncontact: {sleep_time: 2.0}\nbodies:\n'
                      '  - {name: ball, shape: sphere, radius: 0.1, density: 1000, '
                      'position: [0.5, 0, 0.3], colliders: shape}\n'
                      '  - {name: ground, static: true, colliders: [{type: plane}]}\n')
@@ -350,6 +350,6 @@ def test_colliding_bodies_land_and_are_drawn(start_sim, probe, tmp_path):
                 and abs(contact[0].z) < 1e-3 and abs(contact[0].x - 0.5) < 1e-6)
 
     probe.wait_for(resting, what='the ball at rest on the ground, drawn')
-    probe.wait_for(lambda: any(v.key == 'active_contacts' and v.value == '1'
+    probe.wait_for(lambda: any(v.key == 'sleeping_bodies' and v.value == '1'
                                for d in diagnostics for s in d.status for v in s.values),
-                   what='one active contact in /diagnostics')
+                   what='the ball asleep in /diagnostics')
