@@ -9,9 +9,12 @@
 
 A shape's ``position`` (m) and ``orientation_xyzw`` place its centre and axes in the frame of
 the body that carries it (the body frame: origin at the centre of mass, R maps it to the
-world); both are optional. A plane is the set {p : normal . p = offset} in its body's frame
-(the world for ``CollisionWorld(planes=...)``); its solid side is normal . p < offset, so the
-normal points into the free space. Values are immutable and validated once: a ValueError names
+world); both are optional. So are ``restitution`` and ``friction``, the shape's material: a
+contact between two shapes uses the larger restitution and the geometric mean of the
+frictions (``combined_material``), a side without one the world's (the scene's ``contact``).
+A plane is the set {p : normal . p = offset} in its body's frame (the world for
+``CollisionWorld(planes=...)``); its solid side is normal . p < offset, so the normal points
+into the free space. Values are immutable and validated once: a ValueError names
 the field. ``shape_from_dict`` reads the form a scene file would use
 (``{'type': 'box', 'size': [...], 'position': [...], 'orientation': [x, y, z, w]}``) and
 ``shape_to_dict`` writes it back, exactly (floats kept as they are).
@@ -57,6 +60,27 @@ def _placement(shape) -> None:
     object.__setattr__(shape, 'rotation', rotation)
 
 
+def _material(shape) -> None:
+    """Validate the optional restitution (in [0, 1]) and friction (>= 0) of a shape."""
+    for name, high in (('restitution', 1.0), ('friction', math.inf)):
+        value = getattr(shape, name)
+        if value is None:
+            continue
+        if (isinstance(value, bool) or not isinstance(value, (int, float))
+                or not 0.0 <= value <= high or math.isinf(value)):
+            bound = 'a number in [0, 1]' if high == 1.0 else 'a finite number >= 0'
+            raise ValueError(f'{name} must be {bound}, got {value!r}')
+        object.__setattr__(shape, name, float(value))
+
+
+def combined_material(restitution_a: np.ndarray, friction_a: np.ndarray,
+                      restitution_b: np.ndarray, friction_b: np.ndarray):
+    """(e, mu) of contacts between shapes of these materials: the larger restitution (a
+    bouncy ball bounces on anything) and the geometric mean of the frictions (either side
+    frictionless makes the contact frictionless), as Box2D combines them."""
+    return np.maximum(restitution_a, restitution_b), np.sqrt(friction_a * friction_b)
+
+
 @dataclass(frozen=True)
 class Sphere:
     """A ball of ``radius`` (m) centred at ``position`` (m, body frame)."""
@@ -64,6 +88,8 @@ class Sphere:
     radius: float
     position: tuple[float, ...] = ORIGIN
     orientation_xyzw: tuple[float, ...] = IDENTITY_XYZW
+    restitution: float | None = None
+    friction: float | None = None
     rotation: np.ndarray = field(init=False, repr=False, compare=False)
 
     kind = 'sphere'
@@ -71,6 +97,7 @@ class Sphere:
     def __post_init__(self) -> None:
         object.__setattr__(self, 'radius', _positive('radius', self.radius))
         _placement(self)
+        _material(self)
 
     @property
     def bounding_radius(self) -> float:
@@ -86,6 +113,8 @@ class Box:
     size: tuple[float, ...]
     position: tuple[float, ...] = ORIGIN
     orientation_xyzw: tuple[float, ...] = IDENTITY_XYZW
+    restitution: float | None = None
+    friction: float | None = None
     rotation: np.ndarray = field(init=False, repr=False, compare=False)
 
     kind = 'box'
@@ -96,6 +125,7 @@ class Box:
             _positive(f'size[{i}]', s)
         object.__setattr__(self, 'size', size)
         _placement(self)
+        _material(self)
 
     @property
     def half_extents(self) -> tuple[float, float, float]:
@@ -117,6 +147,8 @@ class Capsule:
     length: float
     position: tuple[float, ...] = ORIGIN
     orientation_xyzw: tuple[float, ...] = IDENTITY_XYZW
+    restitution: float | None = None
+    friction: float | None = None
     rotation: np.ndarray = field(init=False, repr=False, compare=False)
 
     kind = 'capsule'
@@ -125,6 +157,7 @@ class Capsule:
         object.__setattr__(self, 'radius', _positive('radius', self.radius))
         object.__setattr__(self, 'length', _positive('length', self.length, allow_zero=True))
         _placement(self)
+        _material(self)
 
     @property
     def half_length(self) -> float:
@@ -142,6 +175,8 @@ class Plane:
 
     normal: tuple[float, ...] = (0.0, 0.0, 1.0)
     offset: float = 0.0
+    restitution: float | None = None
+    friction: float | None = None
     rotation: np.ndarray = field(init=False, repr=False, compare=False)
 
     kind = 'plane'
@@ -162,6 +197,7 @@ class Plane:
         rotation = np.eye(3)
         rotation.flags.writeable = False
         object.__setattr__(self, 'rotation', rotation)
+        _material(self)
 
     @property
     def position(self) -> tuple[float, float, float]:
@@ -206,7 +242,7 @@ def shape_from_dict(data: dict[str, Any]) -> Shape:
     kind = data.get('type')
     if kind not in _CLASSES:
         raise ValueError(f'type must be one of {sorted(_CLASSES)}, got {kind!r}')
-    allowed = set(_FIELDS[kind]) | {'type'}
+    allowed = set(_FIELDS[kind]) | {'type', 'restitution', 'friction'}
     if kind != 'plane':
         allowed |= {'position', 'orientation'}
     unknown = sorted(set(data) - allowed)
@@ -223,6 +259,9 @@ def shape_from_dict(data: dict[str, Any]) -> Shape:
         kwargs['position'] = data['position']
     if 'orientation' in data:
         kwargs['orientation_xyzw'] = data['orientation']
+    for key in ('restitution', 'friction'):
+        if key in data:
+            kwargs[key] = data[key]
     return _CLASSES[kind](**kwargs)
 
 
@@ -237,4 +276,7 @@ def shape_to_dict(shape: Shape) -> dict[str, Any]:
             out['position'] = list(shape.position)
         if shape.orientation_xyzw != IDENTITY_XYZW:
             out['orientation'] = list(shape.orientation_xyzw)
+    for key in ('restitution', 'friction'):
+        if getattr(shape, key) is not None:
+            out[key] = getattr(shape, key)
     return out

@@ -54,7 +54,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from rb_sim_ros import broad_phase, contact_solver, narrow_phase, so3
-from rb_sim_ros.collision_shapes import Plane, Shape
+from rb_sim_ros.collision_shapes import combined_material, Plane, Shape
 from rb_sim_ros.rigid_body import finite_floats, State
 from rb_sim_ros.simulation import BodySpec, Config
 from rb_sim_ros.stepper import IntegrationError, step_all, Stepper
@@ -196,7 +196,7 @@ class CollisionWorld:
     def _build(self, planes) -> None:
         moving: list[int] = []         # BodySpec index of each moving body with colliders
         colliders: list[_Collider] = []
-        plane_normals, plane_points, plane_owner = [], [], []
+        plane_normals, plane_points, plane_owner, plane_shapes = [], [], [], []
         for owner, spec in enumerate(self.bodies):
             if not spec.colliders:
                 continue
@@ -209,6 +209,7 @@ class CollisionWorld:
                         plane_normals.append(rot @ np.array(shape.normal))
                         plane_points.append(centre)
                         plane_owner.append(owner)
+                        plane_shapes.append(shape)
                     else:
                         colliders.append(_Collider(shape, owner, -1, centre, rot))
             else:
@@ -222,6 +223,7 @@ class CollisionWorld:
             plane_normals.append(np.array(p.normal))
             plane_points.append(np.array(p.position))
             plane_owner.append(-1)
+            plane_shapes.append(p)
         self._moving_specs = moving
         self._moving_steppers = [self.steppers[self.bodies[i].name] for i in moving]
         self._colliders = colliders
@@ -275,6 +277,17 @@ class CollisionWorld:
         self._upper[static] = self._centres[static] + ext
         self._sphere = self._kind == 'sphere'
         self._collider_count = len(colliders) + len(plane_normals)
+        # Materials of the colliders, then of the planes (the world's where a shape has none);
+        # None when no shape has one: the solver then uses the settings' as before.
+        shapes = [c.shape for c in colliders] + plane_shapes
+        self._materials = None
+        if any(sh.restitution is not None or sh.friction is not None for sh in shapes):
+            st = self.settings
+            self._materials = (
+                np.array([st.restitution if sh.restitution is None else sh.restitution
+                          for sh in shapes]),
+                np.array([st.friction if sh.friction is None else sh.friction
+                          for sh in shapes]))
         self._asleep = np.zeros(nb + 1, dtype=bool)   # the last slot: static colliders
         self._slow_steps = np.zeros(nb, dtype=np.int64)
         self._sleep_wrench = [None] * nb
@@ -424,7 +437,7 @@ class CollisionWorld:
         awake = ~asleep[cb]
         plane_pairs = self._plane_candidates(dyn[awake], cb[awake], margin)
         t2 = clock()
-        contacts, owners, keys = self._narrow(pairs, plane_pairs, margin)
+        contacts, owners, keys, pair_ids = self._narrow(pairs, plane_pairs, margin)
         t3 = clock()
         stats = StepStats(len(pairs), len(plane_pairs), len(contacts))
         if len(contacts):
@@ -435,7 +448,14 @@ class CollisionWorld:
             warm_n = warm_t = None
             if self.warm_start and len(self._warm_keys):
                 warm_n, warm_t = self._match(keys)
-            result = contact_solver.solve(contacts, bodies, self.settings, warm_n, warm_t)
+            e = mu = None
+            if self._materials is not None:
+                e, mu = combined_material(self._materials[0][pair_ids[0]],
+                                          self._materials[1][pair_ids[0]],
+                                          self._materials[0][pair_ids[1]],
+                                          self._materials[1][pair_ids[1]])
+            result = contact_solver.solve(contacts, bodies, self.settings, warm_n, warm_t,
+                                          e, mu)
             if self.warm_start:
                 self._store_warm(keys, result.normal_impulse, result.tangent_impulse)
             t4 = clock()
@@ -555,7 +575,8 @@ class CollisionWorld:
         return found
 
     def _narrow(self, pairs, plane_pairs, margin):
-        """Contacts of the candidate pairs: (ContactArrays, [(owner a, owner b)], keys)."""
+        """Contacts of the candidate pairs: (ContactArrays, [(owner a, owner b)], keys,
+        (collider a, collider b or len(colliders) + plane) of each)."""
         cbody = self._cbody
         centres, rotations = self._centres, self._rotations
         parts = []        # (a collider, b collider or plane id, body a, body b, pt, n, depth, f)
@@ -599,7 +620,8 @@ class CollisionWorld:
             empty = contact_solver.ContactArrays(np.zeros(0, int), np.zeros(0, int),
                                                  np.zeros((0, 3)), np.zeros((0, 3)),
                                                  np.zeros(0))
-            return empty, [], np.zeros(0, dtype=np.int64)
+            none = np.zeros(0, dtype=np.int64)
+            return empty, [], none, (none, none)
         ca = np.concatenate([p[0] for p in parts]).astype(np.int64)
         cbb = np.concatenate([p[1] for p in parts]).astype(np.int64)
         body_b = np.where(cbb < nc, cbody[np.minimum(cbb, nc - 1)] if nc else 0,
@@ -614,7 +636,7 @@ class CollisionWorld:
         owner_a = self._cowner[ca].tolist()
         owner_b = [self._cowner[c] if c < nc else self._plane_owner[c - nc]
                    for c in cbb.tolist()]
-        return contacts, list(zip(owner_a, [int(o) for o in owner_b])), keys
+        return contacts, list(zip(owner_a, [int(o) for o in owner_b])), keys, (ca, cbb)
 
     def _store_warm(self, keys, normal, tangent) -> None:
         """Keep this step's impulses for the next one's warm start, and the kept impulses of

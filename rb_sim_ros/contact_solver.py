@@ -217,12 +217,16 @@ def colour(body_a: np.ndarray, body_b: np.ndarray, moving: np.ndarray) -> np.nda
 
 def solve(contacts: ContactArrays, bodies: Bodies, settings: SolverSettings,
           warm_normal: np.ndarray | None = None,
-          warm_tangent: np.ndarray | None = None) -> SolveResult:
+          warm_tangent: np.ndarray | None = None,
+          restitution: np.ndarray | None = None,
+          friction: np.ndarray | None = None) -> SolveResult:
     """Impulses and position correction for ``contacts`` between ``bodies``.
 
     ``warm_normal`` (M,) and ``warm_tangent`` (M, 3, world) are accumulated impulses carried
     over from the previous step (0 for a new contact); they are applied first and the
-    iterations refine them. The bodies' arrays are not modified."""
+    iterations refine them. ``restitution`` and ``friction`` (M,), when given, replace the
+    settings' for each contact (the shapes' materials). The bodies' arrays are not
+    modified."""
     count = len(contacts)
     body_count = len(bodies.inverse_mass)
     u0 = np.concatenate([bodies.velocity, bodies.angular_velocity], axis=1).astype(float)
@@ -244,14 +248,16 @@ def solve(contacts: ContactArrays, bodies: Bodies, settings: SolverSettings,
     dt = settings.dt
     target = np.where(depth < 0.0, depth / dt, 0.0)
     bounce = (vn0 < -settings.bounce_threshold) & (vn0 < target)
-    target = np.where(bounce, -settings.restitution * vn0, target)
-    mu = np.full(count, float(settings.friction))
+    e = settings.restitution if restitution is None else restitution
+    target = np.where(bounce, -e * vn0, target)
+    mu = np.full(count, float(settings.friction)) if friction is None else friction
+    with_friction = bool(np.any(mu > 0.0))
 
     lam = np.zeros((count, 3))
     u = u0.copy()
     if warm_normal is not None:
         lam[:, 0] = np.maximum(warm_normal, 0.0)
-        if warm_tangent is not None and settings.friction > 0.0:
+        if warm_tangent is not None and with_friction:
             l1 = np.einsum('mi,mi->m', warm_tangent, rows.t1)
             l2 = np.einsum('mi,mi->m', warm_tangent, rows.t2)
             limit = mu * lam[:, 0]
@@ -261,10 +267,9 @@ def solve(contacts: ContactArrays, bodies: Bodies, settings: SolverSettings,
         impulse = (lam[:, 0:1] * rows.w[0] + lam[:, 1:2] * rows.w[1]) + lam[:, 2:3] * rows.w[2]
         np.add.at(u, rows.a, impulse[:, :6])
         np.add.at(u, rows.b, impulse[:, 6:])
-    friction = settings.friction > 0.0
     kernel = _batched if count >= settings.batch_threshold else _scalar
     u, lam, v_done = kernel(rows, u, lam, target, mu, batches, settings.velocity_iterations,
-                            friction, settings.tolerance)
+                            with_friction, settings.tolerance)
 
     # Position correction on pseudo-velocities (displacements), normal rows only.
     q = np.zeros((body_count, 6))

@@ -22,7 +22,7 @@
         inertia: [0.05, 0.05, 0.01]
         colliders:                      # shapes in the body frame (collision_shapes)
           - {type: capsule, radius: 0.03, length: 0.3}
-          - {type: sphere, radius: 0.06, position: [0, 0, 0.18]}
+          - {type: sphere, radius: 0.06, position: [0, 0, 0.18], restitution: 0.9}
           - {type: box, size: [0.1, 0.1, 0.1], position: [0, 0, -0.18],
              orientation: [0, 0, 0.3826834, 0.9238795]}
       - name: ground
