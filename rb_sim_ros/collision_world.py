@@ -13,24 +13,26 @@
 Each step, in this order (all deterministic: stable sorts, contacts in pair order, no
 iteration over sets or dicts, no randomness):
 
-1. every moving body takes one step of its own ``Stepper`` (Proof 3, its wrench, gravity and
-   damping), exactly as without collisions;
+1. every moving body that is awake takes one step of its own ``Stepper`` (Proof 3, its
+   wrench, gravity and damping), exactly as without collisions;
 2. broad phase (``broad_phase.sweep_and_prune`` on the colliders' world AABBs, each widened by
    its body's speculative margin; every collider against every plane by its support distance);
 3. narrow phase (``narrow_phase``; sphere-sphere and sphere-plane pairs as numpy batches);
 4. impulses and position correction (``contact_solver.solve``, warm-started from the impulses
    of the same contact features at the step before);
-5. every body whose velocity or pose changed gets ``Stepper.apply_contact``: its multistep history
-   restarts there, as at a change of wrench, so the next step does not extrapolate
-   accelerations across the impulse. Bodies not touched keep their history.
+5. every body whose velocity or pose changed gets ``Stepper.apply_contact``: its multistep
+   history restarts there, as at a change of wrench, so the next step does not extrapolate
+   accelerations across the impulse. Bodies not touched keep their history (but for those
+   that fall asleep: they are set to rest).
 
 Sleeping (``sleep_time`` > 0, default 0.5 s): a body pressed by a contact whose points all
 move slower than ``sleep_speed`` for sleep_time falls asleep at exact rest, together with every
 body near it (broad-phase pairs, transitively) and only if they are all ready. A sleeper is not
 integrated, and pairs like a static collider, so a resting pile costs no contacts. It wakes when
 an awake body's AABB reaches it (the whole pile at once, in that step, taking the integration
-it missed and its resting impulses as warm start), when its wrench changes, or when it is
-teleported.
+it missed and its resting impulses as warm start), when its wrench changes, or when it, or a
+body whose AABB reached it, is teleported; its Stepper's clock counts the steps it slept. A
+changed wrench or a teleport also restarts an awake body's count of slow steps.
 
 The first step, and the first after ``CollisionWorld.set_state`` (use it, not the Stepper's,
 to teleport a body), runs 2-5 on the starting state before it integrates. A world without
@@ -74,7 +76,7 @@ class StepStats:
     found (speculative ones included), ``active`` (normal impulse > 0), ``touched`` bodies
     (written), ``sleeping`` bodies, solver ``colours``, the iterations each pass ran, and wall
     ``seconds`` per phase (statistics only). ``CollisionWorld.totals`` sums them over the
-    steps taken."""
+    steps taken (but ``colours`` and ``sleeping``, which are of the last step only)."""
 
     candidate_pairs: int = 0
     plane_pairs: int = 0
@@ -290,7 +292,8 @@ class CollisionWorld:
                           for sh in shapes]))
         self._asleep = np.zeros(nb + 1, dtype=bool)   # the last slot: static colliders
         self._slow_steps = np.zeros(nb, dtype=np.int64)
-        self._sleep_wrench = [None] * nb
+        self._wrench_seen = [s.wrench for s in self._moving_steppers]
+        self._index = {self.bodies[k].name: i for i, k in enumerate(self._moving_specs)}
         self._stepping = self._all_steppers
 
     def _extents(self, idx: np.ndarray) -> np.ndarray:
@@ -352,9 +355,18 @@ class CollisionWorld:
             raise ValueError(f"no moving body named '{name}'")
         self.steppers[name].set_state(state)
         self._unchecked = True
-        if self.enabled:
-            self._wake(np.array([i for i, s in enumerate(self._moving_steppers)
-                                 if s is self.steppers[name]], dtype=np.int64))
+        i = self._index.get(name) if self.enabled else None
+        if i is None:
+            return
+        self._slow_steps[i] = 0
+        if self._asleep.any():
+            # It and every sleeper its colliders' AABBs reached where it was: what rested on
+            # it must not stay in the air. Their neighbours wake at the next broad phase.
+            mine = np.flatnonzero(self._cbody == i)
+            lower, upper = self._lower[mine], self._upper[mine]
+            near = np.all((self._lower[:, None, :] <= upper[None]) &
+                          (lower[None] <= self._upper[:, None, :]), axis=2).any(axis=1)
+            self._wake(np.unique(np.append(self._cbody[near], i)), self._step_count)
 
     @property
     def sleeping(self) -> list[str]:
@@ -365,14 +377,17 @@ class CollisionWorld:
         return [self.bodies[self._moving_specs[i]].name
                 for i in np.flatnonzero(self._asleep[:-1]).tolist()]
 
-    def _wake(self, bodies: np.ndarray) -> None:
+    def _wake(self, bodies: np.ndarray, clock: int) -> None:
+        """Wake the sleepers among ``bodies`` (indices, the static slot allowed); their
+        Steppers' clocks move on to ``clock`` steps (the steps they spent asleep)."""
         bodies = bodies[self._asleep[bodies]]
         if not len(bodies):
             return
         self._asleep[bodies] = False
         self._slow_steps[bodies] = 0
         for i in bodies.tolist():
-            self._sleep_wrench[i] = None
+            s = self._moving_steppers[i]
+            s.rest(clock - s.step_count)
         self._restep()
 
     def _restep(self) -> None:
@@ -388,12 +403,17 @@ class CollisionWorld:
             self._collide(time.perf_counter(), integrated=False)
         clock = time.perf_counter
         t0 = clock()
-        if self._sleep_steps and self._asleep.any():
-            # A sleeper whose wrench was changed wakes before it would miss the step.
-            changed = [i for i in np.flatnonzero(self._asleep[:-1]).tolist()
-                       if self._moving_steppers[i].wrench is not self._sleep_wrench[i]]
+        if self._sleep_steps:
+            # A changed wrench starts a body's slow count again, and wakes a sleeper before
+            # it would miss the step.
+            seen = self._wrench_seen
+            changed = [i for i, s in enumerate(self._moving_steppers) if s.wrench is not seen[i]]
             if changed:
-                self._wake(np.array(changed, dtype=np.int64))
+                for i in changed:
+                    seen[i] = self._moving_steppers[i].wrench
+                changed = np.array(changed, dtype=np.int64)
+                self._slow_steps[changed] = 0
+                self._wake(changed, self._step_count)
         error = None
         for s in self._stepping:
             try:
@@ -429,7 +449,7 @@ class CollisionWorld:
             woken = np.unique(woken[woken < nb])
             if not len(woken):
                 break
-            self._wake(woken)
+            self._wake(woken, self._step_count - (1 if integrated else 0))
             if integrated:
                 # Asleep when (1) ran: take that step now, so that they meet the solve as an
                 # awake body would, with this step's gravity and wrench, and read again.
@@ -468,7 +488,7 @@ class CollisionWorld:
                 self._moving_steppers[i].apply_contact(
                     x[i] + result.displacement[i], r_new, result.velocity[i],
                     result.angular_velocity[i])
-            if self._sleep_steps:
+            if self._sleep_steps and integrated:
                 self._fall_asleep(contacts, result, nb, pairs)
             stats.active = int(np.count_nonzero(result.normal_impulse > 0.0))
             stats.touched = len(touched)
@@ -555,7 +575,6 @@ class CollisionWorld:
             s = self._moving_steppers[i]
             x, r, _, _ = s.components()
             s.apply_contact(x, r, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-            self._sleep_wrench[i] = s.wrench
         self._asleep[tired] = True
         self._restep()
 

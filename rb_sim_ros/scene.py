@@ -4,7 +4,9 @@
 
     gravity: [0.0, 0.0, -9.81]          # m/s^2, world frame; optional (default none)
     contact: {restitution: 0.3, friction: 0.6}   # optional; simulation.ContactSettings fields
-                                        # (also iterations, slop, sleep_time, sleep_speed, ...)
+                                        # (also velocity_iterations, position_iterations,
+                                        #  slop, position_fraction, bounce_threshold,
+                                        #  speculative, sleep_time, sleep_speed)
     bodies:
       - name: satellite                 # topics satellite/wrench, satellite/pose, ...
         mass: 120.0                     # kg, with inertia (kg m^2): 3 moments or a 3x3 tensor

@@ -135,8 +135,12 @@ def main(args=None) -> int:
             pub.publish(_message(zero[1], zero[2], opts.world_frame, opts.body_frame))
             # Destroying the writer at once can drop the zero before the simulator has it,
             # leaving the last wrench held: wait for the (reliable) delivery to be acked.
-            if not pub.wait_for_all_acked(Duration(seconds=2.0)):
-                print('send_wrench: the final zero wrench was not acknowledged within 2 s',
+            try:
+                acked = pub.wait_for_all_acked(Duration(seconds=2.0))
+            except KeyboardInterrupt:  # a second Ctrl-C: stop waiting, still shut down
+                acked = False
+            if not acked:
+                print('send_wrench: the final zero wrench was not acknowledged',
                       file=sys.stderr)
         node.destroy_node()
         rclpy.try_shutdown()

@@ -192,21 +192,32 @@ class Stepper(FixedStep):
     def apply_contact(self, position, rotation: np.ndarray, linear_velocity,
                       angular_velocity) -> None:
         """The collision world's write after an impulse or a position correction: ``set_state``
-        without validating (the values come from ``components`` and the contact solver; a
-        non-finite one raises IntegrationError at the next step). rotation: 3x3 or 9
+        without validating R (the values come from ``components`` and the contact solver; a
+        non-finite one raises IntegrationError and changes nothing). rotation: 3x3 or 9
         row-major values, body to world. The history restarts; the orthonormalization count
         goes on, since a body resting in contact is written every step."""
         rot = np.asarray(rotation, dtype=float).reshape(3, 3)
         if self._q is not None:
             rot = rot @ self._q
-        self._x = tuple(float(c) for c in position)
-        self._v = tuple(float(c) for c in linear_velocity)
-        self._r = tuple(float(c) for c in rot.reshape(9))
-        self._w = tuple(float(c) for c in angular_velocity)
+        x = tuple(float(c) for c in position)
+        v = tuple(float(c) for c in linear_velocity)
+        r = tuple(float(c) for c in rot.reshape(9))
+        w = tuple(float(c) for c in angular_velocity)
+        if not _finite(x, v, r, w):
+            raise IntegrationError(
+                self._step_count, f'a contact made the state non-finite at step '
+                f'{self._step_count} (t = {self._step_count * self._dt:.9g} s): x = {x}, '
+                f'v = {v}, omega = {w}; the body keeps its state before the contact')
+        self._x, self._v, self._r, self._w = x, v, r, w
         self._a, self._b = self._accelerations(self._r, self._w, self._v)
         self._prev = None
         self._pa = self._pb = None
         self._history_stale = False
+
+    def rest(self, n: int) -> None:
+        """Count ``n`` steps spent asleep (the collision world's): the clock advances, the
+        state, at rest, does not."""
+        self._step_count += n
 
     def restart_history(self) -> None:
         """Forget the previous step (after an impulse: do not extrapolate across it)."""

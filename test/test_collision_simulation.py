@@ -72,7 +72,7 @@ def test_simulation_steps_the_collision_world_it_is_made_of():
     built by hand give the same states, bit for bit."""
     config = _crowd()
     sim = Simulation(config)
-    world = CollisionWorld.from_config(config, restitution=0.3, friction=0.6)
+    world = CollisionWorld.from_config(config, **config.contact.world_arguments())
     pending = sim.run_until(600, list(EVENTS))
     assert not pending
     for step, event in EVENTS + [(600, None)]:
@@ -169,3 +169,15 @@ def test_apply_contact_round_trips_the_components_of_a_non_principal_body():
     x2, r2, v2, w2 = s.components()
     assert (x2, v2, w2) == (x, v, w)
     np.testing.assert_allclose(r2, r, rtol=0, atol=1e-15)
+
+
+def test_apply_contact_refuses_a_non_finite_state_and_keeps_the_old_one():
+    from rb_sim_ros.stepper import IntegrationError, Stepper
+    s = Stepper(_ball().body(), 1e-3, _ball().initial_state(), gravity=G)
+    s.step(10)
+    before = s.components()
+    x, r, v, w = before
+    with pytest.raises(IntegrationError, match='a contact made the state non-finite'):
+        s.apply_contact(x, r, (0.0, float('nan'), 0.0), w)
+    assert s.components() == before
+    s.step(1)  # and it goes on

@@ -8,7 +8,8 @@ import pytest
 from rb_sim_ros.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.collision_world import CollisionWorld
 from rb_sim_ros.rigid_body import State, Wrench
-from rb_sim_ros.simulation import BodySpec, Config, ContactSettings, Simulation
+from rb_sim_ros.simulation import (BodySpec, Config, ContactSettings, SetPose, SetWrench,
+                                   Simulation)
 
 G = (0.0, 0.0, -9.81)
 GROUND = (Plane(),)
@@ -134,3 +135,74 @@ def test_scene_settings_reach_the_world():
         assert sim.world.sleeping == expected, settings
     with pytest.raises(ValueError, match='sleep_speed'):
         ContactSettings(sleep_speed=-1.0)
+
+
+def test_teleporting_a_support_away_wakes_what_rested_on_it():
+    bodies = (_cube('bottom', (0.0, 0.0, 0.1)), _cube('top', (0.0, 0.0, 0.3)),
+              BodySpec('ground', static=True, colliders=(Plane(),)))
+    sim = Simulation(Config(dt=DT, gravity=G, bodies=bodies))
+    sim.run(1000)
+    assert sim.world.sleeping == ['bottom', 'top']
+    sim.apply(SetPose((5.0, 0.0, 0.1), (0.0, 0.0, 0.0, 1.0), 'bottom'))
+    sim.run(1000)
+    assert sim.pose_twist('top')[0][2] == pytest.approx(0.1, abs=1e-3)   # fell to the ground
+
+
+def test_a_push_just_before_the_sleep_timer_runs_out_still_moves_the_body():
+    """A changed wrench starts the slow count again: a push too gentle to exceed sleep_speed
+    for a while must not be frozen by the count that ran before it."""
+    mass, mu, accel = 2.0, 0.5, 0.5
+    world = CollisionWorld([_cube('box', (0.0, 0.0, 0.1), mass=mass)], DT, G, friction=mu,
+                           planes=GROUND)
+    world.step(499)                      # it would sleep at the 500th step at rest
+    assert world.sleeping == []
+    x0 = world.state('box').position[0]
+    world.steppers['box'].set_wrench(Wrench((mass * (mu * 9.81 + accel), 0.0, 0.0)))
+    world.step(2000)
+    assert world.sleeping == []
+    # Sliding friction here is 0.05% short of mu m g (10 iterations), which the small net
+    # push turns into 0.5%; a frozen body would not have moved at all.
+    assert world.state('box').position[0] - x0 == pytest.approx(0.5 * accel * 2.0 ** 2,
+                                                                rel=0.01)
+
+
+def test_sleepers_keep_the_world_clock():
+    """A sleeper's Stepper counts the steps it slept, however it wakes: its step number (in
+    an IntegrationError, say) is the world's."""
+    world = _stack()
+    world.step(1500)
+    assert world.sleeping
+    world.steppers['box2'].set_wrench(Wrench((0.0, 0.0, 0.1)))      # wakes it
+    world.step(3)
+    world.set_state('ball', State((0.0, 0.0, 0.95), None, (0.0, 0.0, -1.0)))   # onto the top
+    world.step(400)
+    for name, s in world.steppers.items():
+        assert s.step_count == world.step_count, name
+
+
+def test_chunking_does_not_change_a_run_that_sleeps_and_wakes():
+    """The node steps by publish periods, replay from event to event: the same states, with
+    bodies falling asleep and waking by a drop, a push and a teleport between."""
+    bodies = (_cube('a', (0.0, 0.0, 0.1)), _cube('b', (0.0, 0.0, 0.3)),
+              _cube('c', (1.0, 0.0, 0.1)),
+              BodySpec('ball', 0.5, (0.002,) * 3, initial_position=(3.0, 0.0, 0.1),
+                       colliders=(Sphere(0.1),)),
+              BodySpec('ground', static=True, colliders=(Plane(),)))
+    config = Config(dt=DT, gravity=G, bodies=bodies,
+                    contact=ContactSettings(restitution=0.2, sleep_time=0.2))
+    events = [(700, SetPose((0.02, 0.0, 0.9), (0.0, 0.0, 0.0, 1.0), 'ball')),   # onto a, b
+              (1500, SetWrench(Wrench((30.0, 0.0, 0.0)), 'c')),
+              (1700, SetWrench(Wrench(), 'c')),
+              (2300, SetPose((1.0, 0.0, 0.5), (0.0, 0.0, 0.0, 1.0), 'a'))]      # away from b
+    by_period = Simulation(config)
+    pending, sleepers = list(events), []
+    while by_period.step_count < 3000:
+        pending = by_period.run_until(by_period.step_count + 10, pending)
+        sleepers.append(tuple(by_period.world.sleeping))
+    one_go = Simulation(config)
+    assert not one_go.run_until(3000, list(events))
+    names = [b.name for b in bodies[:-1]]
+    assert [by_period.pose_twist(n) for n in names] == [one_go.pose_twist(n) for n in names]
+    # It did sleep and wake: all four asleep before the drop, then awake, then asleep again.
+    assert sleepers[68] == ('a', 'b', 'c', 'ball') and 'a' not in sleepers[105]
+    assert len(set(sleepers)) >= 4
