@@ -21,6 +21,13 @@ the normal velocity: -e (v_rel . n before) for an impact (approach faster than t
 threshold), 0 for a resting or sliding contact, and -gap/dt for a speculative one (a gap that
 the bodies may close in one step, but not more: no tunnelling).
 
+Rolling resistance (``rolling_resistance`` mu_r, a length in m, 0 by default): after the
+velocity iterations, each pressed contact gets a couple (equal and opposite angular impulses,
+so momentum and angular momentum are kept) against the part of the relative angular velocity
+w_b - w_a along the surface, t its direction, of at most mu_r lambda_n: the resisting moment
+mu_r N of a normal force acting a distance mu_r ahead of the contact point, bounded by what
+stops the relative rolling, |w_t| / (t . (I_a^-1 + I_b^-1) t).
+
 Position correction is split from the velocities (split impulse / non-linear projection): a
 second Gauss-Seidel pass on pseudo-velocities that are displacements, with the same rows,
 moves the bodies apart by ``position_fraction`` of the penetration beyond ``slop``. It never
@@ -48,7 +55,8 @@ class SolverSettings:
     position_fraction in (0, 1]: share of the rest corrected per step; bounce_threshold
     (m/s): slower approaches do not bounce; tolerance (m/s): a pass stops after an iteration
     that changed no contact's velocity by more (the position pass: by more than tolerance dt,
-    in m); batch_threshold: contacts from which the numpy kernel runs."""
+    in m); batch_threshold: contacts from which the numpy kernel runs; rolling_resistance
+    (m): the lever arm of the moment resisting rolling, mu_r (0: none)."""
 
     restitution: float = 0.0
     friction: float = 0.5
@@ -60,6 +68,7 @@ class SolverSettings:
     bounce_threshold: float = 0.1
     tolerance: float = 1e-6
     batch_threshold: int = 48
+    rolling_resistance: float = 0.0
 
     def __post_init__(self) -> None:
         _number('restitution', self.restitution, 0.0, 1.0)
@@ -69,6 +78,7 @@ class SolverSettings:
         _number('position_fraction', self.position_fraction, 0.0, 1.0, open_low=True)
         _number('bounce_threshold', self.bounce_threshold, 0.0, math.inf)
         _number('tolerance', self.tolerance, 0.0, math.inf)
+        _number('rolling_resistance', self.rolling_resistance, 0.0, math.inf)
         for name in ('velocity_iterations', 'position_iterations', 'batch_threshold'):
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < 0:
@@ -271,6 +281,10 @@ def solve(contacts: ContactArrays, bodies: Bodies, settings: SolverSettings,
     u, lam, v_done = kernel(rows, u, lam, target, mu, batches, settings.velocity_iterations,
                             with_friction, settings.tolerance)
 
+    if settings.rolling_resistance > 0.0:
+        u = _resist_rolling(contacts, bodies, u, lam[:, 0], settings.rolling_resistance,
+                            batches)
+
     # Position correction on pseudo-velocities (displacements), normal rows only.
     q = np.zeros((body_count, 6))
     p_lam = np.zeros((count, 3))
@@ -355,6 +369,34 @@ def _scalar(rows: _Rows, u: np.ndarray, lam: np.ndarray, target: np.ndarray, mu:
         if change <= tolerance:
             break
     return np.array(us, dtype=float).reshape(u.shape), np.array(lams, dtype=float), done
+
+
+def _resist_rolling(contacts: ContactArrays, bodies: Bodies, u: np.ndarray,
+                    normal_impulse: np.ndarray, mu_r: float, batches) -> np.ndarray:
+    """One pass of rolling resistance couples over the contacts, colour by colour (see the
+    module doc); returns the new (N, 6) velocities."""
+    u = u.copy()
+    inverse_inertia = bodies.inverse_inertia
+    for idx in batches:
+        idx = idx[normal_impulse[idx] > 0.0]
+        if not len(idx):
+            continue
+        a, b, n = contacts.body_a[idx], contacts.body_b[idx], contacts.normal[idx]
+        w_rel = u[b, 3:] - u[a, 3:]
+        w_t = w_rel - np.einsum('mi,mi->m', w_rel, n)[:, None] * n
+        size = np.sqrt(np.einsum('mi,mi->m', w_t, w_t))
+        rolling = size > 0.0
+        if not rolling.any():
+            continue
+        idx, a, b, w_t, size = idx[rolling], a[rolling], b[rolling], w_t[rolling], size[rolling]
+        t = w_t / size[:, None]
+        ia_t = np.einsum('mij,mj->mi', inverse_inertia[a], t)
+        ib_t = np.einsum('mij,mj->mi', inverse_inertia[b], t)
+        k = np.einsum('mi,mi->m', t, ia_t + ib_t)
+        couple = np.minimum(size / k, mu_r * normal_impulse[idx])
+        u[a, 3:] += couple[:, None] * ia_t
+        u[b, 3:] -= couple[:, None] * ib_t
+    return u
 
 
 def _dot12(j, ua, ub):
