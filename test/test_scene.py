@@ -28,7 +28,7 @@ def test_example_scene_loads():
 
 def test_collision_scene_loads_colliders_and_contact_settings():
     gravity, bodies, contact = load_scene(str(SCENES / 'collisions.yaml'))
-    assert contact == ContactSettings(restitution=0.5, friction=0.6)
+    assert contact == ContactSettings(restitution=0.5, friction=0.6, rolling_resistance=0.002)
     by_name = {b.name: b for b in bodies}
     assert by_name['ball'].colliders == (Sphere(0.1),)           # 'shape': the body's own
     assert by_name['crate'].colliders == (Box((0.4, 0.3, 0.2)),)
