@@ -85,3 +85,18 @@ def test_order_check_fails_loudly_on_a_method_off_its_order():
     assert len(failures) == 2 and 'falls at order 1.00, expected 2' in failures[0]
     assert math.isclose(wp.fit_order(scene(2.0)['s']['methods']['a second-order method']
                                      ['points'], 'angle_final')['order'], 2.0)
+
+
+def test_collision_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
+    """Their checks: both engines' heaps stay in the box and agree; a resting floor of boxes
+    stays put in every engine and all of it falls asleep; a drop wakes only what it hits."""
+    for name in ('collision_bench', 'resting_bench'):
+        out = tmp_path / f'{name}.json'
+        result = subprocess.run([sys.executable, str(ROOT / 'bench' / f'{name}.py'), '--quick',
+                                 '--json', str(out)], capture_output=True, text=True,
+                                timeout=300)
+        assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+        assert json.loads(out.read_text())
+    resting = json.loads((tmp_path / 'resting_bench.json').read_text())
+    assert resting['asleep']['contacts'] == 0 and resting['awake']['contacts'] > 0
+    assert 1 < resting['asleep']['awake_after_drop'] < 2 * resting['side'] ** 2
