@@ -78,7 +78,12 @@ def combined_material(restitution_a: np.ndarray, friction_a: np.ndarray,
     """(e, mu) of contacts between shapes of these materials: the larger restitution (a
     bouncy ball bounces on anything) and the geometric mean of the frictions (either side
     frictionless makes the contact frictionless), as Box2D combines them."""
-    return np.maximum(restitution_a, restitution_b), np.sqrt(friction_a * friction_b)
+    # The geometric mean never exceeds the larger; saying so keeps huge frictions, whose
+    # product overflows, from becoming inf (and inf * 0 a nan in the friction cone).
+    with np.errstate(over='ignore'):
+        mean = np.sqrt(friction_a * friction_b)
+    return (np.maximum(restitution_a, restitution_b),
+            np.minimum(mean, np.maximum(friction_a, friction_b)))
 
 
 @dataclass(frozen=True)

@@ -31,8 +31,9 @@ body near it (broad-phase pairs, transitively) and only if they are all ready. A
 integrated, and pairs like a static collider, so a resting pile costs no contacts. It wakes when
 an awake body's AABB reaches it (the whole pile at once, in that step, taking the integration
 it missed and its resting impulses as warm start), when its wrench changes, or when it, or a
-body whose AABB reached it, is teleported; its Stepper's clock counts the steps it slept. A
-changed wrench or a teleport also restarts an awake body's count of slow steps.
+body whose AABB reached it, is teleported; on waking its Stepper's clock catches up with the
+steps it slept (while asleep it stands still). A changed wrench or a teleport also restarts an
+awake body's count of slow steps.
 
 The first step, and the first after ``CollisionWorld.set_state`` (use it, not the Stepper's,
 to teleport a body), runs 2-5 on the starting state before it integrates. A world without
@@ -76,7 +77,8 @@ class StepStats:
     found (speculative ones included), ``active`` (normal impulse > 0), ``touched`` bodies
     (written), ``sleeping`` bodies, solver ``colours``, the iterations each pass ran, and wall
     ``seconds`` per phase (statistics only). ``CollisionWorld.totals`` sums them over the
-    steps taken (but ``colours`` and ``sleeping``, which are of the last step only)."""
+    steps taken (but for ``colours`` and ``sleeping``, which it leaves at 0: read them in
+    ``last_stats``)."""
 
     candidate_pairs: int = 0
     plane_pairs: int = 0
@@ -122,7 +124,8 @@ class CollisionWorld:
     bodies: ``simulation.BodySpec`` values; ``colliders`` holds shapes of
     ``collision_shapes`` in the body frame; a ``static`` body never moves (infinite mass).
     planes: extra static ``Plane`` values in the world frame. gravity (m/s^2, world).
-    restitution e in [0, 1] and friction mu >= 0 apply to every contact. The other keywords
+    restitution e in [0, 1] and friction mu >= 0 are those of every collider that has no
+    material of its own. The other keywords
     are ``contact_solver.SolverSettings`` fields; ``bounce_threshold`` (m/s) must stay above
     |g| dt, or resting bodies bounce on the speed gravity gives them in one step.
     ``sleep_time`` (s, 0: never) and ``sleep_speed`` (m/s): see Sleeping above. Every
@@ -400,8 +403,8 @@ class CollisionWorld:
             # The first step (or the first after a teleport) starts from a state no collision
             # pass has seen: check it first, so that a speculative contact already holds for
             # this step's integration.
-            self._unchecked = False
             self._collide(time.perf_counter(), integrated=False)
+            self._unchecked = False
         clock = time.perf_counter
         t0 = clock()
         if self._sleep_steps:
@@ -431,6 +434,7 @@ class CollisionWorld:
         ``integrated``: the awake bodies have taken this step's integration (1)."""
         clock = time.perf_counter
         t1 = clock()
+        error = None
         nb = len(self._moving_steppers)
         dyn = self._cdyn
         cb = self._cbody[dyn]
@@ -482,13 +486,17 @@ class CollisionWorld:
             t4 = clock()
             touched = np.flatnonzero(result.touched[:nb])
             turn = np.einsum('ij,ij->i', result.rotation, result.rotation) > MIN_TURN ** 2
+            step = self._step_count - 1 if integrated else self._step_count
             for i in touched.tolist():
                 r_new = rot[i]
                 if turn[i]:
                     r_new = so3.exp(result.rotation[i]) @ r_new
-                self._moving_steppers[i].apply_contact(
-                    x[i] + result.displacement[i], r_new, result.velocity[i],
-                    result.angular_velocity[i])
+                try:
+                    self._moving_steppers[i].apply_contact(
+                        x[i] + result.displacement[i], r_new, result.velocity[i],
+                        result.angular_velocity[i], step)
+                except IntegrationError as e:  # the others still get theirs; raised below
+                    error = error or e
             if self._sleep_steps and integrated:
                 self._fall_asleep(contacts, result, nb, pairs)
             stats.active = int(np.count_nonzero(result.normal_impulse > 0.0))
@@ -517,6 +525,8 @@ class CollisionWorld:
         tot.position_iterations += stats.position_iterations
         for k, s in stats.seconds.items():
             tot.seconds[k] = tot.seconds.get(k, 0.0) + s
+        if error is not None:
+            raise error
 
     def _read(self, nb: int, dyn: np.ndarray, cb: np.ndarray):
         """(x, R, v, omega, speculative margin) of the moving bodies with colliders (a zero

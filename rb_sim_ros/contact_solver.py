@@ -22,11 +22,12 @@ threshold), 0 for a resting or sliding contact, and -gap/dt for a speculative on
 the bodies may close in one step, but not more: no tunnelling).
 
 Rolling resistance (``rolling_resistance`` mu_r, a length in m, 0 by default): after the
-velocity iterations, each pressed contact gets a couple (equal and opposite angular impulses,
-so momentum and angular momentum are kept) against the part of the relative angular velocity
-w_b - w_a along the surface, t its direction, of at most mu_r lambda_n: the resisting moment
-mu_r N of a normal force acting a distance mu_r ahead of the contact point, bounded by what
-stops the relative rolling, |w_t| / (t . (I_a^-1 + I_b^-1) t).
+velocity iterations, each pressed contact gets a couple in the tangent plane (equal and
+opposite angular impulses, so momentum and angular momentum are kept) against the part w_t of
+the relative angular velocity w_b - w_a along the surface: the one that stops it,
+K_t^-1 w_t with K_t the 2x2 block of I_a^-1 + I_b^-1 on the tangents, scaled down to at most
+mu_r lambda_n (the resisting moment mu_r N of a normal force acting a distance mu_r ahead of
+the contact point). w_t then shrinks by that scale and never turns back.
 
 Position correction is split from the velocities (split impulse / non-linear projection): a
 second Gauss-Seidel pass on pseudo-velocities that are displacements, with the same rows,
@@ -374,28 +375,40 @@ def _scalar(rows: _Rows, u: np.ndarray, lam: np.ndarray, target: np.ndarray, mu:
 def _resist_rolling(contacts: ContactArrays, bodies: Bodies, u: np.ndarray,
                     normal_impulse: np.ndarray, mu_r: float, batches) -> np.ndarray:
     """One pass of rolling resistance couples over the contacts, colour by colour (see the
-    module doc); returns the new (N, 6) velocities."""
+    module doc and docs/collisions.md (36)); returns the new (N, 6) velocities."""
     u = u.copy()
     inverse_inertia = bodies.inverse_inertia
     for idx in batches:
         idx = idx[normal_impulse[idx] > 0.0]
         if not len(idx):
             continue
-        a, b, n = contacts.body_a[idx], contacts.body_b[idx], contacts.normal[idx]
+        a, b = contacts.body_a[idx], contacts.body_b[idx]
+        t1, t2 = tangent_basis(contacts.normal[idx])
         w_rel = u[b, 3:] - u[a, 3:]
-        w_t = w_rel - np.einsum('mi,mi->m', w_rel, n)[:, None] * n
-        size = np.sqrt(np.einsum('mi,mi->m', w_t, w_t))
-        rolling = size > 0.0
+        w1 = np.einsum('mi,mi->m', w_rel, t1)
+        w2 = np.einsum('mi,mi->m', w_rel, t2)
+        rolling = (w1 != 0.0) | (w2 != 0.0)
         if not rolling.any():
             continue
-        idx, a, b, w_t, size = idx[rolling], a[rolling], b[rolling], w_t[rolling], size[rolling]
-        t = w_t / size[:, None]
-        ia_t = np.einsum('mij,mj->mi', inverse_inertia[a], t)
-        ib_t = np.einsum('mij,mj->mi', inverse_inertia[b], t)
-        k = np.einsum('mi,mi->m', t, ia_t + ib_t)
-        couple = np.minimum(size / k, mu_r * normal_impulse[idx])
-        u[a, 3:] += couple[:, None] * ia_t
-        u[b, 3:] -= couple[:, None] * ib_t
+        idx, a, b = idx[rolling], a[rolling], b[rolling]
+        t1, t2, w1, w2 = t1[rolling], t2[rolling], w1[rolling], w2[rolling]
+        inv_sum = inverse_inertia[a] + inverse_inertia[b]
+        s1 = np.einsum('mij,mj->mi', inv_sum, t1)
+        s2 = np.einsum('mij,mj->mi', inv_sum, t2)
+        k11 = np.einsum('mi,mi->m', t1, s1)
+        k12 = np.einsum('mi,mi->m', t1, s2)
+        k22 = np.einsum('mi,mi->m', t2, s2)
+        det = k11 * k22 - k12 * k12
+        # The couple (in t1, t2) that stops the relative rolling: K_t^-1 w_t, then scaled into
+        # the budget mu_r lambda_n. Scaling keeps its direction, so w_t only shrinks.
+        l1 = (k22 * w1 - k12 * w2) / det
+        l2 = (k11 * w2 - k12 * w1) / det
+        size = np.sqrt(l1 * l1 + l2 * l2)
+        budget = mu_r * normal_impulse[idx]
+        scale = np.where(size > budget, budget / np.where(size > 0.0, size, 1.0), 1.0)
+        couple = (l1 * scale)[:, None] * t1 + (l2 * scale)[:, None] * t2
+        u[a, 3:] += np.einsum('mij,mj->mi', inverse_inertia[a], couple)
+        u[b, 3:] -= np.einsum('mij,mj->mi', inverse_inertia[b], couple)
     return u
 
 

@@ -6,7 +6,8 @@
     contact: {restitution: 0.3, friction: 0.6}   # optional; simulation.ContactSettings fields
                                         # (also velocity_iterations, position_iterations,
                                         #  slop, position_fraction, bounce_threshold,
-                                        #  speculative, sleep_time, sleep_speed)
+                                        #  speculative, sleep_time, sleep_speed,
+                                        #  rolling_resistance)
     bodies:
       - name: satellite                 # topics satellite/wrench, satellite/pose, ...
         mass: 120.0                     # kg, with inertia (kg m^2): 3 moments or a 3x3 tensor

@@ -88,8 +88,9 @@ class BodySpec:
 @dataclass(frozen=True)
 class ContactSettings:
     """How bodies with colliders respond when they touch (docs/collisions.md): restitution e
-    in [0, 1], Coulomb friction mu >= 0, for every contact; Gauss-Seidel iterations of the
-    velocity and the position pass; slop (m) of penetration left uncorrected;
+    in [0, 1], Coulomb friction mu >= 0, of every collider without a material of its own;
+    Gauss-Seidel iterations of the velocity and the position pass; slop (m) of penetration
+    left uncorrected;
     position_fraction of the rest corrected per step; rolling_resistance (m): the lever arm
     of the moment that resists rolling (0: balls roll for ever); approaches slower than
     bounce_threshold (m/s) do not bounce (keep it above |g| dt); speculative contacts keep

@@ -190,12 +190,13 @@ class Stepper(FixedStep):
         return self._x, r, self._v, self._w
 
     def apply_contact(self, position, rotation: np.ndarray, linear_velocity,
-                      angular_velocity) -> None:
+                      angular_velocity, step: int | None = None) -> None:
         """The collision world's write after an impulse or a position correction: ``set_state``
         without validating R (the values come from ``components`` and the contact solver; a
         non-finite one raises IntegrationError and changes nothing). rotation: 3x3 or 9
         row-major values, body to world. The history restarts; the orthonormalization count
-        goes on, since a body resting in contact is written every step."""
+        goes on, since a body resting in contact is written every step. ``step``: the index of
+        the step whose contacts these are, for the error (default: ``step_count``)."""
         rot = np.asarray(rotation, dtype=float).reshape(3, 3)
         if self._q is not None:
             rot = rot @ self._q
@@ -204,10 +205,11 @@ class Stepper(FixedStep):
         r = tuple(float(c) for c in rot.reshape(9))
         w = tuple(float(c) for c in angular_velocity)
         if not _finite(x, v, r, w):
+            step = self._step_count if step is None else step
             raise IntegrationError(
-                self._step_count, f'a contact made the state non-finite at step '
-                f'{self._step_count} (t = {self._step_count * self._dt:.9g} s): x = {x}, '
-                f'v = {v}, omega = {w}; the body keeps its state before the contact')
+                step, f'a contact made the state non-finite at step {step} '
+                f'(t = {step * self._dt:.9g} s): x = {x}, v = {v}, omega = {w}; the body '
+                'keeps its state before the contact')
         self._x, self._v, self._r, self._w = x, v, r, w
         self._a, self._b = self._accelerations(self._r, self._w, self._v)
         self._prev = None
@@ -215,8 +217,10 @@ class Stepper(FixedStep):
         self._history_stale = False
 
     def rest(self, n: int) -> None:
-        """Count ``n`` steps spent asleep (the collision world's): the clock advances, the
-        state, at rest, does not."""
+        """Count ``n`` >= 0 steps spent asleep (the collision world's): the clock advances,
+        the state, at rest, does not."""
+        if not isinstance(n, int) or isinstance(n, bool) or n < 0:
+            raise ValueError(f'n must be an int >= 0, got {n!r}')
         self._step_count += n
 
     def restart_history(self) -> None:

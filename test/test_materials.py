@@ -104,3 +104,35 @@ def test_materials_round_trip_through_dicts_scenes_and_json(tmp_path):
 def test_bad_materials_are_refused_naming_the_field(material, message):
     with pytest.raises(ValueError, match=message.replace('[', r'\[').replace(']', r'\]')):
         Sphere(0.1, **material)
+
+
+def test_colliders_planes_and_world_planes_each_have_their_material():
+    """A frictionless static platform (a box collider), the ground as a world plane of friction
+    0.8: a box sliding on the platform keeps its speed, one on the ground stops where its
+    combined friction says (the material arrays hold colliders, then planes)."""
+    v0 = 1.0
+    platform = BodySpec('platform', static=True, initial_position=(0.0, 5.0, 0.05),
+                        colliders=(Box((20.0, 1.0, 0.1), friction=0.0),))
+    on_platform = BodySpec('skater', 2.0, (0.01,) * 3, initial_position=(0.0, 5.0, 0.15),
+                           initial_linear_velocity=(v0, 0.0, 0.0),
+                           colliders=(Box((0.2, 0.2, 0.1)),))
+    world = CollisionWorld([platform, on_platform, _box('walker', 0.0, v0)], DT, G,
+                           friction=0.5, planes=(Plane(friction=0.8),))
+    world.step(1000)
+    assert world.state('skater').linear_velocity[0] == pytest.approx(v0, rel=1e-6)
+    mu = (0.5 * 0.8) ** 0.5
+    assert world.state('walker').position[0] == pytest.approx(v0 * v0 / (2 * mu * 9.81),
+                                                              abs=v0 * DT)
+
+
+def test_huge_frictions_do_not_overflow_into_friction_through_a_gap():
+    """sqrt(mu_a mu_b) of two frictions above 1e154 would be inf, and inf * 0 a NaN limit:
+    a ball sliding 0.5 mm above the ground (a speculative contact, no normal impulse) must
+    keep its speed."""
+    ball = BodySpec('ball', 1.0, (0.004,) * 3, initial_position=(0.0, 0.0, 0.1005),
+                    initial_linear_velocity=(2.0, 0.0, 0.0),
+                    colliders=(Sphere(0.1, friction=1e200),))
+    world = CollisionWorld([ball], DT, (0.0, 0.0, 0.0), planes=(Plane(friction=1e200),))
+    world.step(1)
+    assert world.last_stats.contacts == 1 and world.last_stats.active == 0
+    assert world.state('ball').linear_velocity[0] == 2.0

@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rb_sim_ros import contact_solver as cs
+from rb_sim_ros import contact_solver as cs, so3
 from rb_sim_ros.collision_shapes import Plane, Sphere
 from rb_sim_ros.collision_world import CollisionWorld
 from rb_sim_ros.simulation import BodySpec, ContactSettings
@@ -72,3 +72,71 @@ def test_scene_contact_settings_carry_it():
         == 0.01
     with pytest.raises(ValueError, match='rolling_resistance'):
         ContactSettings(rolling_resistance=-0.01)
+
+
+def cs_rotation(rng):
+    return so3.exp(rng.normal(size=3))
+
+
+def _tangent_spin(result, contacts, k=0):
+    t1, t2 = cs.tangent_basis(contacts.normal[k:k + 1])
+    a, b = contacts.body_a[k], contacts.body_b[k]
+    w = result.angular_velocity[b] - result.angular_velocity[a]
+    return np.array([w @ t1[0], w @ t2[0]])
+
+
+@pytest.mark.parametrize('ratio', [1.0, 6.0, 100.0])
+def test_the_couple_only_shrinks_the_relative_rolling_of_uneven_bodies(ratio):
+    """Across the tangent plane, w_t after = (1 - s) w_t before with 0 <= s <= 1, however
+    uneven the inertia (a scalar row along w_t would turn part of it back)."""
+    rng = np.random.default_rng(int(ratio))
+    for _ in range(40):
+        bodies, contacts, *_, settings = impact(rng, 0.0, friction=0.5, static_b=True)
+        moments = np.array([1.0, 1.0 / ratio, 0.5])
+        q = cs_rotation(rng)
+        bodies.inverse_inertia[0] = q @ np.diag(1.0 / moments) @ q.T * 0.2
+        plain = cs.solve(contacts, bodies, settings)
+        for mu_r in (1e-4, 0.01, 10.0):
+            rolled = cs.solve(contacts, bodies,
+                              dataclasses.replace(settings, rolling_resistance=mu_r))
+            before, after = _tangent_spin(plain, contacts), _tangent_spin(rolled, contacts)
+            if plain.normal_impulse[0] == 0.0:
+                assert np.array_equal(before, after)
+                continue
+            s = 1.0 - (after @ before) / (before @ before)
+            assert -1e-9 <= s <= 1.0 + 1e-9, (ratio, mu_r, s)
+            np.testing.assert_allclose(after, (1.0 - s) * before, atol=1e-9 * abs(before).max())
+
+
+def test_many_contacts_in_one_solve_keep_momentum():
+    """Eight free bodies pressed into each other at 16 random points (several colours, so the
+    couples go batch by batch): linear momentum and angular momentum about a fixed point are
+    what they were before the solve, with the couples as without them."""
+    rng = np.random.default_rng(3)
+    n, m = 8, 16
+    masses = rng.uniform(0.5, 2.0, n)
+    inertia_body = [np.diag(rng.uniform(0.05, 0.5, 3)) for _ in range(n)]
+    rotations = [cs_rotation(rng) for _ in range(n)]
+    inertia = [r @ i @ r.T for r, i in zip(rotations, inertia_body)]
+    position = rng.normal(size=(n, 3))
+    bodies = cs.Bodies(position, rng.normal(size=(n, 3)), rng.normal(size=(n, 3)) * 3.0,
+                       1.0 / masses, np.array([np.linalg.inv(i) for i in inertia]))
+    a = rng.integers(0, n, size=m)
+    b = (a + rng.integers(1, n, size=m)) % n                # never a body with itself
+    normal = rng.normal(size=(m, 3))
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    contacts = cs.ContactArrays(a, b, rng.normal(size=(m, 3)), normal, np.full(m, 0.01))
+    settings = cs.SolverSettings(friction=0.5, position_iterations=0, rolling_resistance=0.05)
+    result = cs.solve(contacts, bodies, settings)
+    plain = cs.solve(contacts, bodies, dataclasses.replace(settings, rolling_resistance=0.0))
+    assert (result.normal_impulse > 0.0).sum() >= 4 and result.colours >= 2
+    assert not np.array_equal(result.angular_velocity, plain.angular_velocity)
+
+    def momenta_of(vel, ang):
+        return (sum(masses[k] * vel[k] for k in range(n)),
+                sum(masses[k] * np.cross(position[k] - 1.0, vel[k]) + inertia[k] @ ang[k]
+                    for k in range(n)))
+    p0, l0 = momenta_of(bodies.velocity, bodies.angular_velocity)
+    p1, l1 = momenta_of(result.velocity, result.angular_velocity)
+    np.testing.assert_allclose(p1, p0, atol=1e-12 * np.abs(p0).max())
+    np.testing.assert_allclose(l1, l0, atol=1e-12 * np.abs(l0).max())

@@ -206,3 +206,40 @@ def test_chunking_does_not_change_a_run_that_sleeps_and_wakes():
     # It did sleep and wake: all four asleep before the drop, then awake, then asleep again.
     assert sleepers[68] == ('a', 'b', 'c', 'ball') and 'a' not in sleepers[105]
     assert len(set(sleepers)) >= 4
+
+
+def test_a_non_finite_contact_result_spares_the_other_bodies(monkeypatch):
+    """If the solver hands one body a non-finite velocity, that body keeps its state, every
+    other body gets its contacts as usual, and the error names the step."""
+    import dataclasses
+    from rb_sim_ros import collision_world
+    from rb_sim_ros.stepper import IntegrationError
+    solve, poison = collision_world.contact_solver.solve, []
+
+    def poisoned(*args, **kwargs):
+        result = solve(*args, **kwargs)
+        if poison:
+            v = result.velocity.copy()
+            v[0, 0] = np.nan
+            result = dataclasses.replace(result, velocity=v)
+        return result
+    monkeypatch.setattr(collision_world.contact_solver, 'solve', poisoned)
+
+    def world():
+        return CollisionWorld([BodySpec(f'b{i}', 1.0, (0.004,) * 3,
+                                        initial_position=(2.0 * i, 0.0, 0.1),
+                                        colliders=(Sphere(0.1),)) for i in range(2)],
+                              DT, G, planes=GROUND, sleep_time=0.0)
+    reference, w = world(), world()
+    reference.step(10)
+    w.step(9)
+    before = w.state('b0')
+    poison.append(True)
+    with pytest.raises(IntegrationError, match='non-finite at step 9 ') as e:
+        w.step(1)
+    assert e.value.step == 9
+    assert np.array_equal(w.state('b1').position, reference.state('b1').position)
+    assert np.array_equal(w.state('b1').linear_velocity, reference.state('b1').linear_velocity)
+    # b0 kept its state before the contact: integrated, with the speed gravity gave it.
+    assert np.all(np.isfinite(w.state('b0').linear_velocity))
+    assert w.state('b0').linear_velocity[2] < 0.0 == before.linear_velocity[2]
