@@ -19,7 +19,8 @@
         density: 500                    #   sphere: radius; cylinder: radius, length (along z)
         position: [2.0, 0.0, 1.0]       # m; orientation [x, y, z, w]; linear_velocity m/s;
         linear_damping: 0.1             # angular_velocity rad/s (world); damping rates 1/s
-        colliders: shape                # collide as the box above (box or sphere shapes)
+        colliders: shape                # collide as the box above (box or sphere shapes);
+                                        # [{type: shape, friction: 0.2}] gives it a material
       - name: dumbbell
         mass: 2.0
         inertia: [0.05, 0.05, 0.01]
@@ -161,23 +162,39 @@ def _body(path: str, index: int, data: Any) -> BodySpec:
         raise SceneError(f'{where}: {field}: {e}') from None
 
 
+def _own_shape(shape: Any, data: dict, material: dict):
+    """The body's own box or sphere as a collider, with ``material`` (restitution, friction)."""
+    if shape == 'box':
+        return Box(tuple(float(v) for v in data['size']), **material)
+    if shape == 'sphere':
+        return Sphere(float(data['radius']), **material)
+    raise ValueError(f"'shape' needs a box or sphere shape, got {shape!r} (list the "
+                     'colliders instead)')
+
+
 def _colliders(where: str, colliders: Any, shape: Any, data: dict) -> tuple:
     """The collision shapes of a body: a list of collision_shapes mappings, or 'shape' for the
-    body's own box or sphere."""
+    body's own box or sphere (in a list: ``{type: shape, restitution: ..., friction: ...}``)."""
     if colliders == 'shape':
-        if shape == 'box':
-            return (Box(tuple(float(v) for v in data['size'])),)
-        if shape == 'sphere':
-            return (Sphere(float(data['radius'])),)
-        raise SceneError(f"{where}: colliders: 'shape' needs a box or sphere shape, got "
-                         f'{shape!r} (list the colliders instead)')
+        try:
+            return (_own_shape(shape, data, {}),)
+        except ValueError as e:
+            raise SceneError(f'{where}: colliders: {e}') from None
     if not isinstance(colliders, list):
         raise SceneError(f"{where}: colliders: must be a list of shapes or 'shape', "
                          f'got {colliders!r}')
     out = []
     for i, c in enumerate(colliders):
         try:
-            out.append(shape_from_dict(c))
+            if isinstance(c, dict) and c.get('type') == 'shape':
+                unknown = sorted(set(c) - {'type', 'restitution', 'friction'})
+                if unknown:
+                    raise ValueError(f'shape: unknown keys {unknown} (allowed: friction, '
+                                     'restitution, type)')
+                out.append(_own_shape(shape, data,
+                                      {k: v for k, v in c.items() if k != 'type'}))
+            else:
+                out.append(shape_from_dict(c))
         except (ValueError, TypeError) as e:
             raise SceneError(f'{where}: colliders[{i}]: {e}') from None
     return tuple(out)

@@ -40,6 +40,16 @@ def test_collision_scene_loads_colliders_and_contact_settings():
     assert wall.size == (0.1, 4.0, 1.0) and by_name['wall'].initial_position == (2.5, 0.0, 0.5)
 
 
+def test_own_shape_with_a_material(tmp_path):
+    f = tmp_path / 'scene.yaml'
+    f.write_text('bodies:\n  - {name: puck, shape: box, size: [0.1, 0.1, 0.02], density: 900, '
+                 'colliders: [{type: shape, friction: 0.05, restitution: 0.3}, '
+                 '{type: sphere, radius: 0.01, position: [0, 0, 0.02]}]}\n')
+    puck = load_scene(str(f)).bodies[0]
+    assert puck.colliders == (Box((0.1, 0.1, 0.02), friction=0.05, restitution=0.3),
+                              Sphere(0.01, position=(0.0, 0.0, 0.02)))
+
+
 def test_contact_settings_default_when_absent():
     assert load_scene(str(EXAMPLE)).contact == ContactSettings()
 
@@ -95,6 +105,14 @@ def test_shapes_against_textbook_and_a_point_cloud():
      "body 0 ('a'): colliders[0]: colliders[0] is a Plane, which only a static body"),
     ('bodies: [{name: a, shape: cylinder, radius: 1, length: 1, density: 1, colliders: shape}]',
      "body 0 ('a'): colliders: 'shape' needs a box or sphere shape"),
+    ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], colliders: [{type: shape}]}]',
+     "body 0 ('a'): colliders[0]: 'shape' needs a box or sphere shape, got None"),
+    ('bodies: [{name: a, shape: box, size: [1, 1, 1], density: 1, '
+     'colliders: [{type: shape, size: 2}]}]',
+     "body 0 ('a'): colliders[0]: shape: unknown keys ['size']"),
+    ('bodies: [{name: a, shape: box, size: [1, 1, 1], density: 1, '
+     'colliders: [{type: shape, friction: -1}]}]',
+     "body 0 ('a'): colliders[0]: friction must be a finite number >= 0"),
     ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], colliders: {type: sphere}}]',
      "body 0 ('a'): colliders: must be a list"),
     ('contact: {restitution: 1.5}\nbodies: [{name: a, mass: 1, inertia: [1, 1, 1]}]',
