@@ -125,9 +125,9 @@ class CollisionWorld:
     ``collision_shapes`` in the body frame; a ``static`` body never moves (infinite mass).
     planes: extra static ``Plane`` values in the world frame. gravity (m/s^2, world).
     restitution e in [0, 1] and friction mu >= 0 are those of every collider that has no
-    material of its own. The other keywords
-    are ``contact_solver.SolverSettings`` fields; ``bounce_threshold`` (m/s) must stay above
-    |g| dt, or resting bodies bounce on the speed gravity gives them in one step.
+    material of its own. The other keywords are ``contact_solver.SolverSettings`` fields;
+    ``bounce_threshold`` (m/s) must stay above |g| dt, or resting bodies bounce on the speed
+    gravity gives them in one step.
     ``sleep_time`` (s, 0: never) and ``sleep_speed`` (m/s): see Sleeping above. Every
     argument is validated (ValueError naming it) before anything is built.
     """
@@ -495,8 +495,8 @@ class CollisionWorld:
                     self._moving_steppers[i].apply_contact(
                         x[i] + result.displacement[i], r_new, result.velocity[i],
                         result.angular_velocity[i], step)
-                except IntegrationError as e:  # the others still get theirs; raised below
-                    error = error or e
+                except IntegrationError as failed:  # the others still get theirs; raised below
+                    error = error or failed
             if self._sleep_steps and integrated:
                 self._fall_asleep(contacts, result, nb, pairs)
             stats.active = int(np.count_nonzero(result.normal_impulse > 0.0))

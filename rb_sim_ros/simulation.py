@@ -90,14 +90,13 @@ class ContactSettings:
     """How bodies with colliders respond when they touch (docs/collisions.md): restitution e
     in [0, 1], Coulomb friction mu >= 0, of every collider without a material of its own;
     Gauss-Seidel iterations of the velocity and the position pass; slop (m) of penetration
-    left uncorrected;
-    position_fraction of the rest corrected per step; rolling_resistance (m): the lever arm
-    of the moment that resists rolling (0: balls roll for ever); approaches slower than
-    bounce_threshold (m/s) do not bounce (keep it above |g| dt); speculative contacts keep
-    fast bodies from tunnelling. A body pressed by a contact whose points all move slower
-    than sleep_speed (m/s) for sleep_time (s) sleeps, at rest and at no cost, until an awake
-    body comes near, its wrench changes or it is teleported (sleep_time 0: never). Unused by
-    a scene without colliders."""
+    left uncorrected; position_fraction of the rest corrected per step; rolling_resistance
+    (m): the lever arm of the moment that resists rolling (0: balls roll for ever);
+    approaches slower than bounce_threshold (m/s) do not bounce (keep it above |g| dt);
+    speculative contacts keep fast bodies from tunnelling. A body pressed by a contact whose
+    points all move slower than sleep_speed (m/s) for sleep_time (s) sleeps, at rest and at
+    no cost, until an awake body comes near, its wrench changes or it is teleported
+    (sleep_time 0: never). Unused by a scene without colliders."""
 
     restitution: float = 0.0
     friction: float = 0.5
