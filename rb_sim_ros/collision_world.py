@@ -140,7 +140,8 @@ class CollisionWorld:
                  bounce_threshold: float = 0.1, tolerance: float = 1e-6,
                  speculative: bool = True, warm_start: bool = True,
                  batch_threshold: int = 48, sleep_time: float = 0.5,
-                 sleep_speed: float = 1e-3, rolling_resistance: float = 0.0) -> None:
+                 sleep_speed: float = 1e-3, rolling_resistance: float = 0.0,
+                 torsional_friction: float = 0.0) -> None:
         bodies = tuple(bodies)
         if not bodies or not all(isinstance(b, BodySpec) for b in bodies):
             raise ValueError('bodies must be one or more BodySpec')
@@ -153,7 +154,7 @@ class CollisionWorld:
             velocity_iterations=velocity_iterations, position_iterations=position_iterations,
             slop=slop, position_fraction=position_fraction, bounce_threshold=bounce_threshold,
             tolerance=tolerance, batch_threshold=batch_threshold,
-            rolling_resistance=rolling_resistance)
+            rolling_resistance=rolling_resistance, torsional_friction=torsional_friction)
         for name, flag in (('speculative', speculative), ('warm_start', warm_start)):
             if not isinstance(flag, bool):
                 raise ValueError(f'{name} must be true or false, got {flag!r}')

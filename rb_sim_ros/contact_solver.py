@@ -27,7 +27,9 @@ opposite angular impulses, so momentum and angular momentum are kept) against th
 the relative angular velocity w_b - w_a along the surface: the one that stops it,
 K_t^-1 w_t with K_t the 2x2 block of I_a^-1 + I_b^-1 on the tangents, scaled down to at most
 mu_r lambda_n (the resisting moment mu_r N of a normal force acting a distance mu_r ahead of
-the contact point). w_t then shrinks by that scale and never turns back.
+the contact point). w_t then shrinks by that scale and never turns back. Torsional friction
+(``torsional_friction`` mu_t, m) does the same for the spin about the normal, w_n: a couple
+along n of at most mu_t lambda_n, bounded by what stops w_n.
 
 Position correction is split from the velocities (split impulse / non-linear projection): a
 second Gauss-Seidel pass on pseudo-velocities that are displacements, with the same rows,
@@ -57,7 +59,8 @@ class SolverSettings:
     (m/s): slower approaches do not bounce; tolerance (m/s): a pass stops after an iteration
     that changed no contact's velocity by more (the position pass: by more than tolerance dt,
     in m); batch_threshold: contacts from which the numpy kernel runs; rolling_resistance
-    (m): the lever arm of the moment resisting rolling, mu_r (0: none)."""
+    (m): the lever arm of the moment resisting rolling, mu_r (0: none); torsional_friction
+    (m): that of the moment resisting spin about the normal, mu_t (0: none)."""
 
     restitution: float = 0.0
     friction: float = 0.5
@@ -70,6 +73,7 @@ class SolverSettings:
     tolerance: float = 1e-6
     batch_threshold: int = 48
     rolling_resistance: float = 0.0
+    torsional_friction: float = 0.0
 
     def __post_init__(self) -> None:
         _number('restitution', self.restitution, 0.0, 1.0)
@@ -80,6 +84,7 @@ class SolverSettings:
         _number('bounce_threshold', self.bounce_threshold, 0.0, math.inf)
         _number('tolerance', self.tolerance, 0.0, math.inf)
         _number('rolling_resistance', self.rolling_resistance, 0.0, math.inf)
+        _number('torsional_friction', self.torsional_friction, 0.0, math.inf)
         for name in ('velocity_iterations', 'position_iterations', 'batch_threshold'):
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < 0:
@@ -282,9 +287,9 @@ def solve(contacts: ContactArrays, bodies: Bodies, settings: SolverSettings,
     u, lam, v_done = kernel(rows, u, lam, target, mu, batches, settings.velocity_iterations,
                             with_friction, settings.tolerance)
 
-    if settings.rolling_resistance > 0.0:
+    if settings.rolling_resistance > 0.0 or settings.torsional_friction > 0.0:
         u = _resist_rolling(contacts, bodies, u, lam[:, 0], settings.rolling_resistance,
-                            batches)
+                            settings.torsional_friction, batches)
 
     # Position correction on pseudo-velocities (displacements), normal rows only.
     q = np.zeros((body_count, 6))
@@ -373,43 +378,72 @@ def _scalar(rows: _Rows, u: np.ndarray, lam: np.ndarray, target: np.ndarray, mu:
 
 
 def _resist_rolling(contacts: ContactArrays, bodies: Bodies, u: np.ndarray,
-                    normal_impulse: np.ndarray, mu_r: float, batches) -> np.ndarray:
-    """One pass of rolling resistance couples over the contacts, colour by colour (see the
-    module doc and docs/collisions.md (36)); returns the new (N, 6) velocities."""
+                    normal_impulse: np.ndarray, mu_r: float, mu_t: float,
+                    batches) -> np.ndarray:
+    """One pass of rolling resistance and torsional friction couples over the contacts,
+    colour by colour (see the module doc and docs/collisions.md (36), (37)); returns the new
+    (N, 6) velocities."""
     u = u.copy()
     inverse_inertia = bodies.inverse_inertia
     for idx in batches:
         idx = idx[normal_impulse[idx] > 0.0]
         if not len(idx):
             continue
-        a, b = contacts.body_a[idx], contacts.body_b[idx]
-        t1, t2 = tangent_basis(contacts.normal[idx])
-        w_rel = u[b, 3:] - u[a, 3:]
-        w1 = np.einsum('mi,mi->m', w_rel, t1)
-        w2 = np.einsum('mi,mi->m', w_rel, t2)
-        rolling = (w1 != 0.0) | (w2 != 0.0)
-        if not rolling.any():
-            continue
-        idx, a, b = idx[rolling], a[rolling], b[rolling]
-        t1, t2, w1, w2 = t1[rolling], t2[rolling], w1[rolling], w2[rolling]
-        inv_sum = inverse_inertia[a] + inverse_inertia[b]
-        s1 = np.einsum('mij,mj->mi', inv_sum, t1)
-        s2 = np.einsum('mij,mj->mi', inv_sum, t2)
-        k11 = np.einsum('mi,mi->m', t1, s1)
-        k12 = np.einsum('mi,mi->m', t1, s2)
-        k22 = np.einsum('mi,mi->m', t2, s2)
-        det = k11 * k22 - k12 * k12
-        # The couple (in t1, t2) that stops the relative rolling: K_t^-1 w_t, then scaled into
-        # the budget mu_r lambda_n. Scaling keeps its direction, so w_t only shrinks.
-        l1 = (k22 * w1 - k12 * w2) / det
-        l2 = (k11 * w2 - k12 * w1) / det
-        size = np.sqrt(l1 * l1 + l2 * l2)
-        budget = mu_r * normal_impulse[idx]
-        scale = np.where(size > budget, budget / np.where(size > 0.0, size, 1.0), 1.0)
-        couple = (l1 * scale)[:, None] * t1 + (l2 * scale)[:, None] * t2
-        u[a, 3:] += np.einsum('mij,mj->mi', inverse_inertia[a], couple)
-        u[b, 3:] -= np.einsum('mij,mj->mi', inverse_inertia[b], couple)
+        if mu_r > 0.0:
+            _roll_batch(contacts, inverse_inertia, u, normal_impulse, mu_r, idx)
+        if mu_t > 0.0:
+            _spin_batch(contacts, inverse_inertia, u, normal_impulse, mu_t, idx)
     return u
+
+
+def _spin_batch(contacts, inverse_inertia, u, normal_impulse, mu_t, idx) -> None:
+    """The torsional couple of contacts ``idx`` (no two share a moving body), in place: along
+    n, stopping the relative spin w_n = (w_b - w_a) . n or at most mu_t lambda_n of it."""
+    a, b, n = contacts.body_a[idx], contacts.body_b[idx], contacts.normal[idx]
+    w_n = np.einsum('mi,mi->m', u[b, 3:] - u[a, 3:], n)
+    spinning = w_n != 0.0
+    if not spinning.any():
+        return
+    idx, a, b, n, w_n = idx[spinning], a[spinning], b[spinning], n[spinning], w_n[spinning]
+    ia_n = np.einsum('mij,mj->mi', inverse_inertia[a], n)
+    ib_n = np.einsum('mij,mj->mi', inverse_inertia[b], n)
+    k = np.einsum('mi,mi->m', n, ia_n + ib_n)
+    stop = w_n / k
+    budget = mu_t * normal_impulse[idx]
+    couple = np.where(np.abs(stop) > budget, np.copysign(budget, stop), stop)
+    u[a, 3:] += couple[:, None] * ia_n
+    u[b, 3:] -= couple[:, None] * ib_n
+
+
+def _roll_batch(contacts, inverse_inertia, u, normal_impulse, mu_r, idx) -> None:
+    """The rolling couple of contacts ``idx`` (no two share a moving body), in place."""
+    a, b = contacts.body_a[idx], contacts.body_b[idx]
+    t1, t2 = tangent_basis(contacts.normal[idx])
+    w_rel = u[b, 3:] - u[a, 3:]
+    w1 = np.einsum('mi,mi->m', w_rel, t1)
+    w2 = np.einsum('mi,mi->m', w_rel, t2)
+    rolling = (w1 != 0.0) | (w2 != 0.0)
+    if not rolling.any():
+        return
+    idx, a, b = idx[rolling], a[rolling], b[rolling]
+    t1, t2, w1, w2 = t1[rolling], t2[rolling], w1[rolling], w2[rolling]
+    inv_sum = inverse_inertia[a] + inverse_inertia[b]
+    s1 = np.einsum('mij,mj->mi', inv_sum, t1)
+    s2 = np.einsum('mij,mj->mi', inv_sum, t2)
+    k11 = np.einsum('mi,mi->m', t1, s1)
+    k12 = np.einsum('mi,mi->m', t1, s2)
+    k22 = np.einsum('mi,mi->m', t2, s2)
+    det = k11 * k22 - k12 * k12
+    # The couple (in t1, t2) that stops the relative rolling: K_t^-1 w_t, then scaled into the
+    # budget mu_r lambda_n. Scaling keeps its direction, so w_t only shrinks.
+    l1 = (k22 * w1 - k12 * w2) / det
+    l2 = (k11 * w2 - k12 * w1) / det
+    size = np.sqrt(l1 * l1 + l2 * l2)
+    budget = mu_r * normal_impulse[idx]
+    scale = np.where(size > budget, budget / np.where(size > 0.0, size, 1.0), 1.0)
+    couple = (l1 * scale)[:, None] * t1 + (l2 * scale)[:, None] * t2
+    u[a, 3:] += np.einsum('mij,mj->mi', inverse_inertia[a], couple)
+    u[b, 3:] -= np.einsum('mij,mj->mi', inverse_inertia[b], couple)
 
 
 def _dot12(j, ua, ub):

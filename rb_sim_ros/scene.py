@@ -7,7 +7,7 @@
                                         # (also velocity_iterations, position_iterations,
                                         #  slop, position_fraction, bounce_threshold,
                                         #  speculative, sleep_time, sleep_speed,
-                                        #  rolling_resistance)
+                                        #  rolling_resistance, torsional_friction)
     bodies:
       - name: satellite                 # topics satellite/wrench, satellite/pose, ...
         mass: 120.0                     # kg, with inertia (kg m^2): 3 moments or a 3x3 tensor

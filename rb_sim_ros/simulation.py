@@ -92,6 +92,7 @@ class ContactSettings:
     Gauss-Seidel iterations of the velocity and the position pass; slop (m) of penetration
     left uncorrected; position_fraction of the rest corrected per step; rolling_resistance
     (m): the lever arm of the moment that resists rolling (0: balls roll for ever);
+    torsional_friction (m): that of the moment resisting spin about the contact normal;
     approaches slower than bounce_threshold (m/s) do not bounce (keep it above |g| dt);
     speculative contacts keep fast bodies from tunnelling. A body pressed by a contact whose
     points all move slower than sleep_speed (m/s) for sleep_time (s) sleeps, at rest and at
@@ -109,6 +110,7 @@ class ContactSettings:
     sleep_time: float = 0.5
     sleep_speed: float = 1e-3
     rolling_resistance: float = 0.0
+    torsional_friction: float = 0.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.speculative, bool):

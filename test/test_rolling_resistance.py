@@ -1,7 +1,7 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""Rolling resistance: a ball rolls as far as the resisting moment mu_r N allows; couples keep
-momentum and never add energy."""
+"""Rolling resistance and torsional friction: a ball rolls as far, and spins as long, as the
+resisting moments mu_r N and mu_t N allow; couples keep momentum and never add energy."""
 
 import dataclasses
 
@@ -67,11 +67,12 @@ def test_rolling_couples_keep_momentum_and_take_energy():
         assert not np.array_equal(rolled.angular_velocity, plain.angular_velocity)
 
 
-def test_scene_contact_settings_carry_it():
-    assert ContactSettings(rolling_resistance=0.01).world_arguments()['rolling_resistance'] \
-        == 0.01
-    with pytest.raises(ValueError, match='rolling_resistance'):
-        ContactSettings(rolling_resistance=-0.01)
+def test_scene_contact_settings_carry_them():
+    args = ContactSettings(rolling_resistance=0.01, torsional_friction=0.02).world_arguments()
+    assert (args['rolling_resistance'], args['torsional_friction']) == (0.01, 0.02)
+    for name in ('rolling_resistance', 'torsional_friction'):
+        with pytest.raises(ValueError, match=name):
+            ContactSettings(**{name: -0.01})
 
 
 def cs_rotation(rng):
@@ -126,9 +127,11 @@ def test_many_contacts_in_one_solve_keep_momentum():
     normal = rng.normal(size=(m, 3))
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     contacts = cs.ContactArrays(a, b, rng.normal(size=(m, 3)), normal, np.full(m, 0.01))
-    settings = cs.SolverSettings(friction=0.5, position_iterations=0, rolling_resistance=0.05)
+    settings = cs.SolverSettings(friction=0.5, position_iterations=0, rolling_resistance=0.05,
+                                 torsional_friction=0.05)
     result = cs.solve(contacts, bodies, settings)
-    plain = cs.solve(contacts, bodies, dataclasses.replace(settings, rolling_resistance=0.0))
+    plain = cs.solve(contacts, bodies, dataclasses.replace(settings, rolling_resistance=0.0,
+                                                           torsional_friction=0.0))
     assert (result.normal_impulse > 0.0).sum() >= 4 and result.colours >= 2
     assert not np.array_equal(result.angular_velocity, plain.angular_velocity)
 
@@ -140,3 +143,25 @@ def test_many_contacts_in_one_solve_keep_momentum():
     p1, l1 = momenta_of(result.velocity, result.angular_velocity)
     np.testing.assert_allclose(p1, p0, atol=1e-12 * np.abs(p0).max())
     np.testing.assert_allclose(l1, l0, atol=1e-12 * np.abs(l0).max())
+
+
+def test_a_spinning_ball_slows_as_the_torsional_moment_says():
+    """A ball spinning about the vertical on the ground (Coulomb friction at its one contact
+    point has no moment about that axis): I dw/dt = -mu_t m g, so w falls linearly to 0 at
+    T = I w0 / (mu_t m g), and stays there."""
+    r, m, w0, mu_t, dt = 0.1, 1.0, 10.0, 0.01, 1e-3
+    inertia = 0.4 * m * r * r
+    ball = BodySpec('ball', m, (inertia,) * 3, initial_position=(0.0, 0.0, r),
+                    initial_angular_velocity=(0.0, 0.0, w0), colliders=(Sphere(r),))
+    world = CollisionWorld([ball], dt, (0.0, 0.0, -9.81), friction=0.5, planes=(Plane(),),
+                           torsional_friction=mu_t, sleep_time=0.0)
+    stop = inertia * w0 / (mu_t * m * 9.81)
+    for fraction in (0.25, 0.5, 0.75):
+        world.step(round(fraction * stop / dt) - world.step_count)
+        assert world.state('ball').angular_velocity[2] == pytest.approx(
+            w0 * (1.0 - world.time / stop), abs=1e-9)
+    world.step(round(0.5 * stop / dt))
+    assert world.state('ball').angular_velocity[2] == 0.0
+    free = CollisionWorld([ball], dt, (0.0, 0.0, -9.81), friction=0.5, planes=(Plane(),))
+    free.step(500)
+    assert free.state('ball').angular_velocity[2] == pytest.approx(w0, rel=1e-12)
