@@ -288,8 +288,8 @@ def solve(contacts: ContactArrays, bodies: Bodies, settings: SolverSettings,
                             with_friction, settings.tolerance)
 
     if settings.rolling_resistance > 0.0 or settings.torsional_friction > 0.0:
-        u = _resist_rolling(contacts, bodies, u, lam[:, 0], settings.rolling_resistance,
-                            settings.torsional_friction, batches)
+        u = _resist_rolling(contacts, bodies, rows, u, lam[:, 0], settings.rolling_resistance,
+                            settings.torsional_friction, batches, kernel is _batched)
 
     # Position correction on pseudo-velocities (displacements), normal rows only.
     q = np.zeros((body_count, 6))
@@ -377,73 +377,118 @@ def _scalar(rows: _Rows, u: np.ndarray, lam: np.ndarray, target: np.ndarray, mu:
     return np.array(us, dtype=float).reshape(u.shape), np.array(lams, dtype=float), done
 
 
-def _resist_rolling(contacts: ContactArrays, bodies: Bodies, u: np.ndarray,
-                    normal_impulse: np.ndarray, mu_r: float, mu_t: float,
-                    batches) -> np.ndarray:
-    """One pass of rolling resistance and torsional friction couples over the contacts,
-    colour by colour (see the module doc and docs/collisions.md (36), (37)); returns the new
-    (N, 6) velocities."""
-    u = u.copy()
-    inverse_inertia = bodies.inverse_inertia
-    for idx in batches:
-        idx = idx[normal_impulse[idx] > 0.0]
-        if not len(idx):
-            continue
-        if mu_r > 0.0:
-            _roll_batch(contacts, inverse_inertia, u, normal_impulse, mu_r, idx)
-        if mu_t > 0.0:
-            _spin_batch(contacts, inverse_inertia, u, normal_impulse, mu_t, idx)
-    return u
-
-
-def _spin_batch(contacts, inverse_inertia, u, normal_impulse, mu_t, idx) -> None:
-    """The torsional couple of contacts ``idx`` (no two share a moving body), in place: along
-    n, stopping the relative spin w_n = (w_b - w_a) . n or at most mu_t lambda_n of it."""
-    a, b, n = contacts.body_a[idx], contacts.body_b[idx], contacts.normal[idx]
-    w_n = np.einsum('mi,mi->m', u[b, 3:] - u[a, 3:], n)
-    spinning = w_n != 0.0
-    if not spinning.any():
-        return
-    idx, a, b, n, w_n = idx[spinning], a[spinning], b[spinning], n[spinning], w_n[spinning]
-    ia_n = np.einsum('mij,mj->mi', inverse_inertia[a], n)
-    ib_n = np.einsum('mij,mj->mi', inverse_inertia[b], n)
-    k = np.einsum('mi,mi->m', n, ia_n + ib_n)
-    stop = w_n / k
-    budget = mu_t * normal_impulse[idx]
-    couple = np.where(np.abs(stop) > budget, np.copysign(budget, stop), stop)
-    u[a, 3:] += couple[:, None] * ia_n
-    u[b, 3:] -= couple[:, None] * ib_n
-
-
-def _roll_batch(contacts, inverse_inertia, u, normal_impulse, mu_r, idx) -> None:
-    """The rolling couple of contacts ``idx`` (no two share a moving body), in place."""
-    a, b = contacts.body_a[idx], contacts.body_b[idx]
-    t1, t2 = tangent_basis(contacts.normal[idx])
-    w_rel = u[b, 3:] - u[a, 3:]
-    w1 = np.einsum('mi,mi->m', w_rel, t1)
-    w2 = np.einsum('mi,mi->m', w_rel, t2)
-    rolling = (w1 != 0.0) | (w2 != 0.0)
-    if not rolling.any():
-        return
-    idx, a, b = idx[rolling], a[rolling], b[rolling]
-    t1, t2, w1, w2 = t1[rolling], t2[rolling], w1[rolling], w2[rolling]
-    inv_sum = inverse_inertia[a] + inverse_inertia[b]
-    s1 = np.einsum('mij,mj->mi', inv_sum, t1)
-    s2 = np.einsum('mij,mj->mi', inv_sum, t2)
-    k11 = np.einsum('mi,mi->m', t1, s1)
-    k12 = np.einsum('mi,mi->m', t1, s2)
-    k22 = np.einsum('mi,mi->m', t2, s2)
+def _resist_rolling(contacts: ContactArrays, bodies: Bodies, rows: _Rows, u: np.ndarray,
+                    normal_impulse: np.ndarray, mu_r: float, mu_t: float, batches,
+                    batched: bool) -> np.ndarray:
+    """One pass of rolling resistance and torsional friction couples over the pressed
+    contacts, colour by colour (the module doc; docs/collisions.md (36), (37)); returns the
+    new (N, 6) velocities. What depends only on the contacts is computed once with numpy; the
+    sequential part runs on floats or, ``batched``, with numpy a colour at a time, with the
+    same operations in the same order, so both give the same bits."""
+    order = np.concatenate(batches)
+    order = order[normal_impulse[order] > 0.0]
+    if not len(order):
+        return u
+    ii = bodies.inverse_inertia
+    a, b, n = contacts.body_a[order], contacts.body_b[order], contacts.normal[order]
+    t1, t2 = rows.t1[order], rows.t2[order]
+    ia, ib = ii[a], ii[b]
+    ia_t1, ia_t2 = np.einsum('mij,mj->mi', ia, t1), np.einsum('mij,mj->mi', ia, t2)
+    ib_t1, ib_t2 = np.einsum('mij,mj->mi', ib, t1), np.einsum('mij,mj->mi', ib, t2)
+    ia_n, ib_n = np.einsum('mij,mj->mi', ia, n), np.einsum('mij,mj->mi', ib, n)
+    k11 = np.einsum('mi,mi->m', t1, ia_t1 + ib_t1)
+    k12 = np.einsum('mi,mi->m', t1, ia_t2 + ib_t2)
+    k22 = np.einsum('mi,mi->m', t2, ia_t2 + ib_t2)
     det = k11 * k22 - k12 * k12
-    # The couple (in t1, t2) that stops the relative rolling: K_t^-1 w_t, then scaled into the
-    # budget mu_r lambda_n. Scaling keeps its direction, so w_t only shrinks.
-    l1 = (k22 * w1 - k12 * w2) / det
-    l2 = (k11 * w2 - k12 * w1) / det
-    size = np.sqrt(l1 * l1 + l2 * l2)
-    budget = mu_r * normal_impulse[idx]
-    scale = np.where(size > budget, budget / np.where(size > 0.0, size, 1.0), 1.0)
-    couple = (l1 * scale)[:, None] * t1 + (l2 * scale)[:, None] * t2
-    u[a, 3:] += np.einsum('mij,mj->mi', inverse_inertia[a], couple)
-    u[b, 3:] -= np.einsum('mij,mj->mi', inverse_inertia[b], couple)
+    k_n = np.einsum('mi,mi->m', n, ia_n + ib_n)
+    budget_r = mu_r * normal_impulse[order]
+    budget_t = mu_t * normal_impulse[order]
+    columns = (t1, t2, n, ia_t1, ia_t2, ib_t1, ib_t2, ia_n, ib_n)
+    scalars = (k11, k12, k22, det, k_n, budget_r, budget_t)
+    if batched:
+        return _couples_batched(u, a, b, order, batches, normal_impulse, columns, scalars,
+                                mu_r > 0.0, mu_t > 0.0)
+    return _couples_scalar(u, a, b, columns, scalars, mu_r > 0.0, mu_t > 0.0)
+
+
+def _couples_scalar(u, a, b, columns, scalars, rolling, spinning):
+    us = [tuple(row) for row in u.tolist()]
+    records = zip(a.tolist(), b.tolist(), *(c.tolist() for c in columns),
+                  *(x.tolist() for x in scalars))
+    sqrt = math.sqrt
+    for (ia, ib, t1, t2, n, pa1, pa2, pb1, pb2, pan, pbn, k11, k12, k22, det, k_n, br,
+         bt) in records:
+        a0, a1, a2, a3, a4, a5 = us[ia]
+        b0, b1, b2, b3, b4, b5 = us[ib]
+        if rolling:
+            r0, r1, r2 = b3 - a3, b4 - a4, b5 - a5
+            w1 = r0 * t1[0] + r1 * t1[1] + r2 * t1[2]
+            w2 = r0 * t2[0] + r1 * t2[1] + r2 * t2[2]
+            if w1 != 0.0 or w2 != 0.0:
+                l1 = (k22 * w1 - k12 * w2) / det
+                l2 = (k11 * w2 - k12 * w1) / det
+                size = sqrt(l1 * l1 + l2 * l2)
+                if size > br:
+                    f = br / size
+                    l1, l2 = l1 * f, l2 * f
+                a3, a4, a5 = (a3 + (l1 * pa1[0] + l2 * pa2[0]), a4 + (l1 * pa1[1] + l2 * pa2[1]),
+                              a5 + (l1 * pa1[2] + l2 * pa2[2]))
+                b3, b4, b5 = (b3 - (l1 * pb1[0] + l2 * pb2[0]), b4 - (l1 * pb1[1] + l2 * pb2[1]),
+                              b5 - (l1 * pb1[2] + l2 * pb2[2]))
+        if spinning:
+            w_n = (b3 - a3) * n[0] + (b4 - a4) * n[1] + (b5 - a5) * n[2]
+            if w_n != 0.0:
+                c = w_n / k_n
+                if abs(c) > bt:
+                    c = math.copysign(bt, c)
+                a3, a4, a5 = a3 + c * pan[0], a4 + c * pan[1], a5 + c * pan[2]
+                b3, b4, b5 = b3 - c * pbn[0], b4 - c * pbn[1], b5 - c * pbn[2]
+        us[ia] = (a0, a1, a2, a3, a4, a5)
+        us[ib] = (b0, b1, b2, b3, b4, b5)
+    return np.array(us, dtype=float).reshape(u.shape)
+
+
+def _couples_batched(u, a, b, order, batches, normal_impulse, columns, scalars, rolling,
+                     spinning):
+    u = u.copy()
+    t1, t2, n, pa1, pa2, pb1, pb2, pan, pbn = columns
+    k11, k12, k22, det, k_n, br, bt = scalars
+    start = 0
+    for batch in batches:
+        count = int(np.count_nonzero(normal_impulse[batch] > 0.0))
+        if not count:
+            continue
+        k = slice(start, start + count)
+        start += count
+        ia, ib = a[k], b[k]
+        wa, wb = u[ia, 3:], u[ib, 3:]
+        if rolling:
+            r = wb - wa
+            w1 = r[:, 0] * t1[k, 0] + r[:, 1] * t1[k, 1] + r[:, 2] * t1[k, 2]
+            w2 = r[:, 0] * t2[k, 0] + r[:, 1] * t2[k, 1] + r[:, 2] * t2[k, 2]
+            go = (w1 != 0.0) | (w2 != 0.0)
+            l1 = (k22[k] * w1 - k12[k] * w2) / det[k]
+            l2 = (k11[k] * w2 - k12[k] * w1) / det[k]
+            size = np.sqrt(l1 * l1 + l2 * l2)
+            over = size > br[k]
+            f = br[k] / np.where(over, size, 1.0)
+            l1 = np.where(over, l1 * f, l1)[:, None]
+            l2 = np.where(over, l2 * f, l2)[:, None]
+            go = go[:, None]
+            wa = np.where(go, wa + (l1 * pa1[k] + l2 * pa2[k]), wa)
+            wb = np.where(go, wb - (l1 * pb1[k] + l2 * pb2[k]), wb)
+        if spinning:
+            d = wb - wa
+            w_n = d[:, 0] * n[k, 0] + d[:, 1] * n[k, 1] + d[:, 2] * n[k, 2]
+            c = w_n / k_n[k]
+            c = np.where(np.abs(c) > bt[k], np.copysign(bt[k], c), c)
+            go = (w_n != 0.0)[:, None]
+            c = c[:, None]
+            wa = np.where(go, wa + c * pan[k], wa)
+            wb = np.where(go, wb - c * pbn[k], wb)
+        u[ia, 3:] = wa
+        u[ib, 3:] = wb
+    return u
 
 
 def _dot12(j, ua, ub):

@@ -165,3 +165,33 @@ def test_a_spinning_ball_slows_as_the_torsional_moment_says():
     free = CollisionWorld([ball], dt, (0.0, 0.0, -9.81), friction=0.5, planes=(Plane(),))
     free.step(500)
     assert free.state('ball').angular_velocity[2] == pytest.approx(w0, rel=1e-12)
+
+
+def test_float_and_numpy_couples_give_the_same_bits():
+    """As for the Gauss-Seidel kernels: 120 random contacts among 30 bodies and the static
+    world, both couples on, solved with the float kernel and with numpy a colour at a time."""
+    rng = np.random.default_rng(21)
+    count, n = 120, 31
+    inv_mass = np.append(rng.uniform(0.3, 2.0, n - 1), 0.0)
+    inv_inertia = np.array([np.linalg.inv(np.diag(rng.uniform(0.05, 1.0, 3)))
+                            for _ in range(n)])
+    inv_inertia[-1] = 0.0
+    bodies = cs.Bodies(rng.normal(size=(n, 3)), rng.normal(size=(n, 3)),
+                       rng.normal(size=(n, 3)) * 3.0, inv_mass, inv_inertia)
+    bodies.velocity[-1] = bodies.angular_velocity[-1] = 0.0
+    a = rng.integers(0, n - 1, count)
+    b = (a + rng.integers(1, n, count)) % n
+    normal = rng.normal(size=(count, 3))
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    contacts = cs.ContactArrays(a, b, rng.normal(size=(count, 3)), normal,
+                                rng.uniform(-0.01, 0.01, count))
+    out = []
+    for threshold in (0, 10 ** 9):
+        settings = cs.SolverSettings(friction=0.6, rolling_resistance=0.02,
+                                     torsional_friction=0.01, batch_threshold=threshold)
+        out.append(cs.solve(contacts, bodies, settings))
+    plain = cs.solve(contacts, bodies, cs.SolverSettings(friction=0.6))
+    assert out[0].colours > 1 and (out[0].normal_impulse > 0).sum() > 20
+    assert not np.array_equal(out[0].angular_velocity, plain.angular_velocity)
+    np.testing.assert_array_equal(out[0].angular_velocity, out[1].angular_velocity)
+    np.testing.assert_array_equal(out[0].velocity, out[1].velocity)
