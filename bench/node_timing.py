@@ -9,7 +9,8 @@ probe node in this process. For publish rates of 100 Hz and 1 kHz at dt = 1 ms a
 late-tick fraction and p50/p99 tick lateness from the node's /diagnostics, the node's CPU per
 core from /proc, and the latency from publishing a wrench to receiving the first pose that
 includes it (p50/p99). Then the fastest real-time factor (real_time_factor 0) for one body at
-dt = 1 ms. Prints a table; figures are this machine's, measured now.
+dt = 1 ms, and, second by second, for a scene (``--scene``, default the collision demo, whose
+bodies settle and sleep). Prints a table; figures are this machine's, measured now.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+from pathlib import Path
 import random
 import signal
 import subprocess
@@ -156,12 +158,32 @@ def measure_fastest(env, probe: Probe, rate: float, seconds: float, listen: bool
             'real_time_factor': ratios[len(ratios) // 2]}
 
 
+def measure_scene(env, probe: Probe, scene: str, seconds: float) -> dict:
+    """Sim seconds per wall second, each wall second, of a scene at real_time_factor 0: for
+    the collision scene it rises as its bodies come to rest and sleep."""
+    proc = _start(env, f'scene_file:={scene}', 'real_time_factor:=0.0')
+    try:
+        diags = []
+        sub = probe.node.create_subscription(DiagnosticArray, '/diagnostics', diags.append, 10)
+        if not probe.spin_until(lambda: len(diags) >= 1 + seconds, 30 + seconds):
+            raise RuntimeError('simulator did not report')
+        probe.node.destroy_subscription(sub)
+    finally:
+        _stop(proc)
+    values = [{v.key: v.value for v in d.status[0].values} for d in diags[1:]]
+    return {'scene': scene, 'sim_over_wall': [float(v['sim_over_wall']) for v in values],
+            'sleeping_bodies': [int(v.get('sleeping_bodies', 0)) for v in values]}
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--seconds', type=float, default=10.0, help='per measurement')
     parser.add_argument('--samples', type=int, default=100, help='latency samples per rate')
     parser.add_argument('--json', help='write the figures here too')
+    parser.add_argument('--scene', default=str(Path(__file__).resolve().parents[1] / 'scenes'
+                                               / 'collisions.yaml'),
+                        help='a scene run as fast as possible (default: the collision demo)')
     opts = parser.parse_args()
     domain = random.randint(1, 100)
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
@@ -172,6 +194,7 @@ def main() -> int:
         rates = [measure_rate(env, probe, r, opts.seconds, opts.samples) for r in (100.0, 1000.0)]
         fastest = [measure_fastest(env, probe, r, opts.seconds, listen)
                    for r in (100.0, 10.0) for listen in (False, True)]
+        scene = measure_scene(env, probe, opts.scene, opts.seconds)
     finally:
         probe.close()
     print(f'{"publish":>8} {"late ticks":>11} {"lateness p50":>13} {"p99":>8} {"CPU/core":>9} '
@@ -186,9 +209,12 @@ def main() -> int:
         who = 'a pose subscriber' if f['pose_subscriber'] else 'no subscriber'
         print(f'fastest real-time factor, dt = 1 ms, publishing at {f["publish_rate_hz"]:.0f} Hz '
               f'(sim), {who}: {f["real_time_factor"]:.0f}x')
+    print(f'{Path(scene["scene"]).name} as fast as possible, sim seconds per wall second, '
+          'each wall second: ' + ', '.join(f'{r:.2f}' for r in scene['sim_over_wall'])
+          + ' (bodies asleep: ' + ', '.join(str(n) for n in scene['sleeping_bodies']) + ')')
     if opts.json:
         with open(opts.json, 'w') as fh:
-            json.dump({'rates': rates, 'fastest': fastest}, fh, indent=2)
+            json.dump({'rates': rates, 'fastest': fastest, 'scene': scene}, fh, indent=2)
     return 0
 
 
