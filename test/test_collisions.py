@@ -146,14 +146,14 @@ def test_impact_on_a_static_body_and_coulomb_friction():
     np.testing.assert_array_equal(result.velocity[1], 0.0)
 
 
-def test_float_and_numpy_kernels_give_the_same_bits():
-    rng = np.random.default_rng(9)
-    count, bodies_count = 120, 31                 # the last body is static (a plane, say)
+def random_contact_set(rng, count=120, bodies_count=31, spin=1.0):
+    """``count`` random contacts among ``bodies_count`` - 1 free bodies (full inertia tensors)
+    and a static one, the last (a plane, say): (Bodies, ContactArrays)."""
     inv_mass = np.append(rng.uniform(0.3, 2.0, bodies_count - 1), 0.0)
     inv_inertia = np.array([np.linalg.inv(random_inertia(rng)) for _ in range(bodies_count)])
     inv_inertia[-1] = 0.0
     bodies = cs.Bodies(rng.normal(size=(bodies_count, 3)), rng.normal(size=(bodies_count, 3)),
-                       rng.normal(size=(bodies_count, 3)), inv_mass, inv_inertia)
+                       rng.normal(size=(bodies_count, 3)) * spin, inv_mass, inv_inertia)
     bodies.velocity[-1] = bodies.angular_velocity[-1] = 0.0
     a = rng.integers(0, bodies_count - 1, count)
     b = (a + rng.integers(1, bodies_count, count)) % bodies_count
@@ -161,6 +161,13 @@ def test_float_and_numpy_kernels_give_the_same_bits():
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     contacts = cs.ContactArrays(a, b, rng.normal(size=(count, 3)), normal,
                                 rng.uniform(-0.01, 0.01, count))
+    return bodies, contacts
+
+
+def test_float_and_numpy_kernels_give_the_same_bits():
+    rng = np.random.default_rng(9)
+    count = 120
+    bodies, contacts = random_contact_set(rng, count)
     warm = rng.uniform(0.0, 0.1, count), rng.normal(size=(count, 3)) * 0.01
     out = []
     for threshold in (0, 10 ** 9):

@@ -12,7 +12,7 @@ from rb_sim_ros import contact_solver as cs, so3
 from rb_sim_ros.collision_shapes import Plane, Sphere
 from rb_sim_ros.collision_world import CollisionWorld
 from rb_sim_ros.simulation import BodySpec, ContactSettings
-from test_collisions import impact, momenta
+from test_collisions import impact, momenta, random_contact_set
 
 
 @pytest.mark.parametrize('mu_r', [0.005, 0.002])
@@ -170,21 +170,7 @@ def test_a_spinning_ball_slows_as_the_torsional_moment_says():
 def test_float_and_numpy_couples_give_the_same_bits():
     """As for the Gauss-Seidel kernels: 120 random contacts among 30 bodies and the static
     world, both couples on, solved with the float kernel and with numpy a colour at a time."""
-    rng = np.random.default_rng(21)
-    count, n = 120, 31
-    inv_mass = np.append(rng.uniform(0.3, 2.0, n - 1), 0.0)
-    inv_inertia = np.array([np.linalg.inv(np.diag(rng.uniform(0.05, 1.0, 3)))
-                            for _ in range(n)])
-    inv_inertia[-1] = 0.0
-    bodies = cs.Bodies(rng.normal(size=(n, 3)), rng.normal(size=(n, 3)),
-                       rng.normal(size=(n, 3)) * 3.0, inv_mass, inv_inertia)
-    bodies.velocity[-1] = bodies.angular_velocity[-1] = 0.0
-    a = rng.integers(0, n - 1, count)
-    b = (a + rng.integers(1, n, count)) % n
-    normal = rng.normal(size=(count, 3))
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    contacts = cs.ContactArrays(a, b, rng.normal(size=(count, 3)), normal,
-                                rng.uniform(-0.01, 0.01, count))
+    bodies, contacts = random_contact_set(np.random.default_rng(21), spin=3.0)
     out = []
     for threshold in (0, 10 ** 9):
         settings = cs.SolverSettings(friction=0.6, rolling_resistance=0.02,
