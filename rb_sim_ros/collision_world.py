@@ -58,9 +58,9 @@ import numpy as np
 
 from rb_sim_ros import broad_phase, contact_solver, narrow_phase, so3
 from rb_sim_ros.collision_shapes import combined_material, Plane, Shape
-from rb_sim_ros.rigid_body import finite_floats, State
-from rb_sim_ros.simulation import BodySpec, Config
-from rb_sim_ros.stepper import IntegrationError, step_all, Stepper
+from rb_sim_ros.rigid_body import finite_floats, non_negative, State
+from rb_sim_ros.simulation import BodySpec, Config, make_steppers
+from rb_sim_ros.stepper import IntegrationError, step_all
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
 FEATURE_BITS = 12
@@ -159,29 +159,17 @@ class CollisionWorld:
             if not isinstance(flag, bool):
                 raise ValueError(f'{name} must be true or false, got {flag!r}')
         self.speculative, self.warm_start = speculative, warm_start
-        for name, value in (('sleep_time', sleep_time), ('sleep_speed', sleep_speed)):
-            if (isinstance(value, bool) or not isinstance(value, (int, float))
-                    or not math.isfinite(value) or value < 0.0):
-                raise ValueError(f'{name} must be a finite number >= 0, got {value!r}')
+        sleep_time = non_negative('sleep_time', sleep_time)
         # Steps a supported body must stay slow before it sleeps (0: never).
         self._sleep_steps = math.ceil(sleep_time / self.settings.dt - 1e-9) if sleep_time else 0
-        self._sleep_speed = float(sleep_speed)
+        self._sleep_speed = non_negative('sleep_speed', sleep_speed)
         planes = tuple(planes)
         for i, p in enumerate(planes):
             if not isinstance(p, Plane):
                 raise ValueError(f'planes[{i}] must be a Plane, got {p!r}')
         self.bodies = bodies
         self.dt = self.settings.dt
-        self.steppers: dict[str, Stepper] = {}
-        self.static: dict[str, State] = {}
-        for spec in bodies:
-            if spec.static:
-                self.static[spec.name] = spec.initial_state()
-            else:
-                self.steppers[spec.name] = Stepper(
-                    spec.body(), dt, spec.initial_state(), method=integrator,
-                    gravity=self._gravity, linear_damping=spec.linear_damping,
-                    angular_damping=spec.angular_damping)
+        self.steppers, self.static = make_steppers(bodies, dt, integrator, self._gravity)
         self._all_steppers = tuple(self.steppers.values())
         self._step_count = 0
         self.last_stats = StepStats()
@@ -655,8 +643,7 @@ class CollisionWorld:
             return empty, [], none, (none, none)
         ca = np.concatenate([p[0] for p in parts]).astype(np.int64)
         cbb = np.concatenate([p[1] for p in parts]).astype(np.int64)
-        body_b = np.where(cbb < nc, cbody[np.minimum(cbb, nc - 1)] if nc else 0,
-                          self._static_slot)
+        body_b = self._collider_body(cbb)
         contacts = contact_solver.ContactArrays(
             cbody[ca], body_b, np.concatenate([p[2] for p in parts]).reshape(-1, 3),
             np.concatenate([p[3] for p in parts]).reshape(-1, 3),
@@ -669,6 +656,12 @@ class CollisionWorld:
                    for c in cbb.tolist()]
         return contacts, list(zip(owner_a, [int(o) for o in owner_b])), keys, (ca, cbb)
 
+    def _collider_body(self, ids: np.ndarray) -> np.ndarray:
+        """The body slot of each collider id of a contact (ids past the colliders are planes:
+        the static slot)."""
+        nc = len(self._colliders)
+        return np.where(ids < nc, self._cbody[np.minimum(ids, nc - 1)], self._static_slot)
+
     def _store_warm(self, keys, normal, tangent) -> None:
         """Keep this step's impulses for the next one's warm start, and the kept impulses of
         contacts between sleepers (or a sleeper and the static world): they are not found
@@ -677,11 +670,9 @@ class CollisionWorld:
         if len(old) and self._asleep.any():
             pair = old >> FEATURE_BITS
             total = max(self._collider_count, 1)
-            ca, cb = pair // total, pair % total
-            nc = len(self._colliders)
             slot = self._static_slot
-            body_a = self._cbody[ca]
-            body_b = np.where(cb < nc, self._cbody[np.minimum(cb, nc - 1)], slot)
+            body_a = self._collider_body(pair // total)
+            body_b = self._collider_body(pair % total)
             keep = ((self._asleep[body_a] | (body_a == slot))
                     & (self._asleep[body_b] | (body_b == slot)))
             keys = np.concatenate([keys, old[keep]])

@@ -61,6 +61,14 @@ def rate(name: str, value: Any) -> float:
     return value
 
 
+def non_negative(name: str, value: Any) -> float:
+    """A finite number >= 0 (an int or a float, not a bool); ValueError naming ``name``."""
+    if (isinstance(value, bool) or not isinstance(value, (int, float))
+            or not math.isfinite(value) or value < 0.0):
+        raise ValueError(f'{name} must be a finite number >= 0, got {value!r}')
+    return float(value)
+
+
 def _matrix(name: str, value: Any) -> np.ndarray:
     try:
         arr = np.array(value, dtype=float).reshape(3, 3)

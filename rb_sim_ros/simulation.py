@@ -12,14 +12,13 @@ events at the same steps reproduce a run bit for bit, whatever the scheduling wa
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-import math
 from typing import Any, Union
 
 import numpy as np
 
 from rb_sim_ros import contact_solver, multistep
 from rb_sim_ros.collision_shapes import is_shape, Plane, shape_from_dict, shape_to_dict
-from rb_sim_ros.rigid_body import (finite_floats, rate, RigidBody, State, Wrench,
+from rb_sim_ros.rigid_body import (finite_floats, non_negative, rate, RigidBody, State, Wrench,
                                    ZERO_WRENCH)
 from rb_sim_ros.stepper import step_all, Stepper
 
@@ -116,10 +115,7 @@ class ContactSettings:
         if not isinstance(self.speculative, bool):
             raise ValueError(f'speculative must be true or false, got {self.speculative!r}')
         for name in ('sleep_time', 'sleep_speed'):
-            value = getattr(self, name)
-            if (isinstance(value, bool) or not isinstance(value, (int, float))
-                    or not math.isfinite(value) or value < 0.0):
-                raise ValueError(f'{name} must be a finite number >= 0, got {value!r}')
+            non_negative(name, getattr(self, name))
         contact_solver.SolverSettings(**{  # validates the rest
             f.name: getattr(self, f.name) for f in fields(self)
             if f.name in contact_solver.SolverSettings.__dataclass_fields__})
@@ -272,6 +268,22 @@ class Reset:
 Event = Union[SetWrench, SetPose, SetTwist, Reset]
 
 
+def make_steppers(bodies, dt: float, integrator: str,
+                  gravity) -> tuple[dict[str, Stepper], dict[str, State]]:
+    """A Stepper (at its initial state, with its damping) for each moving body of ``bodies``,
+    and the initial state of each static one, by name."""
+    steppers: dict[str, Stepper] = {}
+    static: dict[str, State] = {}
+    for spec in bodies:
+        if spec.static:
+            static[spec.name] = spec.initial_state()
+        else:
+            steppers[spec.name] = Stepper(
+                spec.body(), dt, spec.initial_state(), method=integrator, gravity=gravity,
+                linear_damping=spec.linear_damping, angular_damping=spec.angular_damping)
+    return steppers, static
+
+
 class Simulation:
     """A run of ``config``: apply events at step boundaries, advance all bodies, read them.
 
@@ -293,17 +305,8 @@ class Simulation:
             self.steppers = self.world.steppers
             self.static = self.world.static
         else:
-            self.steppers: dict[str, Stepper] = {}
-            self.static: dict[str, State] = {}
-            for spec in config.bodies:
-                if spec.static:
-                    self.static[spec.name] = spec.initial_state()
-                else:
-                    self.steppers[spec.name] = Stepper(
-                        spec.body(), config.dt, spec.initial_state(),
-                        method=config.integrator, gravity=config.gravity,
-                        linear_damping=spec.linear_damping,
-                        angular_damping=spec.angular_damping)
+            self.steppers, self.static = make_steppers(config.bodies, config.dt,
+                                                       config.integrator, config.gravity)
         self._moving = tuple(self.steppers.values())
 
     @property
