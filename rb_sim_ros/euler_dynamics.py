@@ -15,6 +15,8 @@ converts at its boundary, so users still see R of the body frame they gave.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -23,14 +25,69 @@ def principal_axes(inertia: np.ndarray) -> tuple[tuple[float, float, float], np.
 
     Q's columns are the principal axes in the body frame. A diagonal inertia gives Q = I
     exactly, so a body given in principal axes is integrated with no change of frame at all.
+    Computed by cyclic Jacobi rotations in plain float arithmetic, not LAPACK: the bits of Q
+    then do not depend on which BLAS kernel the machine picks, so a recording made on one
+    machine replays bit for bit on another. Moments ascending, as numpy's eigh orders them.
     """
     inertia = np.asarray(inertia, dtype=float)
     if np.array_equal(inertia, np.diag(np.diag(inertia))):
         return tuple(float(c) for c in np.diag(inertia)), np.eye(3)
-    moments, q = np.linalg.eigh(inertia)
-    if np.linalg.det(q) < 0.0:
-        q[:, 2] = -q[:, 2]
-    return tuple(float(c) for c in moments), q
+    moments, q = symmetric_eigen([[float(c) for c in row] for row in inertia])
+    return moments, np.array(q)
+
+
+def symmetric_eigen(a: list[list[float]]) -> tuple[tuple[float, float, float],
+                                                   list[list[float]]]:
+    """Eigenvalues (ascending) and a proper rotation V (eigenvectors as columns) of a symmetric
+    3x3 matrix given as nested lists (the upper triangle is read), A = V diag(lambda) V^T.
+
+    Cyclic Jacobi (Golub & Van Loan, alg. 8.5.3): each rotation zeroes one off-diagonal entry;
+    convergence is quadratic, so a few sweeps reach round-off. Only + - * / and sqrt, which
+    IEEE 754 rounds exactly, so the result is the same on every machine.
+    """
+    a = [[a[0][0], a[0][1], a[0][2]], [a[0][1], a[1][1], a[1][2]],
+         [a[0][2], a[1][2], a[2][2]]]
+    v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    for _ in range(64):
+        scale = abs(a[0][0]) + abs(a[1][1]) + abs(a[2][2])
+        if abs(a[0][1]) + abs(a[0][2]) + abs(a[1][2]) <= 1e-18 * scale:
+            break
+        for p, q in ((0, 1), (0, 2), (1, 2)):
+            apq = a[p][q]
+            if apq == 0.0:
+                continue
+            theta = (a[q][q] - a[p][p]) / (2.0 * apq)
+            if abs(theta) > 1e150:  # theta^2 would overflow; t = 1/(2 theta) to round-off
+                t = 0.5 / theta
+            else:
+                t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + math.sqrt(theta * theta
+                                                                              + 1.0))
+            c = 1.0 / math.sqrt(t * t + 1.0)
+            s = t * c
+            # A <- J^T A J with J the rotation by (c, s) in the (p, q) plane.
+            for k in range(3):
+                akp, akq = a[k][p], a[k][q]
+                a[k][p] = c * akp - s * akq
+                a[k][q] = s * akp + c * akq
+            for k in range(3):
+                apk, aqk = a[p][k], a[q][k]
+                a[p][k] = c * apk - s * aqk
+                a[q][k] = s * apk + c * aqk
+            a[p][q] = a[q][p] = 0.0
+            for k in range(3):
+                vkp, vkq = v[k][p], v[k][q]
+                v[k][p] = c * vkp - s * vkq
+                v[k][q] = s * vkp + c * vkq
+    order = sorted(range(3), key=lambda i: a[i][i])
+    values = (a[order[0]][order[0]], a[order[1]][order[1]], a[order[2]][order[2]])
+    vec = [[v[r][order[0]], v[r][order[1]], v[r][order[2]]] for r in range(3)]
+    det = (vec[0][0] * (vec[1][1] * vec[2][2] - vec[1][2] * vec[2][1])
+           - vec[0][1] * (vec[1][0] * vec[2][2] - vec[1][2] * vec[2][0])
+           + vec[0][2] * (vec[1][0] * vec[2][1] - vec[1][1] * vec[2][0]))
+    if det < 0.0:
+        for r in range(3):
+            vec[r][2] = -vec[r][2]
+    return values, vec
 
 
 ZERO3 = (0.0, 0.0, 0.0)

@@ -148,16 +148,73 @@ def orthonormalize_components(r00, r01, r02, r10, r11, r12, r20, r21, r22):
 
 
 def orthonormalize(rot: np.ndarray) -> np.ndarray:
-    """The nearest rotation matrix to ``rot`` (polar factor, via SVD)."""
-    u, _, vt = np.linalg.svd(np.asarray(rot, dtype=float))
-    r = u @ vt
-    if np.linalg.det(r) < 0.0:
-        u[:, -1] = -u[:, -1]
-        r = u @ vt
-    return r
+    """The nearest rotation matrix to ``rot`` (its polar factor), for ``rot`` with det > 0.
+
+    Newton's iteration for the polar factor, X <- (X + X^-T) / 2, in plain float arithmetic
+    until it stops changing: no LAPACK, so the bits do not depend on the machine's BLAS kernel
+    (a recording replays bit for bit on another machine). Quadratic convergence: from a
+    nearly orthonormal R, two or three iterations.
+    """
+    x = [float(c) for c in np.asarray(rot, dtype=float).reshape(9)]
+    if not all(math.isfinite(c) for c in x) or _det(x) <= 0.0:
+        raise ValueError(f'orthonormalize needs a finite matrix with det > 0, got {x}')
+    for _ in range(100):
+        inv_t = _inverse_transpose(x)
+        new = [0.5 * (a + b) for a, b in zip(x, inv_t)]
+        change = max(abs(a - b) for a, b in zip(new, x))
+        x = new
+        if change <= 4e-16:
+            break
+    return np.array(x).reshape(3, 3)
+
+
+def _det(r) -> float:
+    return (r[0] * (r[4] * r[8] - r[5] * r[7]) - r[1] * (r[3] * r[8] - r[5] * r[6])
+            + r[2] * (r[3] * r[7] - r[4] * r[6]))
+
+
+def _inverse_transpose(r) -> list[float]:
+    """(R^-1)^T of 9 row-major floats: the cofactor matrix over the determinant."""
+    d = _det(r)
+    return [(r[4] * r[8] - r[5] * r[7]) / d, (r[5] * r[6] - r[3] * r[8]) / d,
+            (r[3] * r[7] - r[4] * r[6]) / d,
+            (r[2] * r[7] - r[1] * r[8]) / d, (r[0] * r[8] - r[2] * r[6]) / d,
+            (r[1] * r[6] - r[0] * r[7]) / d,
+            (r[1] * r[5] - r[2] * r[4]) / d, (r[2] * r[3] - r[0] * r[5]) / d,
+            (r[0] * r[4] - r[1] * r[3]) / d]
 
 
 def orthonormality_error(rot: np.ndarray) -> float:
-    """max |R^T R - I| entry and |det R - 1|, whichever is larger."""
-    rot = np.asarray(rot, dtype=float)
-    return float(max(np.max(np.abs(rot.T @ rot - np.eye(3))), abs(np.linalg.det(rot) - 1.0)))
+    """max |R^T R - I| entry and |det R - 1|, whichever is larger (plain float arithmetic,
+    so the same bits on every machine)."""
+    r = [float(c) for c in np.asarray(rot, dtype=float).reshape(9)]
+    if not all(math.isfinite(c) for c in r):
+        return math.inf
+    worst = abs(_det(r) - 1.0)
+    for i in range(3):
+        for j in range(3):
+            s = r[i] * r[j] + r[3 + i] * r[3 + j] + r[6 + i] * r[6 + j]
+            worst = max(worst, abs(s - (1.0 if i == j else 0.0)))
+    return worst
+
+
+def mul9(a, b, transpose_b: bool = False) -> tuple[float, ...]:
+    """A B (or A B^T) of two 3x3 matrices given as 9 row-major floats, in plain float
+    arithmetic: numpy's ``@`` calls BLAS, whose bits depend on the kernel the machine picks."""
+    a = [float(c) for c in a]
+    b = [float(c) for c in b]
+    if transpose_b:
+        b = [b[0], b[3], b[6], b[1], b[4], b[7], b[2], b[5], b[8]]
+    return tuple(a[3 * i] * b[j] + a[3 * i + 1] * b[3 + j] + a[3 * i + 2] * b[6 + j]
+                 for i in range(3) for j in range(3))
+
+
+def mul9_vec(a, v, transpose: bool = False) -> tuple[float, float, float]:
+    """A v (or A^T v) of a 3x3 matrix as 9 row-major floats, in plain float arithmetic."""
+    a = [float(c) for c in a]
+    x, y, z = (float(c) for c in v)
+    if transpose:
+        return (a[0] * x + a[3] * y + a[6] * z, a[1] * x + a[4] * y + a[7] * z,
+                a[2] * x + a[5] * y + a[8] * z)
+    return (a[0] * x + a[1] * y + a[2] * z, a[3] * x + a[4] * y + a[5] * z,
+            a[6] * x + a[7] * y + a[8] * z)

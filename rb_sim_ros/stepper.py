@@ -128,6 +128,8 @@ class Stepper(FixedStep):
         # The hot path works in principal axes: r = R Q (see euler_dynamics.principal_axes).
         self._moments, q = euler_dynamics.principal_axes(body.inertia)
         self._q = None if np.array_equal(q, np.eye(3)) else q
+        # Q as 9 floats: products with it are written out (so3.mul9), not numpy's BLAS.
+        self._q9 = None if self._q is None else tuple(float(c) for c in q.reshape(9))
         self._advance = multistep.make_step(self._method, self._dt)
         # The step of a body that does not turn (see make_step).
         self._no_rotation = multistep.make_step(self._method, self._dt, rotate=False)
@@ -165,8 +167,8 @@ class Stepper(FixedStep):
 
     def _rotation(self) -> np.ndarray:
         """R of the user's body frame: the principal-frame R Q, times Q^T."""
-        r = np.array(self._r).reshape(3, 3)
-        return r if self._q is None else r @ self._q.T
+        r = self._r if self._q is None else so3.mul9(self._r, self._q9, transpose_b=True)
+        return np.array(r).reshape(3, 3)
 
     # -- write -----------------------------------------------------------------------------
     def set_state(self, state: State, previous: State | None = None) -> None:
@@ -197,12 +199,11 @@ class Stepper(FixedStep):
         row-major values, body to world. The history restarts; the orthonormalization count
         goes on, since a body resting in contact is written every step. ``step``: the index of
         the step whose contacts these are, for the error (default: ``step_count``)."""
-        rot = np.asarray(rotation, dtype=float).reshape(3, 3)
+        r = tuple(float(c) for c in np.asarray(rotation, dtype=float).reshape(9))
         if self._q is not None:
-            rot = rot @ self._q
+            r = so3.mul9(r, self._q9)
         x = tuple(float(c) for c in position)
         v = tuple(float(c) for c in linear_velocity)
-        r = tuple(float(c) for c in rot.reshape(9))
         w = tuple(float(c) for c in angular_velocity)
         if not _finite(x, v, r, w):
             step = self._step_count if step is None else step
@@ -238,7 +239,8 @@ class Stepper(FixedStep):
         in_body = wrench.frame is Frame.BODY
         force, torque = wrench.force, wrench.torque
         if in_body and self._q is not None:
-            force, torque = self._q.T @ force, self._q.T @ torque
+            force = so3.mul9_vec(self._q9, force, transpose=True)
+            torque = so3.mul9_vec(self._q9, torque, transpose=True)
         self._accelerations = euler_dynamics.make_accelerations(
             self._inverse_mass, self._moments, tuple(float(c) for c in force),
             tuple(float(c) for c in torque), in_body, in_body, self._gravity,
@@ -356,8 +358,10 @@ def _finite(*vectors) -> bool:
 
 
 def _components(state: State, q: np.ndarray | None):
-    rot = state.rotation if q is None else state.rotation @ q
+    rot = tuple(float(c) for c in state.rotation.reshape(9))
+    if q is not None:
+        rot = so3.mul9(rot, tuple(float(c) for c in q.reshape(9)))
     return (tuple(float(c) for c in state.position),
             tuple(float(c) for c in state.linear_velocity),
-            tuple(float(c) for c in rot.reshape(9)),
+            rot,
             tuple(float(c) for c in state.angular_velocity))

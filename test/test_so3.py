@@ -104,3 +104,56 @@ def test_orthonormalize_components_squares_the_error(phi, eps):
     bent = r + eps * np.array([[0.3, -0.2, 0.5], [0.1, 0.4, -0.7], [-0.6, 0.2, 0.1]])
     fixed = np.array(so3.orthonormalize_components(*bent.reshape(9))).reshape(3, 3)
     assert so3.orthonormality_error(fixed) < 10 * eps * eps + 1e-15
+
+
+# -- plain-float linear algebra: the same bits whatever BLAS kernel the machine picks --------
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(-1.0, 1.0), min_size=9, max_size=9),
+       st.floats(1e-3, 1e3), st.sampled_from([0, 1, 2]))
+def test_symmetric_eigen_diagonalises(entries, scale, degenerate):
+    from rb_sim_ros.euler_dynamics import symmetric_eigen
+    a = np.array(entries).reshape(3, 3)
+    inertia = scale * (a @ a.T + 0.1 * np.eye(3))
+    if degenerate:  # two equal moments (a symmetric top), turned
+        rot = so3.exp(np.array(entries[:3]) * 3.0)
+        inertia = rot @ np.diag([1.0, 1.0, 1.0 + degenerate]) @ rot.T * scale
+    values, vec = symmetric_eigen(inertia.tolist())
+    v = np.array(vec)
+    assert list(values) == sorted(values)
+    np.testing.assert_allclose(values, np.linalg.eigvalsh(inertia), rtol=1e-12,
+                               atol=1e-14 * scale)
+    np.testing.assert_allclose(v.T @ v, np.eye(3), atol=1e-14)
+    assert np.linalg.det(v) > 0.0
+    np.testing.assert_allclose(v @ np.diag(values) @ v.T, inertia, atol=1e-13 * scale)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3),
+       st.lists(st.floats(-1e-4, 1e-4), min_size=9, max_size=9))
+def test_orthonormalize_is_the_polar_factor(phi, noise):
+    rot = so3.exp(np.array(phi)) + np.array(noise).reshape(3, 3)
+    u, _, vt = np.linalg.svd(rot)  # the reference: the polar factor from the SVD
+    out = so3.orthonormalize(rot)
+    np.testing.assert_allclose(out, u @ vt, atol=1e-14)
+    assert so3.orthonormality_error(out) < 1e-15
+
+
+def test_orthonormalize_refuses_reflections_and_non_finite():
+    with pytest.raises(ValueError, match='det > 0'):
+        so3.orthonormalize(np.diag([1.0, 1.0, -1.0]))
+    with pytest.raises(ValueError, match='finite'):
+        so3.orthonormalize(np.full((3, 3), np.nan))
+    assert so3.orthonormality_error(np.full((3, 3), np.nan)) == math.inf
+
+
+def test_mul9_matches_matrix_products():
+    rng = np.random.default_rng(7)
+    a, b = rng.normal(size=(3, 3)), rng.normal(size=(3, 3))
+    v = rng.normal(size=3)
+    np.testing.assert_allclose(np.array(so3.mul9(a.reshape(9), b.reshape(9))).reshape(3, 3),
+                               a @ b, rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(np.array(so3.mul9(a.reshape(9), b.reshape(9), True)).reshape(
+        3, 3), a @ b.T, rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(so3.mul9_vec(a.reshape(9), v), a @ v, rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(so3.mul9_vec(a.reshape(9), v, True), a.T @ v, rtol=1e-15,
+                               atol=1e-15)
