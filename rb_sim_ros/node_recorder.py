@@ -21,12 +21,13 @@ and the outputs are what to compare against.
 from __future__ import annotations
 
 import json
+import os
 
 from geometry_msgs.msg import PoseStamped, Twist, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
 
 from rb_sim_ros import __version__
-from rb_sim_ros.recording import RecordingWriter
+from rb_sim_ros.recording import RecordingWriter, WriterError
 from rb_sim_ros.rigid_body import Wrench
 from rb_sim_ros.ros_messages import time_msg
 from rb_sim_ros.simulation import Config, Reset, SetPose, SetTwist, SetWrench
@@ -114,11 +115,24 @@ class NodeRecorder:
     """Records a node's run; every call returns quickly (file I/O is on the writer's thread).
 
     ``output_topics`` maps each body name to its {'pose': topic, 'twist': ..., 'odom': ...}.
+
+    A file that cannot be created (missing directory, existing file without ``overwrite``,
+    read-only file system...) raises WriterError, a ValueError, with one line naming the path
+    and the reason. A write that fails later (disk full, I/O error) never raises: the recording
+    stops, ``failed`` holds the reason (poll it, e.g. for a diagnostics error), ``event`` and
+    ``output`` cost nothing from then on, ``close`` does not raise, and the file keeps what was
+    written before the failure (``replay --recover`` finalises it).
     """
 
     def __init__(self, path: str, config: Config, parameters: dict,
                  output_topics: dict[str, dict[str, str]], overwrite: bool = False) -> None:
-        self._writer = RecordingWriter(path, overwrite=overwrite)
+        try:
+            self._writer = RecordingWriter(path, overwrite=overwrite)
+        except WriterError as e:
+            hint = ('; set record_overwrite:=true to replace it'
+                    if not overwrite and os.path.isfile(path) else '')
+            raise WriterError(f'cannot record to {e}{hint}') from None
+        self._closed_error: str | None = None
         self._first = config.bodies[0].name
         self._outputs = output_topics
         for spec in config.bodies:
@@ -136,17 +150,30 @@ class NodeRecorder:
             'output_topics': json.dumps(output_topics, sort_keys=True),
         })
 
+    @property
+    def failed(self) -> str | None:
+        """Why recording stopped (the file and the reason, one line), or None while it works."""
+        return self._writer.failed or self._closed_error
+
     def event(self, step: int, time_ns: int, event) -> None:
+        if self._writer.error is not None:
+            return
         kind, msg = event_message(event, time_ns)
         self._writer.write(input_topic(event.body or self._first, kind), msg, time_ns,
                            sequence=step)
 
     def output(self, body: str, step: int, time_ns: int, out) -> None:
-        topics = self._outputs[body]
         w = self._writer
+        if w.error is not None:
+            return
+        topics = self._outputs[body]
         w.write(topics['pose'], out.pose, time_ns, sequence=step)
         w.write(topics['twist'], out.twist, time_ns, sequence=step)
         w.write(topics['odom'], out.odom, time_ns, sequence=step)
 
     def close(self) -> None:
-        self._writer.finish()
+        """Finish the file (idempotent). Never raises for a failed write: see ``failed``."""
+        try:
+            self._writer.finish()
+        except WriterError as e:
+            self._closed_error = self._closed_error or str(e)

@@ -7,6 +7,7 @@ No ROS graph: only message classes and rclpy's serialisation. rosbags opens a ba
 it also checks every recorded ``type_description_hash`` against its own RIHS01 computation.
 """
 
+import errno
 import os
 from pathlib import Path
 import signal
@@ -14,7 +15,10 @@ import subprocess
 import sys
 
 from geometry_msgs.msg import PoseStamped, Twist, WrenchStamped
+from mcap.exceptions import EndOfFile
 from mcap.reader import make_reader
+from mcap.records import Metadata
+from mcap.stream_reader import StreamReader
 from mcap.writer import Writer
 from nav_msgs.msg import Odometry
 import pytest
@@ -304,23 +308,163 @@ def test_finish_is_idempotent_and_writing_after_it_is_refused(tmp_path):
     assert RecordingReader(tmp_path / 'run.mcap').message_count == 1
 
 
-def test_a_failing_disk_is_raised_by_the_next_write_and_by_finish(tmp_path):
-    w = RecordingWriter(tmp_path / 'run.mcap', chunk_size=256)
-    w.register_topic('/twist', Twist)
+def _disk_full_after(w, budget):
+    """Make writer ``w``'s file take ``budget`` more bytes, the last write only in part, then
+    fail with ENOSPC, as a full disk does."""
+    left = [budget]
 
-    def disk_full(data):
-        raise OSError(28, 'No space left on device')
+    def write(data):
+        n = min(len(data), left[0])
+        if n:
+            os.write(w._sink.fd, bytes(data[:n]))
+            left[0] -= n
+        if n < len(data):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        w._sink.position += n
+        return n
 
-    w._sink.write = disk_full  # the writer thread's next chunk fails
-    for k in range(10):
-        w.write('/twist', Twist(), k)
-    with pytest.raises(WriterError, match='writing failed.*No space left'):
+    w._sink.write = write
+
+
+def _sent_prefix_of(read, sent):
+    """``read`` (topic, log time, message) is the first len(read) of ``sent``."""
+    return [(t, log) for t, log, _m in read] == [(t, log) for t, _m, log, *_ in
+                                                 sent[:len(read)]] and all(
+        m.linear.x == s[1].linear.x for (_t, _l, m), s in zip(read, sent) if _t == '/twist')
+
+
+def test_a_full_disk_stops_the_recording_quietly_and_leaves_a_recoverable_file(tmp_path):
+    f = tmp_path / 'run.mcap'
+    w = RecordingWriter(f, chunk_size=1024, max_chunk_age_s=None)
+    for topic, cls in TOPICS:
+        w.register_topic(topic, cls)
+    w.write_metadata('rb_sim_ros', META)
+    w.flush(wait=True)
+    _disk_full_after(w, 3000)
+    sent = []
+    for i in range(2000):  # never raises on this thread
+        topic, msg = _message(i)
+        w.write(topic, msg, 1000 * i, sequence=i)
+        sent.append((topic, msg, 1000 * i, i))
+        if i % 50 == 49:
+            w.flush(wait=True)
+    assert w.failed is not None and w.failed.startswith(f'{f}: writing failed: ')
+    assert 'No space left on device (ENOSPC)' in w.failed and '\n' not in w.failed
+    assert isinstance(w.error, WriterError) and str(w.error) == w.failed
+    queued = w.pending
+    for i in range(1000):  # cheap no-ops: nothing is queued any more
+        w.write('/twist', Twist(), i)
+    w.flush(wait=True)
+    w.register_topic('/late', Twist)
+    w.write_metadata('late', {})
+    assert w.pending <= queued
+    with pytest.raises(WriterError, match='No space left on device'):
+        w.finish()  # told once, at the end
+    w.finish()
+    assert os.path.getsize(f) <= f.stat().st_size
+    r = RecordingReader(f)
+    assert r.truncated
+    out = tmp_path / 'recovered.mcap'
+    counts = recover(f, out)
+    theirs = _rosbags(out)  # the independent reader opens the recovered file
+    assert 0 < len(theirs) == counts['messages'] < len(sent)
+    assert _sent_prefix_of(theirs, sent)
+
+
+FILE_SIZE_LIMITED_WRITER = """
+import resource, signal, sys
+from geometry_msgs.msg import Twist
+from rb_sim_ros.recording import RecordingWriter, WriterError
+limit = int(sys.argv[2])
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # then write() fails with EFBIG instead
+resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+w = RecordingWriter(sys.argv[1], chunk_size=2048, max_chunk_age_s=None)
+w.register_topic('/twist', Twist)
+k = 0
+while w.failed is None and k < 10 ** 6:
+    t = Twist()
+    t.linear.x = float(k)
+    w.write('/twist', t, k, sequence=k)
+    k += 1
+    if k % 100 == 0:
         w.flush(wait=True)
-    with pytest.raises(WriterError, match='writing failed.*No space left'):
-        w.write('/twist', Twist(), 11)
-    with pytest.raises(WriterError, match='writing failed.*No space left'):
-        w.finish()
-    w.finish()  # once is enough
+print(k, flush=True)
+print(w.failed, flush=True)
+try:
+    w.finish()
+except WriterError as e:
+    print('finish:', e, flush=True)
+"""
+
+
+def test_a_file_size_limit_stops_the_recording_quietly_and_recover_repairs_it(tmp_path):
+    """A real failing write(2): the kernel refuses to grow the file past RLIMIT_FSIZE."""
+    f = tmp_path / 'limited.mcap'
+    limit = 30_000
+    env = {**os.environ, 'PYTHONPATH': os.pathsep.join(
+        [str(ROOT), *filter(None, [os.environ.get('PYTHONPATH')])])}
+    done = subprocess.run([sys.executable, '-c', FILE_SIZE_LIMITED_WRITER, str(f), str(limit)],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    written, failed, finish = done.stdout.splitlines()
+    assert failed.startswith(f'{f}: writing failed: File too large (EFBIG)')
+    assert finish == f'finish: {failed}'
+    assert 'Traceback' not in done.stderr
+    assert f.stat().st_size <= limit
+    out = tmp_path / 'recovered.mcap'
+    recover(f, out)
+    xs = [m.linear.x for _t, _log, m in _rosbags(out)]
+    assert 0 < len(xs) < int(written)
+    assert xs == [float(k) for k in range(len(xs))]
+
+
+def test_a_killed_file_has_rosbag2s_bag_information_from_its_start(tmp_path):
+    """rosbag2 writes its 'rosbag2' metadata record when a file opens and again at its end."""
+    f = tmp_path / 'run.mcap'
+    w = RecordingWriter(f, max_chunk_age_s=None)
+    w.register_topic('/twist', Twist)
+    w.write('/twist', Twist(), 5)
+    killed = tmp_path / 'killed.mcap'
+    killed.write_bytes(f.read_bytes())  # what SIGKILL would leave now
+    w.finish()
+
+    def bag_infos(path):
+        """Every 'rosbag2' record, read with the mcap library up to where the file ends."""
+        found = []
+        with open(path, 'rb') as fh:
+            try:
+                for r in StreamReader(fh, skip_magic=False).records:
+                    if isinstance(r, Metadata) and r.name == 'rosbag2':
+                        found.append(yaml.safe_load(r.metadata['serialized_metadata']))
+            except EndOfFile:  # a killed file ends inside a record
+                pass
+        return found
+
+    first, = bag_infos(killed)
+    assert (first['version'], first['message_count'], first['files'][0]['path']) == (
+        9, 0, 'run.mcap')
+    opened, closed = bag_infos(f)
+    assert opened == first
+    assert closed['message_count'] == 1
+    assert closed['topics_with_message_count'][0]['topic_metadata']['name'] == '/twist'
+    assert yaml.safe_load(RecordingReader(f).metadata['rosbag2']['serialized_metadata']) == (
+        closed)  # the last one wins
+    assert _rosbags(f)[0][:2] == ('/twist', 5)
+
+
+def test_a_bad_path_is_one_writer_error_naming_it_and_why(tmp_path):
+    (tmp_path / 'file').write_text('x')
+    cases = {tmp_path / 'missing' / 'run.mcap': 'cannot create: No such file or directory',
+             tmp_path / 'file': 'exists; refusing to overwrite',
+             tmp_path / 'file' / 'run.mcap': 'cannot create: Not a directory',
+             Path('/proc/rb_sim_ros.mcap'): 'cannot create: ',
+             Path('/dev/full'): 'cannot write: No space left on device'}
+    for path, why in cases.items():
+        with pytest.raises(WriterError) as info:
+            RecordingWriter(path, overwrite=path.name == 'full')
+        assert isinstance(info.value, ValueError)  # what a program refusing bad input catches
+        assert str(info.value).startswith(f'{path}: {why}'), str(info.value)
+    assert (tmp_path / 'file').read_text() == 'x'
 
 
 # -- cut short: truncated files, SIGKILL, recovery ---------------------------------------------
@@ -356,7 +500,7 @@ def test_a_truncated_copy_reads_its_complete_chunks_and_recovers(tmp_path, chunk
     assert r.truncated and f'read up to byte {chunks[index].chunk_start_offset}' in r.truncation
     assert 'the file ends inside the record' in r.truncation
     assert [tuple(m) for m in r.messages()] == kept
-    assert r.metadata == {'rb_sim_ros': META}
+    assert r.metadata['rb_sim_ros'] == META and 'rosbag2' in r.metadata
     out = tmp_path / 'recovered.mcap'
     counts = recover(short, out)
     assert counts == {'messages': len(kept), 'schemas': 4, 'channels': 4, 'metadata': 1,
@@ -407,7 +551,7 @@ def test_sigkill_leaves_every_finished_chunk_and_recover_finalises_it(tmp_path):
     xs = [m.message.linear.x for m in r.messages()]
     assert r.truncated and len(xs) >= 5000  # all flushed ones, and maybe more chunks
     assert xs == [float(k) for k in range(len(xs))]
-    assert r.metadata == {'rb_sim_ros': {'run': 'killed'}}
+    assert r.metadata['rb_sim_ros'] == {'run': 'killed'}
     out = tmp_path / 'recovered.mcap'
     assert recover(f, out)['messages'] == len(xs)
     assert [m.linear.x for _t, _log, m in _rosbags(out)] == xs

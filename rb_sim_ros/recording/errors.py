@@ -5,8 +5,11 @@
 from __future__ import annotations
 
 
-class RecordingError(Exception):
-    """Base of the two errors below, for callers that handle both alike."""
+class RecordingError(ValueError):
+    """Base of the two errors below, for callers that handle both alike.
+
+    A ValueError, so that a program that refuses bad input with ``except ValueError`` (the
+    simulator's start-up, given a bad ``record`` path) prints one line, not a traceback."""
 
 
 class WriterError(RecordingError):

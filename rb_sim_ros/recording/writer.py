@@ -8,12 +8,18 @@ writes them. Each finished chunk goes to the OS in one ``os.write`` (no user-spa
 process killed with SIGKILL leaves a file readable up to its last finished chunk; a chunk is
 finished when it reaches ``chunk_size`` bytes or, when messages are few, ``max_chunk_age_s``
 seconds after its first message.
+
+A write that fails on the background thread (disk full, I/O error, file size limit) stops the
+recording there and never raises on the caller's thread: ``failed`` says why, later writes are
+cheap no-ops, and the file keeps every record written before the failure (``recover`` finalises
+it). Only ``finish`` raises it, once, for a caller that wants to know at the end.
 """
 
 from __future__ import annotations
 
 import atexit
 import dataclasses
+import errno
 import operator
 import os
 import queue
@@ -94,6 +100,14 @@ def _ns(value: Any, name: str, path: str, topic: str) -> int:
     return ns
 
 
+def _reason(e: BaseException) -> str:
+    """'No space left on device (ENOSPC)' for an OSError, else the exception's repr."""
+    if isinstance(e, OSError) and e.strerror:
+        code = errno.errorcode.get(e.errno or 0)
+        return f'{e.strerror} ({code})' if code else e.strerror
+    return repr(e)
+
+
 class RecordingWriter:
     """Writes one MCAP file of the ``ros2`` profile that ``ros2 bag``, Foxglove and rosbags read.
 
@@ -103,15 +117,20 @@ class RecordingWriter:
     finish a chunk this long (seconds, wall time) after its first message even if it is not
     full, so a quiet recording still reaches the disk; None waits for full chunks.
     ``fsync``: also fsync after each chunk (survives power loss, not only SIGKILL; slower).
-    ``bag_info``: end the file with rosbag2's ``rosbag2`` metadata record, as ``ros2 bag record``
-    does. Message timestamps are always passed in (integer nanoseconds); the writer never reads
-    a clock for them.
+    ``bag_info``: write rosbag2's ``rosbag2`` metadata record (bag information) when the file
+    opens and again, with the counts, at its end, as ``ros2 bag record`` does; so a file cut
+    short still has one. Message timestamps are always passed in (integer nanoseconds); the
+    writer never reads a clock for them.
 
     Use as a context manager, or call ``finish()`` (idempotent); a writer still open when the
-    interpreter exits is finished then. Errors of the background thread (disk full...) are
-    raised by the next ``write`` and by ``finish``. Any thread may call ``write``; the queue is
-    unbounded (``pending`` tells its length), so a disk slower than the messages costs memory,
-    never the caller's time.
+    interpreter exits is finished then. A file that cannot be created or started raises
+    WriterError (a ValueError) naming the path and the reason. A failure of the background
+    thread (disk full...) stops the recording: ``failed`` (poll it) holds its text, ``error``
+    the WriterError; ``write``, ``register_topic``, ``write_metadata`` and ``flush`` then do
+    nothing and raise nothing; ``finish`` closes the file without a footer (``recover`` it)
+    and raises the error once. Any thread may call ``write``; the queue is unbounded
+    (``pending`` tells its length), so a disk slower than the messages costs memory, never the
+    caller's time.
     """
 
     def __init__(self, path: str | os.PathLike, overwrite: bool = False,
@@ -135,17 +154,20 @@ class RecordingWriter:
             raise WriterError(f'{self.path}: exists; refusing to overwrite it (overwrite=True '
                               'to replace it)') from None
         except OSError as e:
-            raise WriterError(f'{self.path}: cannot create: {e.strerror}') from None
+            raise WriterError(f'{self.path}: cannot create: {_reason(e)}') from None
         self._sink = _Sink(fd, fsync)
         self._mcap = Writer(self._sink, chunk_size=chunk_size,
                             compression=COMPRESSION[compression])
         try:
             self._mcap.start(profile=PROFILE, library=library)
+            if bag_info:  # as rosbag2 does when it opens a file: nothing recorded yet
+                info = bag_information(os.path.basename(self.path), [], None, None)
+                self._mcap.add_metadata(METADATA_NAME, {METADATA_KEY: dump(info)})
         except OSError as e:
             os.close(fd)
             if not overwrite:  # created here: leave nothing behind
                 os.unlink(self.path)
-            raise WriterError(f'{self.path}: cannot write: {e.strerror}') from None
+            raise WriterError(f'{self.path}: cannot write: {_reason(e)}') from None
         self.compression = compression
         self._bag_info = bag_info
         self._max_age = max_chunk_age_s
@@ -176,6 +198,8 @@ class RecordingWriter:
         and bad QoS.
         """
         self._check_open()
+        if self._error is not None:
+            return
         where = f'{self.path}: topic {topic!r}'
         if not isinstance(topic, str) or not topic.startswith('/') or len(topic) < 2:
             raise WriterError(f'{where} is not a fully qualified topic name like /pose')
@@ -206,11 +230,12 @@ class RecordingWriter:
         ``log_time_ns``/``publish_time_ns``: integer nanoseconds in [0, 2**64); publish time
         defaults to log time. ``sequence``: an integer, stored modulo 2**32 (MCAP's field is
         uint32). Refuses (WriterError) an unregistered topic, a message of another type than
-        registered, non-integer or out-of-range times, writing after ``finish()``, and raises
-        the background thread's error if writing the file failed.
+        registered, non-integer or out-of-range times and writing after ``finish()``. Once
+        writing the file has failed (``failed``), does nothing.
         """
         if self._closing or self._error is not None:
             self._check_open()
+            return
         try:
             channel_id, msg_type = self._topics[topic]
         except (KeyError, TypeError):
@@ -240,6 +265,8 @@ class RecordingWriter:
         (rosbag2's bag information, written by ``finish`` when ``bag_info``).
         """
         self._check_open()
+        if self._error is not None:
+            return
         if not isinstance(name, str) or not name:
             raise WriterError(f'{self.path}: metadata name {name!r} is not a non-empty string')
         if name == METADATA_NAME and self._bag_info:
@@ -254,14 +281,15 @@ class RecordingWriter:
     def flush(self, wait: bool = False) -> None:
         """Finish the chunk in progress and hand it to the OS; with ``wait``, block until done.
 
-        Refuses (WriterError) after ``finish()``.
+        Refuses (WriterError) after ``finish()``; does nothing once writing has failed.
         """
         self._check_open()
+        if self._error is not None:
+            return
         done = threading.Event() if wait else None
         self._queue.put((_FLUSH, done))
         if done is not None:
             done.wait()
-            self._check_open()
 
     def finish(self) -> None:
         """Write all that is queued, the summary and the footer, and close the file.
@@ -281,7 +309,7 @@ class RecordingWriter:
                 os.close(self._sink.fd)
             except OSError as e:
                 self._error = self._error or WriterError(f'{self.path}: closing failed: '
-                                                         f'{e.strerror}')
+                                                         f'{_reason(e)}')
         if self._error is not None:
             raise WriterError(str(self._error))
 
@@ -291,6 +319,18 @@ class RecordingWriter:
         return self._closing
 
     @property
+    def failed(self) -> str | None:
+        """Why writing the file failed (path and reason), or None while it has not. Once set,
+        the recording has stopped: the file holds what was written before."""
+        error = self._error
+        return None if error is None else str(error)
+
+    @property
+    def error(self) -> WriterError | None:
+        """The failure as a WriterError, or None (see ``failed``)."""
+        return self._error
+
+    @property
     def pending(self) -> int:
         """Items queued and not yet written (approximate)."""
         return self._queue.qsize()
@@ -298,8 +338,6 @@ class RecordingWriter:
     def _check_open(self) -> None:
         if self._closing:
             raise WriterError(f'{self.path}: finished; nothing more can be written to it')
-        if self._error is not None:
-            raise WriterError(str(self._error))
 
     def __enter__(self) -> RecordingWriter:
         return self
@@ -370,8 +408,10 @@ class RecordingWriter:
                     if self._error is None:
                         self._finish_file()
                     return
-            except Exception as e:  # kept, and raised on the caller's thread
-                self._error = WriterError(f'{self.path}: writing failed: {e!r}')
+            except Exception as e:  # kept for ``failed``; never raised on the caller's thread
+                self._error = WriterError(
+                    f'{self.path}: writing failed: {_reason(e)}; recording stopped, the file '
+                    'keeps what was written before (replay --recover finalises it)')
                 if kind == _FLUSH and item[1] is not None:
                     item[1].set()
                 if kind == _FINISH:
