@@ -369,10 +369,15 @@ def _inertias(value: Any, n: int) -> np.ndarray:
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
             raise ValueError(f'inertias must be {why} (body {i}: {arr[i].tolist()})')
-    arr = 0.5 * (arr + arr.transpose(0, 2, 1))
-    moments = np.linalg.eigvalsh(arr)
-    flat = moments[:, 0] + moments[:, 1] < moments[:, 2] * (1.0 - TRIANGLE_TOLERANCE)
-    for bad, why in [(moments[:, 0] <= 0.0, 'positive definite'),
+    # As RigidBody: halves first (no overflow near the largest float), and the moments of
+    # each tensor scaled exactly by a power of two near 1/scale (LAPACK can fail beyond).
+    arr = 0.5 * arr + 0.5 * arr.transpose(0, 2, 1)
+    exponent = np.frexp(scale)[1][:, None]
+    scaled = np.linalg.eigvalsh(np.ldexp(arr, -exponent[:, :, None]))
+    with np.errstate(over='ignore'):
+        moments = np.ldexp(scaled, exponent)
+    flat = scaled[:, 0] + scaled[:, 1] < scaled[:, 2] * (1.0 - TRIANGLE_TOLERANCE)
+    for bad, why in [(scaled[:, 0] <= 0.0, 'positive definite'),
                      (flat, 'such that the principal moments obey the triangle inequality '
                       'I1 + I2 >= I3')]:
         if np.any(bad):
@@ -417,11 +422,17 @@ def _rotations(name: str, value: Any, k: int) -> np.ndarray:
 
 
 def _quaternion_rotations(value: Any, k: int) -> np.ndarray:
+    """Rotation matrices of quaternions of any non-zero length: each is scaled by a power of
+    two that brings its largest component into [0.5, 1) (exact: the bits of the result do
+    not change) before it is normalised, so that neither 1e200 nor 1e-200 overflows or
+    underflows (as ``State.from_quaternion_xyzw``)."""
     q = _array('quaternions_xyzw', value, (k, 4))
-    n = np.sqrt((q * q).sum(axis=1))
-    if np.any(n == 0.0):
+    big = np.abs(q).max(axis=1) if k else np.zeros(0)
+    if np.any(big == 0.0):
         raise ValueError('quaternions_xyzw must be non-zero '
-                         f'(entry {int(np.flatnonzero(n == 0.0)[0])})')
+                         f'(entry {int(np.flatnonzero(big == 0.0)[0])})')
+    q = np.ldexp(q, -np.frexp(big)[1][:, None])
+    n = np.sqrt((q * q).sum(axis=1))
     x, y, z, w = (q / n[:, None]).T
     return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
                      2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
@@ -515,7 +526,7 @@ class BatchStepper(FixedStep):
         # Each level is stored chunk by chunk, (chunks, 28, width): a chunk's rows are one
         # contiguous block.
         self._levels = np.zeros((_SLOTS, chunks, _LEVEL_ROWS, width))
-        self._levels[:, :, _R][:, :, 0::4] = 1.0  # R = I everywhere
+        self._levels[:, :, _R][:, :, 0::4] = 1.0  # r = I everywhere (the padding's R)
         self._now, self._before = 0, 1  # the levels of the committed step and the one before
         ones = np.ones((3, padded))
         m = ones.copy()
@@ -533,6 +544,9 @@ class BatchStepper(FixedStep):
         params = {k: _blocked(v, chunks) for k, v in params.items()}
         self._p = _Views(**{k: _Columns(v) for k, v in params.items()})
         self._pchunks = [_Views(**{k: v[c] for k, v in params.items()}) for c in range(chunks)]
+        if self._rotated.size:  # R = I, stored as r = R Q = Q in the principal frame
+            for slot in range(_SLOTS):
+                self._level(slot)[_R, self._rotated] = self._q.reshape(-1, 9).T
         self._views = [[_level_views(block) for block in level] for level in self._levels]
         self._scratch = _scratch(width)
         m, dt = self._method, self._dt

@@ -29,17 +29,27 @@ from typing import Any, Union
 import numpy as np
 
 from rb_sim_ros import so3
-from rb_sim_ros.rigid_body import finite_floats
+from rb_sim_ros.rigid_body import finite_floats, is_number, scaled_to_one, short
 
 IDENTITY_XYZW = (0.0, 0.0, 0.0, 1.0)
 ORIGIN = (0.0, 0.0, 0.0)
 
 
-def _positive(name: str, value: Any, unit: str = 'm', allow_zero: bool = False) -> float:
+def _number(name: str, value: Any, unit: str = 'm') -> float:
+    """A finite float from an int or a float (not a bool or a string); ValueError otherwise."""
+    if not is_number(value):
+        raise ValueError(f'{name} must be a number ({unit}), got {short(value)}')
     try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f'{name} must be a number ({unit}), got {value!r}') from None
+        number = float(value)
+    except OverflowError:
+        number = math.inf
+    if not math.isfinite(number):
+        raise ValueError(f'{name} must be a finite number ({unit}), got {short(value)}')
+    return number
+
+
+def _positive(name: str, value: Any, unit: str = 'm', allow_zero: bool = False) -> float:
+    value = _number(name, value, unit)
     if not math.isfinite(value) or value < 0.0 or (value == 0.0 and not allow_zero):
         bound = '>= 0' if allow_zero else '> 0'
         raise ValueError(f'{name} must be finite and {bound} {unit}, got {value!r}')
@@ -51,9 +61,10 @@ def _placement(shape) -> None:
     in the body frame) and whether the placement is the identity."""
     position = finite_floats('position', shape.position, 3)
     q = finite_floats('orientation_xyzw', shape.orientation_xyzw, 4)
-    if not any(q):
+    scaled = scaled_to_one(q)  # any length: 1e200 and 1e-200 neither overflow nor vanish
+    if scaled is None:
         raise ValueError(f'orientation_xyzw must be a non-zero quaternion, got {list(q)}')
-    rotation = so3.matrix_from_quaternion_xyzw(q)
+    rotation = so3.matrix_from_quaternion_xyzw(scaled)
     rotation.flags.writeable = False
     object.__setattr__(shape, 'position', position)
     object.__setattr__(shape, 'orientation_xyzw', q)
@@ -66,11 +77,14 @@ def _material(shape) -> None:
         value = getattr(shape, name)
         if value is None:
             continue
-        if (isinstance(value, bool) or not isinstance(value, (int, float))
-                or not 0.0 <= value <= high or math.isinf(value)):
+        try:
+            number = float(value) if is_number(value) else math.nan
+        except OverflowError:
+            number = math.inf
+        if not (math.isfinite(number) and 0.0 <= number <= high):
             bound = 'a number in [0, 1]' if high == 1.0 else 'a finite number >= 0'
-            raise ValueError(f'{name} must be {bound}, got {value!r}')
-        object.__setattr__(shape, name, float(value))
+            raise ValueError(f'{name} must be {bound}, got {short(value)}')
+        object.__setattr__(shape, name, number)
 
 
 def combined_material(restitution_a: np.ndarray, friction_a: np.ndarray,
@@ -176,7 +190,8 @@ class Capsule:
 @dataclass(frozen=True)
 class Plane:
     """The half-space normal . p <= offset (m) of its body's frame; ``normal`` (any non-zero
-    length, stored normalised) points out of the solid. Only on static bodies."""
+    length, stored normalised: scaled by a power of two first, exactly, so that no length
+    overflows or underflows) points out of the solid. Only on static bodies."""
 
     normal: tuple[float, ...] = (0.0, 0.0, 1.0)
     offset: float = 0.0
@@ -187,18 +202,13 @@ class Plane:
     kind = 'plane'
 
     def __post_init__(self) -> None:
-        n = finite_floats('normal', self.normal, 3)
-        norm = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
-        if norm == 0.0:
+        scaled = scaled_to_one(finite_floats('normal', self.normal, 3))
+        if scaled is None:
             raise ValueError('normal must be a non-zero vector, got [0.0, 0.0, 0.0]')
+        n = [float(c) for c in scaled]
+        norm = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
         object.__setattr__(self, 'normal', (n[0] / norm, n[1] / norm, n[2] / norm))
-        try:
-            offset = float(self.offset)
-        except (TypeError, ValueError):
-            raise ValueError(f'offset must be a number (m), got {self.offset!r}') from None
-        if not math.isfinite(offset):
-            raise ValueError(f'offset must be finite (m), got {offset!r}')
-        object.__setattr__(self, 'offset', offset)
+        object.__setattr__(self, 'offset', _number('offset', self.offset))
         rotation = np.eye(3)
         rotation.flags.writeable = False
         object.__setattr__(self, 'rotation', rotation)
@@ -243,16 +253,16 @@ def shape_from_dict(data: dict[str, Any]) -> Shape:
     """A shape from ``{'type': 'sphere' | 'box' | 'capsule' | 'plane', <its fields>,
     'position': [m], 'orientation': [x, y, z, w]}``; unknown or missing keys are errors."""
     if not isinstance(data, dict):
-        raise ValueError(f'a collider must be a mapping, got {data!r}')
+        raise ValueError(f'a collider must be a mapping, got {short(data)}')
     kind = data.get('type')
-    if kind not in _CLASSES:
-        raise ValueError(f'type must be one of {sorted(_CLASSES)}, got {kind!r}')
+    if not isinstance(kind, str) or kind not in _CLASSES:
+        raise ValueError(f'type must be one of {sorted(_CLASSES)}, got {short(kind)}')
     allowed = set(_FIELDS[kind]) | {'type', 'restitution', 'friction'}
     if kind != 'plane':
         allowed |= {'position', 'orientation'}
-    unknown = sorted(set(data) - allowed)
+    unknown = sorted(str(k) for k in set(data) - allowed)
     if unknown:
-        raise ValueError(f'{kind}: unknown keys {unknown} (allowed: {sorted(allowed)})')
+        raise ValueError(f'{kind}: unknown keys {short(unknown)} (allowed: {sorted(allowed)})')
     kwargs = {}
     for key in _FIELDS[kind]:
         if key not in data:

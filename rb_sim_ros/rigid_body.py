@@ -5,7 +5,8 @@
 All vectors are SI (REP-103): metres, seconds, kilograms, radians. The world frame is inertial;
 the body frame is attached to the centre of mass. Orientation R maps body to world
 (``r_world = R @ r_body``). Every type is immutable and validated once, at construction: a
-``ValueError`` names the offending field, and no half-built object is ever returned.
+``ValueError`` names the offending field, and no half-built object is ever returned. A number is
+an int or a float (numpy's too), never a bool or a string, and must fit a finite float.
 """
 
 from __future__ import annotations
@@ -13,6 +14,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 import enum
 import math
+import numbers
+import reprlib
 from typing import Any
 
 import numpy as np
@@ -25,12 +28,46 @@ TRIANGLE_TOLERANCE = 1e-9
 # How far a given rotation matrix may be from SO(3) before it is refused (it is then projected).
 ROTATION_TOLERANCE = 1e-6
 
+_SHORT = reprlib.Repr()
+_SHORT.maxlevel, _SHORT.maxlist, _SHORT.maxstring, _SHORT.maxlong = 3, 9, 40, 40
+
+
+def short(value: Any) -> str:
+    """A repr of ``value`` for an error message, cut short whatever its size."""
+    return _SHORT.repr(value)
+
+
+def is_number(value: Any) -> bool:
+    """True for an int or a float (Python's or numpy's), False for a bool or anything else."""
+    return (type(value) is float or type(value) is int
+            or (isinstance(value, numbers.Real) and not isinstance(value, bool)))
+
+
+def _numbers_only(value: Any, depth: int = 2) -> bool:
+    """True when ``value`` is a number, a numeric ndarray, or lists/tuples of them (``depth``
+    levels at most): no bools or strings hiding in what numpy would convert."""
+    if isinstance(value, np.ndarray):
+        return value.dtype.kind in 'iuf'
+    if isinstance(value, (list, tuple)):
+        return depth > 0 and all(_numbers_only(c, depth - 1) for c in value)
+    return is_number(value)
+
+
+def _float(value: Any) -> float:
+    """float(value) of a number, inf for an int too large for a float."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+
 
 def _vector(name: str, value: Any, size: int = 3) -> np.ndarray:
+    if not _numbers_only(value):
+        raise ValueError(f'{name} must be {size} numbers, got {short(value)}')
     try:
         arr = np.array(value, dtype=float).reshape(size)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f'{name} must be {size} numbers, got {value!r}') from exc
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ValueError(f'{name} must be {size} finite numbers, got {short(value)}') from exc
     if not np.all(np.isfinite(arr)):
         raise ValueError(f'{name} must be finite, got {arr.tolist()}')
     arr.flags.writeable = False
@@ -40,11 +77,14 @@ def _vector(name: str, value: Any, size: int = 3) -> np.ndarray:
 def finite_floats(name: str, value: Any, size: int) -> tuple[float, ...]:
     """``value`` as a tuple of ``size`` finite floats; ValueError naming ``name`` otherwise."""
     try:
-        out = tuple(float(c) for c in value)
-    except (TypeError, ValueError):
-        raise ValueError(f'{name} must be {size} numbers, got {value!r}') from None
-    if len(out) != size:
-        raise ValueError(f'{name} must be {size} numbers, got {len(out)}')
+        items = tuple(value)
+    except TypeError:
+        raise ValueError(f'{name} must be {size} numbers, got {short(value)}') from None
+    if len(items) != size:
+        raise ValueError(f'{name} must be {size} numbers, got {len(items)}')
+    if not all(is_number(c) for c in items):
+        raise ValueError(f'{name} must be {size} numbers, got {short(value)}')
+    out = tuple(_float(c) for c in items)
     if not all(math.isfinite(c) for c in out):
         raise ValueError(f'{name} must be finite, got {list(out)}')
     return out
@@ -52,10 +92,9 @@ def finite_floats(name: str, value: Any, size: int) -> tuple[float, ...]:
 
 def rate(name: str, value: Any) -> float:
     """A finite rate >= 0 (1/s), such as a damping coefficient; ValueError naming ``name``."""
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f'{name} must be a number (1/s), got {value!r}') from None
+    if not is_number(value):
+        raise ValueError(f'{name} must be a number (1/s), got {short(value)}')
+    value = _float(value)
     if not math.isfinite(value) or value < 0.0:
         raise ValueError(f'{name} must be finite and >= 0 (1/s), got {value!r}')
     return value
@@ -63,20 +102,34 @@ def rate(name: str, value: Any) -> float:
 
 def non_negative(name: str, value: Any) -> float:
     """A finite number >= 0 (an int or a float, not a bool); ValueError naming ``name``."""
-    if (isinstance(value, bool) or not isinstance(value, (int, float))
-            or not math.isfinite(value) or value < 0.0):
-        raise ValueError(f'{name} must be a finite number >= 0, got {value!r}')
+    if not is_number(value) or not math.isfinite(_float(value)) or value < 0.0:
+        raise ValueError(f'{name} must be a finite number >= 0, got {short(value)}')
     return float(value)
 
 
 def _matrix(name: str, value: Any) -> np.ndarray:
+    if not _numbers_only(value):
+        raise ValueError(f'{name} must be a 3x3 matrix of numbers, got {short(value)}')
     try:
         arr = np.array(value, dtype=float).reshape(3, 3)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f'{name} must be a 3x3 matrix, got {value!r}') from exc
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ValueError(f'{name} must be a 3x3 matrix of finite numbers, got {short(value)}'
+                         ) from exc
     if not np.all(np.isfinite(arr)):
         raise ValueError(f'{name} must be finite, got {arr.tolist()}')
     return arr
+
+
+def scaled_to_one(vector: Any) -> np.ndarray | None:
+    """``vector`` (finite) times the power of two that brings its largest component into
+    [0.5, 1), or None for the zero vector. Exact (no bits change, barring components below
+    2^-1074 of the largest), so a norm taken afterwards neither overflows nor underflows and
+    the direction is that of the vector as given."""
+    vector = np.asarray(vector, dtype=float)
+    big = float(np.max(np.abs(vector)))
+    if big == 0.0:
+        return None
+    return np.ldexp(vector, -math.frexp(big)[1])
 
 
 class Frame(enum.Enum):
@@ -108,10 +161,9 @@ class RigidBody:
     inertia: np.ndarray
 
     def __init__(self, mass: float, inertia: Any) -> None:
-        try:
-            mass = float(mass)
-        except (TypeError, ValueError):
-            raise ValueError(f'mass must be a number, got {mass!r}') from None
+        if not is_number(mass):
+            raise ValueError(f'mass must be a number, got {short(mass)}')
+        mass = _float(mass)
         if not math.isfinite(mass) or mass <= 0.0:
             raise ValueError(f'mass must be finite and > 0 kg, got {mass!r}')
         if np.ndim(inertia) == 1 and np.size(inertia) == 3:
@@ -122,12 +174,17 @@ class RigidBody:
             raise ValueError('inertia must be positive definite, got the zero matrix')
         if np.max(np.abs(inertia - inertia.T)) > SYMMETRY_TOLERANCE * scale:
             raise ValueError(f'inertia must be symmetric, got {inertia.tolist()}')
-        inertia = 0.5 * (inertia + inertia.T)
-        moments = np.linalg.eigvalsh(inertia)
-        if moments[0] <= 0.0:
+        # Halves first, so that moments near the largest float do not overflow (the same bits
+        # as 0.5 (I + I^T) otherwise); the moments of I scaled by a power of two near 1/scale,
+        # exact, are checked, since LAPACK can fail on entries near the largest float.
+        inertia = 0.5 * inertia + 0.5 * inertia.T
+        exponent = math.frexp(scale)[1]
+        scaled = np.linalg.eigvalsh(np.ldexp(inertia, -exponent))
+        moments = np.ldexp(scaled, exponent)
+        if scaled[0] <= 0.0:
             raise ValueError(
                 f'inertia must be positive definite, principal moments {moments.tolist()}')
-        if moments[0] + moments[1] < moments[2] * (1.0 - TRIANGLE_TOLERANCE):
+        if scaled[0] + scaled[1] < scaled[2] * (1.0 - TRIANGLE_TOLERANCE):
             raise ValueError(
                 'inertia principal moments must obey the triangle inequality I1 + I2 >= I3, '
                 f'got {moments.tolist()}')
@@ -198,12 +255,14 @@ class State:
                              quaternion_xyzw: Any = (0.0, 0.0, 0.0, 1.0),
                              linear_velocity: Any = (0.0, 0.0, 0.0),
                              angular_velocity: Any = (0.0, 0.0, 0.0)) -> 'State':
-        """State whose orientation is given as a quaternion (x, y, z, w); it is normalised."""
+        """State whose orientation is given as a quaternion (x, y, z, w) of any non-zero
+        length; it is normalised (scaled first by a power of two near 1 / its largest
+        component, exactly, so that neither 1e200 nor 1e-200 overflows or underflows)."""
         q = _vector('quaternion_xyzw', quaternion_xyzw, 4)
-        try:
-            rot = so3.matrix_from_quaternion_xyzw(q)
-        except ValueError:
-            raise ValueError(f'quaternion_xyzw must be non-zero, got {q.tolist()}') from None
+        q = scaled_to_one(q)
+        if q is None:
+            raise ValueError('quaternion_xyzw must be non-zero, got [0.0, 0.0, 0.0, 0.0]')
+        rot = so3.matrix_from_quaternion_xyzw(q)
         return cls(position, rot, linear_velocity, angular_velocity)
 
     @property

@@ -35,16 +35,26 @@
 
 A scene in which no moving body has colliders runs no collision code. Every error names the
 file, the body and the field; unknown keys are errors, not ignored.
+
+A scene file is untrusted input: whatever it holds, ``load_scene`` returns a valid Scene or
+raises SceneError (a ValueError) naming the file, the body and the field, and nothing else.
+The YAML is read by ``safe_yaml`` (no aliases, no duplicate or non-string keys, no types but
+null, booleans, numbers and strings, at most ``MAX_DEPTH`` levels), from at most ``MAX_BYTES``
+of UTF-8, with at most ``MAX_BODIES`` bodies. Numbers are ints or floats (a boolean is not a
+number) that fit a finite float. A body name becomes a ROS topic name token and a frame id:
+an ASCII letter, then ASCII letters, digits and underscores, at most ``MAX_NAME`` in all.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+import re
+import reprlib
+from typing import Any, NamedTuple, NoReturn
 
-import yaml
-
-from rb_sim_ros.collision_shapes import Box, shape_from_dict, Sphere
+from rb_sim_ros import safe_yaml
+from rb_sim_ros.collision_shapes import Box, Plane, shape_from_dict, Sphere
+from rb_sim_ros.rigid_body import RigidBody, State
 from rb_sim_ros.simulation import BodySpec, ContactSettings
 
 TOP_KEYS = {'gravity', 'contact', 'bodies'}
@@ -52,6 +62,24 @@ BODY_KEYS = {'name', 'mass', 'inertia', 'shape', 'size', 'radius', 'length', 'de
              'position', 'orientation', 'linear_velocity', 'angular_velocity', 'linear_damping',
              'angular_damping', 'static', 'colliders'}
 SHAPES = {'box': {'size'}, 'sphere': {'radius'}, 'cylinder': {'radius', 'length'}}
+COLLIDER_TYPES = ('box', 'capsule', 'plane', 'shape', 'sphere')
+
+MAX_BYTES = 16 * 1024 * 1024
+MAX_BODIES = 20_000
+MAX_DEPTH = 8  # the scene's own structure needs 6 (bodies, a body, colliders, one, position)
+MAX_NAME = 64
+# A ROS 2 topic name token (rcl/rmw: alphanumerics and '_', not starting with a digit),
+# and further: ASCII only, starting with a letter.
+NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]*\Z')
+# The bounds of the contact solver's iteration counts (each one costs a pass over contacts).
+MAX_ITERATIONS = 1000
+
+_VECTORS = (('position', 'initial_position', 3), ('orientation', 'initial_orientation_xyzw', 4),
+            ('linear_velocity', 'initial_linear_velocity', 3),
+            ('angular_velocity', 'initial_angular_velocity', 3))
+_SHOW = reprlib.Repr()
+_SHOW.maxlevel, _SHOW.maxlist, _SHOW.maxdict = 3, 6, 4
+_SHOW.maxstring, _SHOW.maxlong, _SHOW.maxother = 40, 40, 40
 
 
 class SceneError(ValueError):
@@ -66,11 +94,46 @@ class Scene(NamedTuple):
     contact: ContactSettings
 
 
-def _positive(where: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
-            math.isfinite(value) and value > 0):
-        raise SceneError(f'{where}: must be a finite number > 0, got {value!r}')
-    return float(value)
+def _show(value: Any) -> str:
+    """A short repr of ``value`` for a message, whatever it is."""
+    return _SHOW.repr(value)
+
+
+def _key(key: Any) -> str:
+    """A key of the file as a message shows it: as it is when it is a plain name."""
+    if isinstance(key, int):
+        return f'[{key}]'
+    key = str(key)
+    return key if len(key) <= 40 and re.fullmatch(r'\w+', key, re.ASCII) else _show(key)
+
+
+def _fail(where: str, field: str, why: str) -> NoReturn:
+    raise SceneError(f'{where}: {field}: {why}')
+
+
+def _number(where: str, field: str, value: Any, low: float = -math.inf,
+            strict: bool = False, unit: str = '') -> float:
+    """``value`` as a finite float >= ``low`` (> with ``strict``); SceneError otherwise. Only
+    an int or a float is a number (not a bool, not a string)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        _fail(where, field, f'must be a number{unit}, got {_show(value)}')
+    try:
+        number = float(value)
+    except OverflowError:
+        _fail(where, field, f'must be a finite number{unit}, got an integer of '
+              f'{len(str(abs(value)))} digits')
+    if not math.isfinite(number):
+        _fail(where, field, f'must be a finite number{unit}, got {number!r}')
+    if number < low or (strict and number == low):
+        _fail(where, field, f'must be a finite number {">" if strict else ">="} {low:g}{unit}, '
+              f'got {_show(value)}')
+    return number
+
+
+def _vector(where: str, field: str, value: Any, size: int, unit: str = '') -> tuple:
+    if not isinstance(value, list) or len(value) != size:
+        _fail(where, field, f'must be a list of {size} numbers{unit}, got {_show(value)}')
+    return tuple(_number(where, f'{field}[{i}]', v, unit=unit) for i, v in enumerate(value))
 
 
 def mass_and_inertia(shape: str, density: float, dims: dict) -> tuple[float, tuple]:
@@ -89,147 +152,252 @@ def mass_and_inertia(shape: str, density: float, dims: dict) -> tuple[float, tup
     return m, (side, side, 0.5 * m * r * r)
 
 
+def _name(where: str, data: dict) -> str:
+    if 'name' not in data:
+        _fail(where, 'name', 'missing')
+    name = data['name']
+    if not isinstance(name, str) or len(name) > MAX_NAME or not NAME.match(name):
+        _fail(where, 'name', 'must be a ROS name token (it names the topics and the frame): an '
+              'ASCII letter, then ASCII letters, digits or underscores, at most '
+              f'{MAX_NAME} characters; got {_show(name)}')
+    return name
+
+
+def _shape_mass(where: str, data: dict, shape: Any) -> tuple[float, tuple, dict]:
+    """Mass, principal moments and dimensions of a body given by a shape and a density."""
+    if not isinstance(shape, str) or shape not in SHAPES:
+        _fail(where, 'shape', f'must be one of {sorted(SHAPES)}, got {_show(shape)}')
+    for key in ('mass', 'inertia'):
+        if key in data:
+            _fail(where, key, 'give either mass and inertia or a shape with a density, not both')
+    dims = {}
+    for key in sorted(SHAPES[shape]):
+        if key not in data:
+            _fail(where, key, f'missing (a {shape} needs it)')
+        if key == 'size':
+            size = data['size']
+            if not isinstance(size, list) or len(size) != 3:
+                _fail(where, 'size', f'must be 3 edge lengths (m), got {_show(size)}')
+            dims['size'] = [_number(where, f'size[{i}]', v, 0.0, True, ' (m)')
+                            for i, v in enumerate(size)]
+        else:
+            dims[key] = _number(where, key, data[key], 0.0, True, ' (m)')
+    for key in sorted({'size', 'radius', 'length'} - SHAPES[shape]):
+        if key in data:
+            _fail(where, key, f'a {shape} has no {key}')
+    if 'density' not in data:
+        _fail(where, 'density', 'missing (kg/m^3, needed with a shape)')
+    density = _number(where, 'density', data['density'], 0.0, True, ' (kg/m^3)')
+    mass, moments = mass_and_inertia(shape, density, dims)
+    if not all(math.isfinite(v) and v > 0.0 for v in (mass, *moments)):
+        _fail(where, 'shape', f'this {shape} and density give mass {mass!r} kg and moments '
+              f'{list(moments)} kg m^2, which must be finite and > 0')
+    return mass, moments, dims
+
+
+def _inertia(where: str, value: Any) -> tuple:
+    """3 moments, 9 components or 3 rows of 3, as a flat tuple of floats."""
+    unit = ' (kg m^2)'
+    if isinstance(value, list) and len(value) == 3 and any(isinstance(r, list) for r in value):
+        out = []
+        for i, row in enumerate(value):
+            if not isinstance(row, list) or len(row) != 3:
+                _fail(where, 'inertia', f'row {i} must be a list of 3 numbers, got {_show(row)}')
+            out.extend(_number(where, f'inertia[{i}][{j}]', v, unit=unit)
+                       for j, v in enumerate(row))
+        return tuple(out)
+    if not isinstance(value, list) or len(value) not in (3, 9):
+        _fail(where, 'inertia', 'must be 3 principal moments, 9 components or 3 rows of 3 '
+              f'(kg m^2), got {_show(value)}')
+    return tuple(_number(where, f'inertia[{i}]', v, unit=unit) for i, v in enumerate(value))
+
+
 def _body(path: str, index: int, data: Any) -> BodySpec:
-    name = data.get('name') if isinstance(data, dict) else None
-    where = f'{path}: body {index}' + (f" ('{name}')" if name else '')
+    where = f'{path}: body {index}'
     if not isinstance(data, dict):
-        raise SceneError(f'{where}: must be a mapping of fields, got {data!r}')
+        raise SceneError(f'{where}: must be a mapping of fields, got {_show(data)}')
+    if isinstance(data.get('name'), str):
+        where += f' ({_show(data["name"])})'
     unknown = sorted(set(data) - BODY_KEYS)
     if unknown:
-        raise SceneError(f'{where}: unknown field(s) {unknown} (known: {sorted(BODY_KEYS)})')
-    if 'name' not in data:
-        raise SceneError(f'{where}: name: missing')
-    kwargs: dict[str, Any] = {'name': name}
-    shape = data.get('shape')
+        raise SceneError(f'{where}: unknown field(s) {_show(unknown)} (known: '
+                         f'{sorted(BODY_KEYS)})')
+    kwargs: dict[str, Any] = {'name': _name(where, data)}
     static = data.get('static', False)
-    if shape is not None:
-        if shape not in SHAPES:
-            raise SceneError(f'{where}: shape: must be one of {sorted(SHAPES)}, got {shape!r}')
-        for key in ('mass', 'inertia'):
-            if key in data:
-                raise SceneError(f'{where}: {key}: give either mass and inertia or a shape '
-                                 'with a density, not both')
-        dims = {}
-        for key in sorted(SHAPES[shape]):
-            if key not in data:
-                raise SceneError(f'{where}: {key}: missing (a {shape} needs it)')
-            if key == 'size':
-                size = data['size']
-                if not isinstance(size, list) or len(size) != 3:
-                    raise SceneError(f'{where}: size: must be 3 edge lengths (m), got {size!r}')
-                dims['size'] = [_positive(f'{where}: size', v) for v in size]
-            else:
-                dims[key] = _positive(f'{where}: {key}', data[key])
-        for key in {'size', 'radius', 'length'} - SHAPES[shape]:
-            if key in data:
-                raise SceneError(f'{where}: {key}: a {shape} has no {key}')
-        if 'density' not in data:
-            raise SceneError(f'{where}: density: missing (kg/m^3, needed with a shape)')
-        kwargs['mass'], kwargs['inertia'] = mass_and_inertia(
-            shape, _positive(f'{where}: density', data['density']), dims)
+    if not isinstance(static, bool):
+        _fail(where, 'static', f'must be true or false, got {_show(static)}')
+    kwargs['static'] = static
+    shape, dims = data.get('shape'), {}
+    if 'shape' in data:
+        kwargs['mass'], kwargs['inertia'], dims = _shape_mass(where, data, shape)
+        field = 'shape'
     else:
         for key in ('size', 'radius', 'length', 'density'):
             if key in data:
-                raise SceneError(f'{where}: {key}: only with a shape')
+                _fail(where, key, 'only with a shape')
         if not static:
             for key in ('mass', 'inertia'):
                 if key not in data:
-                    raise SceneError(f'{where}: {key}: missing (or give a shape and density)')
+                    _fail(where, key, 'missing (or give a shape and density)')
         if 'mass' in data:
-            kwargs['mass'] = _positive(f'{where}: mass', data['mass'])
+            kwargs['mass'] = _number(where, 'mass', data['mass'], 0.0, True, ' (kg)')
         if 'inertia' in data:
-            inertia = data['inertia']
-            if isinstance(inertia, list) and inertia and isinstance(inertia[0], list):
-                inertia = [c for row in inertia for c in (row if isinstance(row, list)
-                                                          else [row])]
-            if not isinstance(inertia, list):
-                raise SceneError(f'{where}: inertia: must be 3 moments or a 3x3 list')
-            kwargs['inertia'] = tuple(inertia)
-    for key, field in (('position', 'initial_position'),
-                       ('orientation', 'initial_orientation_xyzw'),
-                       ('linear_velocity', 'initial_linear_velocity'),
-                       ('angular_velocity', 'initial_angular_velocity')):
+            kwargs['inertia'] = _inertia(where, data['inertia'])
+        field = 'inertia'
+    try:  # what a list of numbers alone cannot say: positive definite, the triangle inequality
+        inertia = kwargs.get('inertia', BodySpec.inertia)
+        RigidBody(kwargs.get('mass', BodySpec.mass),
+                  inertia if len(inertia) == 3 else [inertia[0:3], inertia[3:6], inertia[6:9]])
+    except ValueError as e:
+        _fail(where, field, str(e))
+    for key, spec_field, size in _VECTORS:
         if key in data:
-            kwargs[field] = data[key]
-    for key in ('linear_damping', 'angular_damping', 'static'):
+            kwargs[spec_field] = _vector(where, key, data[key], size)
+    if 'orientation' in data:
+        try:
+            State.from_quaternion_xyzw(quaternion_xyzw=kwargs['initial_orientation_xyzw'])
+        except ValueError as e:
+            _fail(where, 'orientation', f'must be a non-zero quaternion [x, y, z, w] ({e})')
+    for key in ('linear_damping', 'angular_damping'):
         if key in data:
-            kwargs[key] = data[key]
-    kwargs['colliders'] = _colliders(where, data.get('colliders', []), shape, data)
+            kwargs[key] = _number(where, key, data[key], 0.0, unit=' (1/s)')
+    kwargs['colliders'] = _colliders(where, data.get('colliders', []), shape, dims, static)
     try:
         return BodySpec(**kwargs)
-    except (ValueError, TypeError) as e:
-        field = str(e).split(' ', 1)[0]
-        raise SceneError(f'{where}: {field}: {e}') from None
+    except (ValueError, TypeError, ArithmeticError) as e:  # all checked above: never expected
+        raise SceneError(f'{where}: {e}') from None
 
 
-def _own_shape(shape: Any, data: dict, material: dict):
+def _own_shape(shape: Any, dims: dict, material: dict):
     """The body's own box or sphere as a collider, with ``material`` (restitution, friction)."""
     if shape == 'box':
-        return Box(tuple(float(v) for v in data['size']), **material)
+        return Box(tuple(dims['size']), **material)
     if shape == 'sphere':
-        return Sphere(float(data['radius']), **material)
-    raise ValueError(f"'shape' needs a box or sphere shape, got {shape!r} (list the "
+        return Sphere(dims['radius'], **material)
+    raise ValueError(f"'shape' needs a box or sphere shape, got {_show(shape)} (list the "
                      'colliders instead)')
 
 
-def _colliders(where: str, colliders: Any, shape: Any, data: dict) -> tuple:
+def _colliders(where: str, colliders: Any, shape: Any, dims: dict, static: bool) -> tuple:
     """The collision shapes of a body: a list of collision_shapes mappings, or 'shape' for the
     body's own box or sphere (in a list: ``{type: shape, restitution: ..., friction: ...}``)."""
-    if colliders == 'shape':
+    if isinstance(colliders, str) and colliders == 'shape':
         try:
-            return (_own_shape(shape, data, {}),)
+            return (_own_shape(shape, dims, {}),)
         except ValueError as e:
-            raise SceneError(f'{where}: colliders: {e}') from None
+            _fail(where, 'colliders', str(e))
     if not isinstance(colliders, list):
-        raise SceneError(f"{where}: colliders: must be a list of shapes or 'shape', "
-                         f'got {colliders!r}')
+        _fail(where, 'colliders', f"must be a list of shapes or 'shape', got {_show(colliders)}")
     out = []
     for i, c in enumerate(colliders):
+        field = f'colliders[{i}]'
+        if not isinstance(c, dict):
+            _fail(where, field, f'must be a mapping with a type, got {_show(c)}')
+        kind = c.get('type')
+        if not isinstance(kind, str) or kind not in COLLIDER_TYPES:
+            _fail(where, field, f'type must be one of {list(COLLIDER_TYPES)}, got {_show(kind)}')
         try:
-            if isinstance(c, dict) and c.get('type') == 'shape':
+            if kind == 'shape':
                 unknown = sorted(set(c) - {'type', 'restitution', 'friction'})
                 if unknown:
-                    raise ValueError(f'shape: unknown keys {unknown} (allowed: friction, '
+                    raise ValueError(f'shape: unknown keys {_show(unknown)} (allowed: friction, '
                                      'restitution, type)')
-                out.append(_own_shape(shape, data,
-                                      {k: v for k, v in c.items() if k != 'type'}))
+                out.append(_own_shape(shape, dims, {k: v for k, v in c.items() if k != 'type'}))
             else:
                 out.append(shape_from_dict(c))
-        except (ValueError, TypeError) as e:
-            raise SceneError(f'{where}: colliders[{i}]: {e}') from None
+        except (ValueError, TypeError, ArithmeticError) as e:
+            _fail(where, field, str(e))
+        if isinstance(out[-1], Plane) and not static:
+            _fail(where, field, 'a plane is only allowed on a static body (static: true)')
     return tuple(out)
+
+
+def _contact(path: str, data: Any) -> ContactSettings:
+    where = f'{path}: contact'
+    if not isinstance(data, dict):
+        raise SceneError(f'{where}: must be a mapping, got {_show(data)}')
+    fields = ContactSettings.__dataclass_fields__
+    unknown = sorted(set(data) - set(fields))
+    if unknown:
+        raise SceneError(f'{where}: unknown contact keys {_show(unknown)} (known: '
+                         f'{sorted(fields)})')
+    values = {}
+    for key, value in data.items():
+        default = getattr(ContactSettings, key)
+        if isinstance(default, bool):
+            if not isinstance(value, bool):
+                _fail(where, key, f'must be true or false, got {_show(value)}')
+            values[key] = value
+        elif isinstance(default, int):
+            if (isinstance(value, bool) or not isinstance(value, int)
+                    or not 0 <= value <= MAX_ITERATIONS):
+                _fail(where, key, f'must be an integer in [0, {MAX_ITERATIONS}], '
+                      f'got {_show(value)}')
+            values[key] = value
+        else:
+            values[key] = _number(where, key, value)
+    try:
+        return ContactSettings(**values)
+    except (ValueError, TypeError, ArithmeticError) as e:
+        raise SceneError(f'{where}: {e}') from None
+
+
+def _read(path: str) -> str:
+    """The text of the file: at most MAX_BYTES of UTF-8."""
+    try:
+        with open(path, 'rb') as f:
+            raw = f.read(MAX_BYTES + 1)
+    except OSError as e:
+        raise SceneError(f'{path}: cannot read: {e.strerror or e}') from None
+    if len(raw) > MAX_BYTES:
+        raise SceneError(f'{path}: larger than {MAX_BYTES} bytes (MAX_BYTES): not a scene')
+    try:
+        text = raw.decode('utf-8')
+    except UnicodeDecodeError as e:
+        line = raw.count(b'\n', 0, e.start) + 1
+        raise SceneError(f'{path}: not UTF-8 text: byte 0x{raw[e.start]:02x} at offset '
+                         f'{e.start} (line {line})') from None
+    return text[1:] if text.startswith('\ufeff') else text
+
+
+def _yaml_error(path: str, e: safe_yaml.YamlError) -> SceneError:
+    """The YAML refusal ``e`` as a SceneError naming the file, the body and the field."""
+    where, keys = path, list(e.path)
+    if len(keys) >= 2 and keys[0] == 'bodies' and isinstance(keys[1], int):
+        where, keys = f'{path}: body {keys[1]}', keys[2:]
+    field = ''.join((_key(k) if isinstance(k, int) or i == 0 else '.' + _key(k))
+                    for i, k in enumerate(keys))
+    line = f' (line {e.line})' if e.line else ''
+    return SceneError(f'{where}: {field + ": " if field else ""}{e.reason}{line}')
 
 
 def load_scene(path: str) -> Scene:
     """The scene of the file ``path``; SceneError says what and where."""
+    text = _read(path)
     try:
-        with open(path) as f:
-            data = yaml.safe_load(f)
-    except OSError as e:
-        raise SceneError(f'{path}: cannot read: {e.strerror}') from None
-    except yaml.YAMLError as e:
-        raise SceneError(f'{path}: not valid YAML: {e}') from None
+        data = safe_yaml.load(text, max_depth=MAX_DEPTH)
+    except safe_yaml.YamlError as e:
+        raise _yaml_error(path, e) from None
     if not isinstance(data, dict):
         raise SceneError(
             f'{path}: must be a mapping with a bodies list, got {type(data).__name__}')
     unknown = sorted(set(data) - TOP_KEYS)
     if unknown:
-        raise SceneError(f'{path}: unknown key(s) {unknown} (known: {sorted(TOP_KEYS)})')
-    gravity = data.get('gravity', [0.0, 0.0, 0.0])
-    if (not isinstance(gravity, list) or len(gravity) != 3 or not all(
-            isinstance(g, (int, float)) and not isinstance(g, bool) and math.isfinite(g)
-            for g in gravity)):
-        raise SceneError(f'{path}: gravity: must be 3 finite numbers (m/s^2), got {gravity!r}')
+        raise SceneError(f'{path}: unknown key(s) {_show(unknown)} (known: {sorted(TOP_KEYS)})')
+    gravity = _vector(path, 'gravity', data.get('gravity', [0.0, 0.0, 0.0]), 3, ' (m/s^2)')
     bodies = data.get('bodies')
     if not isinstance(bodies, list) or not bodies:
-        raise SceneError(f'{path}: bodies: must be a non-empty list')
-    try:
-        contact = ContactSettings.from_dict(data.get('contact', {}))
-    except (ValueError, TypeError) as e:
-        raise SceneError(f'{path}: contact: {e}') from None
-    specs = tuple(_body(path, i, b) for i, b in enumerate(bodies))
-    names = [s.name for s in specs]
-    for i, n in enumerate(names):
-        if n in names[:i]:
-            raise SceneError(f"{path}: body {i} ('{n}'): name: used twice")
-    return Scene(tuple(float(g) for g in gravity), specs, contact)
+        raise SceneError(f'{path}: bodies: must be a non-empty list, got {_show(bodies)}')
+    if len(bodies) > MAX_BODIES:
+        raise SceneError(f'{path}: bodies: {len(bodies)} bodies, more than MAX_BODIES = '
+                         f'{MAX_BODIES}')
+    contact = _contact(path, data.get('contact', {}))
+    specs = []
+    first: dict[str, int] = {}
+    for i, b in enumerate(bodies):
+        spec = _body(path, i, b)
+        if first.setdefault(spec.name, i) != i:
+            raise SceneError(f"{path}: body {i} ('{spec.name}'): name: used twice (body "
+                             f'{first[spec.name]} has it too)')
+        specs.append(spec)
+    return Scene(gravity, tuple(specs), contact)
