@@ -18,45 +18,67 @@ import argparse
 from dataclasses import dataclass, field
 import json
 import math
+import re
 import struct
 import sys
 import time
 
-from rb_sim_ros import node_recorder, ros_arguments
+from rb_sim_ros import node_params, node_recorder, ros_arguments
 from rb_sim_ros.recording import ReaderError, RecordingReader, recover, WriterError
+from rb_sim_ros.recording.schemas import type_name_of
 from rb_sim_ros.ros_messages import OutputMessages, time_msg
 from rb_sim_ros.simulation import Config, Simulation
 from rb_sim_ros.stepper import IntegrationError
 
 QUANTITIES = ('position', 'orientation', 'linear_velocity', 'angular_velocity')
+# Everything in a file is untrusted; these bound the work a file can ask for.
+MAX_JSON_DEPTH = 16  # the metadata nests 5 deep (config, bodies, a body, colliders, a collider)
+MAX_STEPS_PER_OUTPUT = 1_000_000  # physics steps between two published states (as the node)
+GAP_ALLOWANCE = 2  # a damaged chunk may hide outputs: allow twice the steps the outputs imply
+MIN_RATE, MAX_RATE = 1e-6, 1e9  # --rate: sim time per wall time (0: as fast as possible)
+MAX_WAIT_S = 1e6
+INPUT_TYPES = {kind: type_name_of(cls) for kind, cls in node_recorder.INPUTS.items()}
+OUTPUT_TYPES = {kind: type_name_of(cls) for kind, cls in node_recorder.OUTPUTS.items()}
+# Parameters replay itself uses, with their defaults (a recording holds all of them).
+FRAME_PARAMS = {'world_frame': 'odom', 'body_frame': 'base_link', 'twist_frame': 'body'}
 
 
 @dataclass
 class Verification:
-    """Largest difference per quantity over all recorded outputs, and what was compared."""
+    """Largest difference per quantity over all recorded outputs, and what was compared.
 
-    outputs: int = 0
+    Identical only if every recorded output message was compared (``outputs == recorded``),
+    none differs and none holds a non-finite value."""
+
+    outputs: int = 0  # output messages compared
+    recorded: int = 0  # output messages in the file
     inputs: int = 0
     mismatched_messages: int = 0
+    non_finite: int = 0  # recorded output messages with a nan or inf
     max_difference: dict = field(default_factory=lambda: dict.fromkeys(QUANTITIES, 0.0))
+    per_topic: dict = field(default_factory=dict)  # topic -> [compared, recorded]
     first_mismatch: str = ''
     truncated: bool = False
     last_time_ns: int = 0
+    integration_error: str = ''  # the run went non-finite (the node paused there too)
 
     @property
     def identical(self) -> bool:
-        return self.outputs > 0 and self.mismatched_messages == 0
+        return (self.outputs > 0 and self.outputs == self.recorded
+                and self.mismatched_messages == 0 and self.non_finite == 0)
 
 
 @dataclass
 class Recording:
-    """A recording read back: what re-simulates it and what it recorded."""
+    """A recording read back and checked: what re-simulates it and what it recorded."""
 
     config: Config
     parameters: dict
-    inputs: list  # (step, event)
-    outputs: list  # (step, body, kind, topic, msg, log_time_ns)
+    inputs: list  # (step, event, topic), sorted by step
+    outputs: list  # (step, body, kind, topic, msg, log_time_ns), sorted by step
     truncated: bool
+    path: str = ''
+    recorded_per_topic: dict = field(default_factory=dict)  # output topic -> messages in file
 
     def frames(self, body: str) -> tuple[str, str]:
         """(world frame, body frame) the node stamped ``body``'s outputs with."""
@@ -66,34 +88,226 @@ class Recording:
                 p.get('body_frame', 'base_link') if single else body)
 
 
+def _bad(path: str, what: str) -> ReaderError:
+    return ReaderError(f'{path}: bad {node_recorder.METADATA!r} metadata: {what}')
+
+
+def json_depth(text: str) -> int:
+    """How deep arrays and objects nest in JSON ``text`` (brackets inside strings ignored)."""
+    depth = deepest = 0
+    for bracket in re.findall(r'[\[\]{}]', re.sub(r'"(?:[^"\\]|\\.)*"', '', text)):
+        depth += 1 if bracket in '[{' else -1
+        deepest = max(deepest, depth)
+    return deepest
+
+
+def _json(meta: dict, key: str, path: str):
+    text = meta.get(key)
+    if not isinstance(text, str):
+        raise _bad(path, f'no {key!r}')
+    depth = json_depth(text)
+    if depth > MAX_JSON_DEPTH:
+        raise _bad(path, f'{key} nests {depth} levels deep (at most {MAX_JSON_DEPTH})')
+    try:
+        value = json.loads(text)
+    except ValueError as e:
+        raise _bad(path, f'{key} is not JSON: {e}') from None
+    _check_plain(value, key, path)
+    return value
+
+
+def _check_plain(value, where: str, path: str) -> None:
+    """JSON values only, every number finite and within float range."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _check_plain(v, f'{where}.{k}', path)
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _check_plain(v, f'{where}[{i}]', path)
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise _bad(path, f'{where} is {value!r}, not a finite number')
+    elif isinstance(value, int) and not isinstance(value, bool) and abs(value) > 2 ** 63:
+        raise _bad(path, f'{where} is an integer beyond 2**63')
+
+
+def _is_number(value) -> bool:
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value))
+
+
+def _mapping(value, where: str, path: str) -> dict:
+    if not isinstance(value, dict):
+        raise _bad(path, f'{where} must be a mapping, got {type(value).__name__}')
+    return value
+
+
+def _list_of_mappings(value, where: str, path: str) -> list:
+    if not isinstance(value, list):
+        raise _bad(path, f'{where} must be a list, got {type(value).__name__}')
+    for i, item in enumerate(value):
+        _mapping(item, f'{where}[{i}]', path)
+    return value
+
+
+def _flat(value, where: str, path: str) -> None:
+    """A scalar or a list of scalars: what a parameter or a body field is."""
+    items = value if isinstance(value, list) else [value]
+    for item in items:
+        if isinstance(item, (dict, list)):
+            raise _bad(path, f'{where} must be a value or a list of values, not nested')
+
+
+def _config(data, path: str) -> Config:
+    _mapping(data, 'config', path)
+    for key, value in data.items():
+        if key == 'bodies':
+            for i, body in enumerate(_list_of_mappings(value, 'config.bodies', path)):
+                for k, v in body.items():
+                    if k == 'colliders':
+                        for j, c in enumerate(_list_of_mappings(
+                                v, f'config.bodies[{i}].colliders', path)):
+                            for ck, cv in c.items():
+                                _flat(cv, f'config.bodies[{i}].colliders[{j}].{ck}', path)
+                    else:
+                        _flat(v, f'config.bodies[{i}].{k}', path)
+        elif key == 'contact':
+            for k, v in _mapping(value, 'config.contact', path).items():
+                _flat(v, f'config.contact.{k}', path)
+        else:
+            _flat(value, f'config.{key}', path)
+    try:
+        config = Config.from_dict(data)
+    except (ValueError, TypeError) as e:  # the scene's validators: wrong values and types
+        raise _bad(path, f'config: {e}') from None
+    if config.steps_per_publish > MAX_STEPS_PER_OUTPUT:
+        raise _bad(path, f'config: steps_per_publish {config.steps_per_publish} is more than '
+                   f'{MAX_STEPS_PER_OUTPUT} physics steps per output')
+    return config
+
+
+def _parameters(data, config: Config, path: str) -> dict:
+    _mapping(data, 'parameters', path)
+    for name, value in data.items():
+        _flat(value, f'parameters.{name}', path)
+        if name in node_params.BY_NAME:
+            try:
+                node_params.check(name, value)
+            except (ValueError, TypeError) as e:
+                raise _bad(path, f'parameters: {e}') from None
+    for name in FRAME_PARAMS:  # also checked above, if the node's checks know them
+        value = data.get(name, FRAME_PARAMS[name])
+        if not isinstance(value, str) or not value:
+            raise _bad(path, f'parameters: {name} must be a non-empty string, got {value!r}')
+    try:
+        OutputMessages(data.get('world_frame', 'odom'), data.get('body_frame', 'base_link'),
+                       data.get('twist_frame', 'body'))
+    except ValueError as e:
+        raise _bad(path, f'parameters: twist_frame: {e}') from None
+    if not isinstance(data.get('scene_file', ''), str):
+        raise _bad(path, f'parameters: scene_file must be a string, got '
+                   f'{data["scene_file"]!r}')
+    dt, rate = data.get('dt'), data.get('publish_rate')
+    if dt is not None and not (_is_number(dt) and float(dt) == config.dt):
+        raise _bad(path, f'parameters: dt {dt!r} is not dt {config.dt!r} of the config')
+    if dt is not None and rate is not None:
+        product = rate * dt if _is_number(rate) else 0.0
+        steps = 1.0 / product if product > 0 else math.inf
+        if not math.isfinite(steps) or round(steps) != config.steps_per_publish:
+            raise _bad(path, f'parameters: publish_rate {data["publish_rate"]!r} Hz and dt '
+                       f'{data["dt"]!r} s do not give steps_per_publish of the config '
+                       f'{config.steps_per_publish}')
+    return data
+
+
+def _output_topics(data, config: Config, path: str) -> dict:
+    _mapping(data, 'output_topics', path)
+    moving = [b.name for b in config.bodies if not b.static]
+    if sorted(data) != sorted(moving):
+        raise _bad(path, f'output_topics are for bodies {sorted(data)}, but the moving bodies '
+                   f'of the config are {sorted(moving)}')
+    seen = set()
+    for body, topics in data.items():
+        _mapping(topics, f'output_topics.{body}', path)
+        if sorted(topics) != sorted(OUTPUT_TYPES):
+            raise _bad(path, f'output_topics.{body} has {sorted(topics)}, not '
+                       f'{sorted(OUTPUT_TYPES)}')
+        for kind, topic in topics.items():
+            if (not isinstance(topic, str) or not topic.startswith('/') or len(topic) < 2
+                    or topic.startswith(node_recorder.INPUT_PREFIX) or topic in seen):
+                raise _bad(path, f'output_topics.{body}.{kind} {topic!r} is not a topic name '
+                           'of its own (absolute, not an input, not used twice)')
+            seen.add(topic)
+    return data
+
+
 def load(path: str) -> Recording:
-    """Read a recording of the simulator; ReaderError if it is not one."""
+    """Read a recording of the simulator and check all of it; ReaderError (one line: the file
+    and what is wrong) if it is not a recording this replay can re-simulate."""
     reader = RecordingReader(path)
     meta = reader.metadata.get(node_recorder.METADATA)
     if meta is None:
         raise ReaderError(f'{path}: no {node_recorder.METADATA!r} metadata: not a recording of '
                           'the rb_sim_ros simulator')
-    try:
-        config = Config.from_dict(json.loads(meta['config']))
-        parameters = json.loads(meta['parameters'])
-        output_topics = json.loads(meta['output_topics'])
-    except (KeyError, ValueError, TypeError) as e:
-        raise ReaderError(f'{path}: unreadable {node_recorder.METADATA!r} metadata: {e}') from e
+    if meta.get('format') != str(node_recorder.FORMAT):
+        raise _bad(path, f'format {meta.get("format")!r}; this replay reads format '
+                   f'{node_recorder.FORMAT!r} only')
+    config = _config(_json(meta, 'config', path), path)
+    parameters = _parameters(_json(meta, 'parameters', path), config, path)
+    output_topics = _output_topics(_json(meta, 'output_topics', path), config, path)
     by_topic = {topic: (body, kind) for body, topics in output_topics.items()
                 for kind, topic in topics.items()}
+    moving = {b.name for b in config.bodies if not b.static}
+    for topic, type_name in reader.channels.items():
+        parsed = node_recorder.parse_input_topic(topic)
+        if parsed is not None and parsed[0] in moving:
+            want = INPUT_TYPES[parsed[1]]
+        elif topic in by_topic:
+            want = OUTPUT_TYPES[by_topic[topic][1]]
+        else:
+            raise ReaderError(f'{path}: topic {topic} is neither an output named in the '
+                              'metadata nor an input of a moving body')
+        if type_name != want:
+            raise ReaderError(f'{path}: topic {topic} has type {type_name}, not {want}')
     inputs, outputs = [], []
     dt_ns = config.dt * 1e9
+    read = dict.fromkeys(reader.channels, 0)
     for topic, msg, log_time, _publish_time, sequence in reader.messages():
-        step = round(log_time / dt_ns)  # log time is step * dt; sequence holds step mod 2^32
+        read[topic] += 1
+        steps = log_time / dt_ns  # log time is step * dt; sequence holds step mod 2^32
+        if not steps < 2 ** 62:
+            raise ReaderError(f'{path}: {topic} at {log_time} ns is step {steps:.3g} of dt = '
+                              f'{config.dt!r} s: too many steps to re-simulate')
+        step = round(steps)
         if step % 2 ** 32 != sequence:
             raise ReaderError(f'{path}: {topic} at {log_time} ns has sequence {sequence}, '
                               f'not its step {step}')
         parsed = node_recorder.parse_input_topic(topic)
-        if parsed is not None:
-            inputs.append((step, node_recorder.event_from_message(*parsed, msg)))
-        elif topic in by_topic:
+        if topic in by_topic:
             outputs.append((step, *by_topic[topic], topic, msg, log_time))
-    return Recording(config, parameters, inputs, outputs, reader.truncated)
+            continue
+        try:
+            event = node_recorder.event_from_message(*parsed, msg)
+        except ValueError as e:
+            raise ReaderError(f'{path}: the input on {topic} at step {step} is invalid: '
+                              f'{e}') from None
+        inputs.append((step, event, topic))
+    for topic, n in read.items():
+        if n != reader.topics[topic].message_count:
+            raise ReaderError(f'{path}: {topic} holds {n} messages, but the file says '
+                              f'{reader.topics[topic].message_count}')
+    inputs.sort(key=lambda e: e[0])
+    outputs.sort(key=lambda o: o[0])
+    if outputs:
+        steps_needed = outputs[-1][0]
+        published = len({o[0] for o in outputs})
+        implied = GAP_ALLOWANCE * config.steps_per_publish * published
+        if steps_needed > implied:
+            raise ReaderError(
+                f'{path}: its last output is at step {steps_needed} of dt = {config.dt!r} s, '
+                f'but {published} outputs every {config.steps_per_publish} steps imply at most '
+                f'{implied}: log times and metadata disagree; refusing to simulate that long')
+    recorded = {t: read.get(t, 0) for t in by_topic}
+    return Recording(config, parameters, inputs, outputs, reader.truncated, path, recorded)
 
 
 def _vectors(kind: str, msg):
@@ -123,20 +337,50 @@ def identical(kind: str, a, b) -> bool:
                for q in va)
 
 
-def resimulate(rec: Recording):
-    """Re-run a recording: yields (step, kind, topic, recorded message, re-simulated message)
-    for every recorded output, in step order. Stops early if the run went non-finite (the node
-    paused there and recorded nothing later)."""
+def _finite_message(kind: str, msg) -> bool:
+    return all(math.isfinite(c) for v in _vectors(kind, msg).values() for c in v)
+
+
+def resimulate(rec: Recording, errors: list | None = None):
+    """Re-run a recording: yields (step, kind, topic, recorded message, re-simulated message,
+    log time) for every recorded output, in step order.
+
+    As in the node, a run that goes non-finite stays at its last finite state while the step
+    count goes on (the node pauses there and publishes that state); the error's text is
+    appended to ``errors``. ReaderError if an input cannot be applied (a file that was not
+    recorded from a run)."""
     sim = Simulation(rec.config)
     twist_frame = rec.parameters.get('twist_frame', 'body')
     outs = {b.name: OutputMessages(*rec.frames(b.name), twist_frame) for b in rec.config.bodies}
-    pending = sorted(rec.inputs, key=lambda e: e[0])
+    events = rec.inputs
+    i = 0
     filled = {}
-    for step, body, kind, topic, msg, log_time in sorted(rec.outputs, key=lambda o: o[0]):
-        try:
-            pending = sim.run_until(step, pending)
-        except IntegrationError:
-            return
+    for step, body, kind, topic, msg, log_time in rec.outputs:
+        while sim.step_count < step:
+            while i < len(events) and events[i][0] <= sim.step_count:
+                at, event, where = events[i]
+                if at < sim.step_count:
+                    raise ReaderError(f'{rec.path}: the input on {where} at step {at} is in '
+                                      f'the past of the run (now at step {sim.step_count})')
+                try:
+                    sim.apply(event)
+                except ValueError as e:
+                    raise ReaderError(f'{rec.path}: the input on {where} at step {at} cannot '
+                                      f'be applied: {e}') from None
+                i += 1
+            due = events[i][0] if i < len(events) else step
+            before = sim.step_count
+            try:
+                sim.run(min(due, step) - before)
+            except IntegrationError as e:
+                if errors is not None:
+                    errors.append(str(e))
+            if sim.step_count <= before:
+                raise ReaderError(f'{rec.path}: the run does not advance past step {before}')
+        if i < len(events) and events[i][0] < sim.step_count:
+            raise ReaderError(f'{rec.path}: the input on {events[i][2]} at step '
+                              f'{events[i][0]} is in the past of the run (now at step '
+                              f'{sim.step_count})')
         out = outs[body]
         if filled.get(body) != step:
             out.fill(sim.time_ns, *sim.pose_twist(body))
@@ -147,10 +391,16 @@ def resimulate(rec: Recording):
 def verify(path: str) -> Verification:
     """Re-simulate ``path`` offline and compare every recorded output with the re-run."""
     rec = load(path)
-    result = Verification(inputs=len(rec.inputs), truncated=rec.truncated)
-    for step, kind, topic, msg, mine, log_time in resimulate(rec):
+    result = Verification(inputs=len(rec.inputs), truncated=rec.truncated,
+                          recorded=len(rec.outputs),
+                          per_topic={t: [0, n] for t, n in rec.recorded_per_topic.items()})
+    errors: list[str] = []
+    for step, kind, topic, msg, mine, log_time in resimulate(rec, errors):
         result.outputs += 1
+        result.per_topic[topic][0] += 1
         result.last_time_ns = log_time
+        if not _finite_message(kind, msg):
+            result.non_finite += 1
         theirs_v, mine_v = _vectors(kind, msg), _vectors(kind, mine)
         for q, v in theirs_v.items():
             d = max(abs(a - b) for a, b in zip(v, mine_v[q]))
@@ -160,99 +410,154 @@ def verify(path: str) -> Verification:
             result.mismatched_messages += 1
             if not result.first_mismatch:
                 result.first_mismatch = f'{topic} at step {step} (t = {log_time * 1e-9:.9f} s)'
+    result.integration_error = errors[0] if errors else ''
     return result
 
 
 def play(path: str, rate: float, clock: bool = True, wait: float = 0.0) -> int:
-    """Republish the recorded outputs in sim-time order with /clock, ``rate`` x sim time;
-    first wait up to ``wait`` seconds for a subscriber on one of them."""
+    """Republish the recorded outputs in sim-time order with /clock, ``rate`` x sim time
+    (0: as fast as possible); first wait up to ``wait`` seconds for a subscriber on one of
+    them. Ctrl-C raises KeyboardInterrupt (rclpy's signal handler is not installed)."""
     import rclpy
     from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.signals import SignalHandlerOptions
     from rosgraph_msgs.msg import Clock
 
     outputs = [(o[3], o[4], o[5]) for o in load(path).outputs]  # (topic, msg, log time)
     outputs.sort(key=lambda o: o[2])
-    rclpy.init()
-    node = rclpy.create_node('rb_sim_replay')  # on the ROS graph of the environment
-    pubs = {topic: node.create_publisher(type(msg), topic, 10) for topic, msg, _ in outputs}
-    clock_pub = node.create_publisher(Clock, '/clock', QoSProfile(
-        depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)) if clock else None
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     try:
-        if not outputs:
-            return 0
-        end_wait = time.monotonic() + wait
-        while time.monotonic() < end_wait and not any(
-                p.get_subscription_count() for p in pubs.values()):
-            rclpy.spin_once(node, timeout_sec=0.05)
-        t0_sim, t0_wall = outputs[0][2], time.monotonic()
-        end = outputs[-1][2]
-        last_report = 0.0
-        for topic, msg, log_time in outputs:
-            if rate > 0:
-                delay = (log_time - t0_sim) * 1e-9 / rate - (time.monotonic() - t0_wall)
-                if delay > 0:
-                    time.sleep(delay)
-            if clock_pub is not None:
-                clock_pub.publish(Clock(clock=time_msg(log_time)))
-            pubs[topic].publish(msg)
-            if time.monotonic() - last_report > 1.0:
-                last_report = time.monotonic()
-                done = (log_time - t0_sim) / max(1, end - t0_sim)
-                print(f'\rreplay: t = {log_time * 1e-9:10.3f} s  {100 * done:5.1f}%',
-                      end='', file=sys.stderr, flush=True)
-        print(f'\rreplay: t = {end * 1e-9:10.3f} s  100.0%', file=sys.stderr)
-    except KeyboardInterrupt:
-        pass
+        node = rclpy.create_node('rb_sim_replay')  # on the ROS graph of the environment
+        try:
+            _publish(rclpy, node, outputs, rate, wait, Clock if clock else None,
+                     QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
+        finally:
+            node.destroy_node()
     finally:
-        node.destroy_node()
         rclpy.try_shutdown()
     return 0
 
 
+def _sleep_until(deadline: float) -> None:
+    """Sleep until time.monotonic() reaches ``deadline``, in slices time.sleep accepts."""
+    while True:
+        left = deadline - time.monotonic()
+        if not left > 0:
+            return
+        time.sleep(min(left, 1.0))
+
+
+def _publish(rclpy, node, outputs, rate: float, wait: float, clock_type, clock_qos) -> None:
+    pubs = {topic: node.create_publisher(type(msg), topic, 10) for topic, msg, _ in outputs}
+    clock_pub = (node.create_publisher(clock_type, '/clock', clock_qos)
+                 if clock_type is not None else None)
+    if not outputs:
+        return
+    end_wait = time.monotonic() + wait
+    while time.monotonic() < end_wait and not any(
+            p.get_subscription_count() for p in pubs.values()):
+        rclpy.spin_once(node, timeout_sec=0.05)
+    t0_sim, t0_wall = outputs[0][2], time.monotonic()
+    end = outputs[-1][2]
+    last_report = 0.0
+    for topic, msg, log_time in outputs:
+        if rate > 0:
+            _sleep_until(t0_wall + (log_time - t0_sim) * 1e-9 / rate)
+        if clock_pub is not None:
+            clock_pub.publish(clock_type(clock=time_msg(log_time)))
+        pubs[topic].publish(msg)
+        if time.monotonic() - last_report > 1.0:
+            last_report = time.monotonic()
+            done = (log_time - t0_sim) / max(1, end - t0_sim)
+            print(f'\rreplay: t = {log_time * 1e-9:10.3f} s  {100 * done:5.1f}%',
+                  end='', file=sys.stderr, flush=True)
+    print(f'\rreplay: t = {end * 1e-9:10.3f} s  100.0%', file=sys.stderr)
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line on stderr and exit status 2."""
+
+    def error(self, message: str):
+        print(f'{self.prog}: {message}', file=sys.stderr)
+        sys.exit(2)
+
+
+def _check_options(opts) -> str:
+    """What is wrong with the options, or ''."""
+    if not (opts.rate == 0 or MIN_RATE <= opts.rate <= MAX_RATE):
+        return (f'--rate must be 0 (as fast as possible) or from {MIN_RATE:g} to '
+                f'{MAX_RATE:g}, got {opts.rate!r}')
+    if not 0 <= opts.wait <= MAX_WAIT_S:
+        return f'--wait must be from 0 to {MAX_WAIT_S:g} s, got {opts.wait!r}'
+    if opts.recover and not opts.out:
+        return '--recover needs FILE and OUT'
+    if opts.out and not opts.recover:
+        return 'OUT is only for --recover'
+    return ''
+
+
 def main(args=None) -> int:
     argv = sys.argv if args is None else args
-    parser = argparse.ArgumentParser(prog='replay', description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = _Parser(prog='replay', description=__doc__,
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('file', help='a recording (.mcap) made with the record parameter')
     parser.add_argument('out', nargs='?', help='with --recover: the finalised copy to write')
     mode = parser.add_mutually_exclusive_group()
     mode.add_argument('--verify', action='store_true', help='re-simulate and compare')
     mode.add_argument('--recover', action='store_true', help='finalise a killed recording')
     parser.add_argument('--rate', type=float, default=1.0,
-                        help='playback speed (sim time per wall time; 0: as fast as possible)')
+                        help=f'playback speed (sim time per wall time, {MIN_RATE:g} to '
+                        f'{MAX_RATE:g}; 0: as fast as possible)')
     parser.add_argument('--no-clock', action='store_true', help='do not publish /clock')
     parser.add_argument('--wait', type=float, default=0.0,
                         help='seconds to wait for a subscriber before playing')
     parser.add_argument('--overwrite', action='store_true', help='with --recover')
     opts = parser.parse_args(ros_arguments.non_ros_args(argv, 'replay'))
+    problem = _check_options(opts)
+    if problem:
+        parser.error(problem)
     try:
         if opts.verify:
             return _print_verification(opts.file, verify(opts.file))
         if opts.recover:
-            if not opts.out:
-                parser.error('--recover needs FILE and OUT')
             counts = recover(opts.file, opts.out, overwrite=opts.overwrite)
             print(f'replay: recovered {counts} into {opts.out}')
             return 0
-        if opts.out:
-            parser.error('OUT is only for --recover')
         return play(opts.file, opts.rate, clock=not opts.no_clock, wait=opts.wait)
     except (ReaderError, WriterError, OSError) as e:
         print(f'replay: {e}', file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print('replay: interrupted', file=sys.stderr)
+        return 130
 
 
 def _print_verification(path: str, r: Verification) -> int:
     note = ' (truncated recording: compared what it holds)' if r.truncated else ''
-    print(f'{path}: {r.inputs} inputs, {r.outputs} output messages up to '
-          f't = {r.last_time_ns * 1e-9:.6f} s{note}')
+    print(f'{path}: {r.inputs} inputs, {r.outputs} of {r.recorded} recorded output messages '
+          f'compared, up to t = {r.last_time_ns * 1e-9:.6f} s{note}')
+    for topic, (compared, recorded) in sorted(r.per_topic.items()):
+        print(f'  {topic:<24} {compared} of {recorded} compared')
     for q in QUANTITIES:
         print(f'  largest difference in {q:<17} {r.max_difference[q]:.3g}')
+    if r.integration_error:
+        print(f'  the run went non-finite, as the node did (it paused there): '
+              f'{r.integration_error}')
     if r.identical:
         print('identical: every output message re-simulated bit for bit')
         return 0
-    print(f'MISMATCH: {r.mismatched_messages} of {r.outputs} messages differ'
-          + (f', first {r.first_mismatch}' if r.first_mismatch else ''))
+    problems = []
+    if r.mismatched_messages:
+        problems.append(f'{r.mismatched_messages} of {r.outputs} messages differ'
+                        + (f', first {r.first_mismatch}' if r.first_mismatch else ''))
+    if r.outputs != r.recorded:
+        problems.append(f'{r.recorded - r.outputs} of {r.recorded} recorded output messages '
+                        'were not compared')
+    if r.non_finite:
+        problems.append(f'{r.non_finite} recorded output messages hold non-finite values')
+    if not r.recorded:
+        problems.append('no output messages to compare')
+    print('MISMATCH: ' + '; '.join(problems))
     return 1
 
 

@@ -1,0 +1,390 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""replay treats everything in a file as untrusted: a bad recording is one line and exit 2.
+
+No ROS graph: recordings are the regression fixture with its metadata rewritten (by the mcap
+library, not by our writer), or runs recorded offline as the node records them (Simulation,
+OutputMessages and NodeRecorder, period by period). rosbags is the independent reader.
+"""
+
+import contextlib
+import io
+import json
+import math
+from pathlib import Path
+
+from hypothesis import given, HealthCheck, settings, strategies as st
+from mcap.reader import make_reader
+from mcap.writer import Writer
+import pytest
+from rosbags.highlevel import AnyReader
+
+from rb_sim_ros import node_params, replay
+from rb_sim_ros.node_recorder import NodeRecorder
+from rb_sim_ros.rigid_body import Wrench
+from rb_sim_ros.ros_messages import OutputMessages
+from rb_sim_ros.simulation import BodySpec, Config, SetWrench, Simulation
+from rb_sim_ros.stepper import IntegrationError
+
+FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
+OUTPUT_KINDS = ('pose', 'twist', 'odom')
+
+
+def _fixture_parts():
+    """(header, schemas, channels, messages, metadata) of the fixture, read by mcap itself."""
+    with open(FIXTURE, 'rb') as f:
+        reader = make_reader(f)
+        header, summary = reader.get_header(), reader.get_summary()
+        messages = [m for _s, _c, m in reader.iter_messages(log_time_order=False)]
+        metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
+    return header, summary.schemas, summary.channels, messages, metadata
+
+
+PARTS = _fixture_parts()
+META = PARTS[4]['rb_sim_ros']
+
+
+def _rewrite(path, meta):
+    """The fixture with its 'rb_sim_ros' metadata replaced by ``meta`` (str -> str)."""
+    header, schemas, channels, messages, _ = PARTS
+    with open(path, 'wb') as f:
+        w = Writer(f)
+        w.start(profile=header.profile, library=header.library)
+        sids = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in schemas.items()}
+        cids = {i: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id],
+                                      dict(c.metadata)) for i, c in channels.items()}
+        for m in messages:
+            w.add_message(cids[m.channel_id], m.log_time, m.data, m.publish_time, m.sequence)
+        w.add_metadata('rb_sim_ros', meta)
+        w.finish()
+    return path
+
+
+def _verify(path):
+    """(exit status, stdout, stderr) of ``replay --verify path``, in this process: any
+    exception escaping main() fails the test (it would be a traceback)."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = replay.main(['replay', '--verify', str(path)])
+    return code, out.getvalue(), err.getvalue()
+
+
+def _assert_refused(path, *words):
+    code, out, err = _verify(path)
+    assert code == 2, out + err
+    assert err.startswith(f'replay: {path}: ') and err.endswith('\n'), err
+    assert err.count('\n') == 1, err
+    for w in words:
+        assert w in err, err
+    return err
+
+
+def _meta(**changes):
+    """The fixture's metadata, its JSON fields changed by ``changes`` (key -> function of the
+    decoded value returning the new one, or a str for the raw text)."""
+    meta = dict(META)
+    for key, change in changes.items():
+        meta[key] = change if isinstance(change, str) else json.dumps(change(
+            json.loads(META[key])))
+    return meta
+
+
+def _set(d, key, value):
+    d = dict(d)
+    d[key] = value
+    return d
+
+
+def _rosbags_outputs(path):
+    with AnyReader([Path(path)]) as reader:
+        return [(c.topic, t) for c, t, _raw in reader.messages()
+                if c.topic.rsplit('/', 1)[-1] in OUTPUT_KINDS]
+
+
+# -- the fixture, untouched and rewritten ------------------------------------------------------
+def test_the_rewritten_fixture_verifies_and_every_output_is_counted(tmp_path):
+    f = _rewrite(tmp_path / 'same.mcap', META)
+    code, out, err = _verify(f)
+    assert code == 0 and err == '', out + err
+    n = len(_rosbags_outputs(f))
+    assert n > 0 and f'{n} of {n} recorded output messages compared' in out
+    per_topic = {t: sum(1 for topic, _ in _rosbags_outputs(f) if topic == t)
+                 for t in ('/pose', '/twist', '/odom')}
+    for topic, count in per_topic.items():
+        assert f'{topic:<24} {count} of {count} compared' in out
+    assert 'identical: every output message re-simulated bit for bit' in out
+
+
+# -- what the issue found, one case each --------------------------------------------------------
+CASES = {
+    'twist frame': (_meta(parameters=lambda p: _set(p, 'twist_frame', 'sideways')),
+                    'twist_frame'),
+    'twist frame not a string': (_meta(parameters=lambda p: _set(p, 'twist_frame', [1])),
+                                 'twist_frame'),
+    'parameters a list': (_meta(parameters=lambda p: list(p)), 'parameters must be a mapping'),
+    'parameters a string': (_meta(parameters=lambda p: 'odom'), 'parameters must be a mapping'),
+    'renamed output topic': (_meta(output_topics=lambda o: {'body': _set(
+        o['body'], 'pose', '/elsewhere')}), 'topic /pose is neither an output'),
+    'swapped output topics': (_meta(output_topics=lambda o: {'body': {
+        'pose': '/twist', 'twist': '/pose', 'odom': '/odom'}}), 'has type'),
+    'renamed output kind': (_meta(output_topics=lambda o: {'body': {
+        'posture': '/pose', 'twist': '/twist', 'odom': '/odom'}}), 'output_topics.body has'),
+    'renamed body': (_meta(output_topics=lambda o: {'robot': o['body']}),
+                     "bodies ['robot']"),
+    'renamed body in config': (_meta(config=lambda c: _set(c, 'bodies', [
+        _set(c['bodies'][0], 'name', 'robot')])), 'output_topics are for bodies'),
+    'static body': (_meta(config=lambda c: _set(c, 'bodies', [
+        _set(c['bodies'][0], 'static', True)])), 'moving bodies'),
+    'deep json': (_meta(config='[' * 100_000 + ']' * 100_000), 'nests 100000 levels deep'),
+    'deep parameters': (_meta(parameters='{"a": ' * 5000 + '1' + '}' * 5000), 'parameters'),
+    # Log times still give the recorded sequence numbers (step mod 2**32), at 2**32 + 1 times
+    # the steps: without the bound this runs for days.
+    'hanging dt': (_meta(config=lambda c: _set(c, 'dt', 0.001 / (2 ** 32 + 1)),
+                         parameters=lambda p: {k: v for k, v in p.items() if k != 'dt'}),
+                   'refusing to simulate that long'),
+    'format 2': (_set(META, 'format', '2'), "format '2'"),
+    'no format': ({k: v for k, v in META.items() if k != 'format'}, 'format None'),
+    'config not json': (_meta(config='{"dt": '), 'config is not JSON'),
+    'config nan': (_meta(config=lambda c: _set(c, 'dt', math.nan)), 'not a finite number'),
+    'config huge int': (_meta(config=lambda c: _set(c, 'dt', 10 ** 400)), 'beyond 2**63'),
+    'config list': (_meta(config=lambda c: [c]), 'config must be a mapping'),
+    'bodies not a list': (_meta(config=lambda c: _set(c, 'bodies', 'body')), 'must be a list'),
+    'colliders not mappings': (_meta(config=lambda c: _set(c, 'bodies', [
+        _set(c['bodies'][0], 'colliders', [1])])), 'colliders[0] must be a mapping'),
+    'mass nested': (_meta(config=lambda c: _set(c, 'bodies', [
+        _set(c['bodies'][0], 'mass', [[1]])])), 'not nested'),
+    'dt disagrees': (_meta(parameters=lambda p: _set(p, 'dt', 0.002)), 'parameters: dt'),
+    'rate disagrees': (_meta(parameters=lambda p: _set(p, 'publish_rate', 100.0)),
+                       'publish_rate'),
+    'steps per output': (_meta(config=lambda c: _set(c, 'steps_per_publish', 10 ** 9)),
+                         'steps_per_publish'),
+    'no config': ({k: v for k, v in META.items() if k != 'config'}, "no 'config'"),
+}
+
+
+@pytest.mark.parametrize('case', sorted(CASES))
+def test_malformed_metadata_is_one_line_and_exit_2(tmp_path, case):
+    meta, words = CASES[case]
+    _assert_refused(_rewrite(tmp_path / 'bad.mcap', meta), words)
+
+
+# -- the property: any mutation of the metadata is refused in one line, or verifies ------------
+JSON_VALUES = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
+    lambda children: st.lists(children, max_size=4) | st.dictionaries(
+        st.text(max_size=8), children, max_size=4), max_leaves=8)
+
+
+def _mutate(data, value, draw):
+    """``value`` with one part (chosen by ``draw``) replaced, deleted or kept."""
+    if isinstance(value, (dict, list)) and value and draw(st.booleans()):
+        keys = list(value) if isinstance(value, dict) else list(range(len(value)))
+        key = draw(st.sampled_from(keys))
+        copy = dict(value) if isinstance(value, dict) else list(value)
+        action = draw(st.sampled_from(['descend', 'delete', 'replace']))
+        if action == 'descend':
+            copy[key] = _mutate(data, copy[key], draw)
+        elif action == 'delete':
+            del copy[key]
+        else:
+            copy[key] = draw(JSON_VALUES)
+        return copy
+    if isinstance(value, float) and draw(st.booleans()):  # near misses of a good number
+        return draw(st.sampled_from([value * (1 + 2 ** -40), value / (2 ** 32 + 1), -value,
+                                     0.0, value * 1e300, value * 1e-300]))
+    return draw(JSON_VALUES)
+
+
+@settings(max_examples=150, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_any_metadata_mutation_is_one_line_exit_2_or_a_verification(tmp_path, data):
+    draw = data.draw
+    meta = dict(META)
+    key = draw(st.sampled_from(['config', 'parameters', 'output_topics', 'format', 'version']))
+    how = draw(st.sampled_from(['json', 'text', 'delete']))
+    if how == 'delete':
+        del meta[key]
+    elif how == 'text':
+        meta[key] = draw(st.text(max_size=20))
+    else:
+        meta[key] = json.dumps(_mutate(data, json.loads(META[key]) if key not in (
+            'format', 'version') else META[key], draw))
+    f = _rewrite(tmp_path / 'mutated.mcap', meta)
+    code, out, err = _verify(f)  # an exception here is a traceback: the test fails
+    if code == 2:
+        assert err.startswith(f'replay: {f}: ') and err.count('\n') == 1, err
+    else:
+        assert code in (0, 1) and err == '', (code, out, err)
+        n = len(_rosbags_outputs(f))
+        assert f'{n} of {n} recorded output messages compared' in out
+
+
+# -- runs recorded offline, period by period, as the node records them --------------------------
+def _params(**changes):
+    values = {p.name: p.default for p in node_params.PARAMS}
+    values.update(dt=0.001, publish_rate=100.0, **changes)
+    return values
+
+
+def _record_offline(path, spec, periods, wrenches=None, spoil=None):
+    """Record ``periods`` publish periods of one body as the node does (publish at step 0,
+    then: inputs, step, publish; a non-finite run keeps its last finite state). ``wrenches``:
+    period -> Wrench applied at its start. ``spoil(period, out)`` may alter the messages."""
+    config = Config(dt=0.001, steps_per_publish=10, bodies=(spec,))
+    params = _params()
+    topics = {spec.name: {k: f'/{k}' for k in OUTPUT_KINDS}}
+    sim = Simulation(config)
+    out = OutputMessages(params['world_frame'], params['body_frame'], params['twist_frame'])
+    rec = NodeRecorder(str(path), config, params, topics)
+    went_non_finite = False
+
+    def publish(period):
+        out.fill(sim.time_ns, *sim.pose_twist(spec.name))
+        if spoil is not None:
+            spoil(period, out)
+        rec.output(spec.name, sim.step_count, sim.time_ns, out)
+
+    publish(0)
+    for period in range(1, periods + 1):
+        if wrenches and period in wrenches:
+            event = SetWrench(wrenches[period], spec.name)
+            sim.apply(event)
+            rec.event(sim.step_count, sim.time_ns, event)
+        try:
+            sim.run(config.steps_per_publish)
+        except IntegrationError:
+            went_non_finite = True
+        publish(period)
+    rec.close()
+    assert rec.failed is None
+    return went_non_finite
+
+
+def test_a_run_that_went_non_finite_compares_every_output(tmp_path):
+    f = tmp_path / 'blowup.mcap'
+    spec = BodySpec(inertia=(1.0, 2.0, 3.0), initial_angular_velocity=(1e150, 1e150, 1e150))
+    assert _record_offline(f, spec, periods=6)  # the run does go non-finite
+    n = len(_rosbags_outputs(f))
+    assert n == 3 * 7
+    code, out, err = _verify(f)
+    assert code == 0 and err == '', out + err
+    assert f'{n} of {n} recorded output messages compared' in out
+    assert 'the run went non-finite, as the node did' in out
+
+
+def test_non_finite_recorded_outputs_fail(tmp_path):
+    def nan_at_the_end(period, out):
+        if period >= 4:
+            out.pose.pose.position.x = math.nan
+            out.odom.twist.twist.angular.z = math.inf
+
+    f = tmp_path / 'nan.mcap'
+    _record_offline(f, BodySpec(initial_angular_velocity=(0.1, 0.2, 0.3)), periods=5,
+                    wrenches={1: Wrench((1.0, 0, 0), (0, 0, 0.1))}, spoil=nan_at_the_end)
+    n = len(_rosbags_outputs(f))
+    code, out, err = _verify(f)
+    assert code == 1, out + err
+    assert f'{n} of {n} recorded output messages compared' in out
+    assert '4 recorded output messages hold non-finite values' in out  # 2 periods x pose, odom
+    assert 'identical' not in out
+
+
+def _parts(path):
+    """(schemas, channels, [(topic, message record)], rb_sim_ros metadata), read by mcap."""
+    with open(path, 'rb') as fh:
+        reader = make_reader(fh)
+        summary = reader.get_summary()
+        messages = [(c.topic, m) for _s, c, m in reader.iter_messages()]
+        meta = next(dict(m.metadata) for m in reader.iter_metadata() if m.name == 'rb_sim_ros')
+    return summary.schemas, summary.channels, messages, meta
+
+
+def _write(path, schemas, channels, messages, meta):
+    with open(path, 'wb') as f:
+        w = Writer(f)
+        w.start(profile='ros2', library='test')
+        sids = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in schemas.items()}
+        cids = {c.topic: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id],
+                                            dict(c.metadata)) for c in channels.values()}
+        for topic, m in messages:
+            w.add_message(cids[topic], m.log_time, m.data, m.publish_time, m.sequence)
+        w.add_metadata('rb_sim_ros', meta)
+        w.finish()
+    return path
+
+
+def test_an_offline_run_verifies_and_other_inputs_do_not(tmp_path):
+    f, g = tmp_path / 'run.mcap', tmp_path / 'other.mcap'
+    spec = BodySpec(mass=2.0, inertia=(0.2, 0.3, 0.4), initial_angular_velocity=(0.3, 1, -0.2))
+    first = Wrench((1.0, 0, 0), (0, 0, 0.05))
+    second = Wrench((0, -2.0, 0), (0.01, 0, 0))
+    _record_offline(f, spec, periods=8, wrenches={2: first, 5: second})
+    _record_offline(g, spec, periods=8, wrenches={2: first, 6: second})
+    code, out, err = _verify(f)
+    assert code == 0 and 'identical' in out, out + err
+    # The outputs of the first run with the inputs of the second: found.
+    schemas, channels, messages, meta = _parts(f)
+    inputs = [(t, m) for t, m in _parts(g)[2] if t.startswith('/rb_sim/input/')]
+    outputs = [(t, m) for t, m in messages if not t.startswith('/rb_sim/input/')]
+    mixed = _write(tmp_path / 'mixed.mcap', schemas, channels, inputs + outputs, meta)
+    code, out, err = _verify(mixed)
+    assert code == 1 and 'MISMATCH' in out and 'first /' in out, out + err
+
+
+def test_an_input_to_a_static_body_is_one_line(tmp_path):
+    f = tmp_path / 'run.mcap'
+    _record_offline(f, BodySpec(), periods=3, wrenches={1: Wrench((1.0, 0, 0))})
+    schemas, channels, messages, meta = _parts(f)
+    config = json.loads(meta['config'])
+    config['bodies'][0]['static'] = True
+    bad = _write(tmp_path / 'static.mcap', schemas, channels, messages,
+                 {**meta, 'config': json.dumps(config)})
+    _assert_refused(bad, 'moving bodies')
+
+
+def test_an_input_that_cannot_apply_is_one_line(tmp_path):
+    f = tmp_path / 'run.mcap'
+    _record_offline(f, BodySpec(), periods=3, wrenches={2: Wrench((1.0, 0, 0))})  # step 10
+    schemas, channels, messages, meta = _parts(f)
+    # Its recorded input claims a step before the run reached it (log time and sequence).
+    moved = []
+    for topic, m in messages:
+        if topic.startswith('/rb_sim/input/'):
+            m = type(m)(channel_id=m.channel_id, sequence=m.sequence - 5,
+                        log_time=m.log_time - 5_000_000, publish_time=m.publish_time,
+                        data=m.data)
+        moved.append((topic, m))
+    moved.sort(key=lambda tm: tm[1].log_time)
+    bad = _write(tmp_path / 'moved.mcap', schemas, channels, moved, meta)
+    code, out, err = _verify(bad)
+    assert code == 1 and 'MISMATCH' in out, out + err  # applied earlier: outputs differ
+    # A wrench in a frame that does not exist.
+    wrong = []
+    for topic, m in messages:
+        if topic.endswith('/wrench'):
+            m = type(m)(channel_id=m.channel_id, sequence=m.sequence, log_time=m.log_time,
+                        publish_time=m.publish_time,
+                        data=m.data.replace(b'world', b'wurld'))
+        wrong.append((topic, m))
+    bad = _write(tmp_path / 'frame.mcap', schemas, channels, wrong, meta)
+    _assert_refused(bad, '/rb_sim/input/body/wrench at step 10 is invalid', 'wurld')
+
+
+# -- the command line: options ------------------------------------------------------------------
+@pytest.mark.parametrize('option, value', [
+    ('--rate', '1e-300'), ('--rate', '-1'), ('--rate', 'nan'), ('--rate', 'inf'),
+    ('--rate', 'fast'), ('--wait', 'nan'), ('--wait', '-1'), ('--wait', 'inf'),
+])
+def test_bad_playback_options_are_one_line_and_exit_2(option, value):
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), pytest.raises(SystemExit) as exit_info:
+        replay.main(['replay', str(FIXTURE), option, value])
+    assert exit_info.value.code == 2
+    assert err.getvalue().startswith('replay: ') and err.getvalue().count('\n') == 1
+    assert option in err.getvalue()
+
+
+def test_the_json_depth_bound_ignores_brackets_in_strings():
+    assert replay.json_depth('{"a": "[[[[{{{{", "b": [1, [2, {"c": "]]\\"]"}]]}') == 4
+    assert replay.json_depth('1') == 0
