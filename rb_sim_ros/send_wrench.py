@@ -10,7 +10,10 @@ A CSV profile has a header and rows ``t,fx,fy,fz,tx,ty,tz`` with an optional ``f
 (world or body): each row's wrench (N, N m) is held from its time t (s, from the start) until the
 next row's; the last row is held for --duration more seconds (default 0). The wrench is
 republished at --rate Hz so that the simulator's command_timeout does not zero it, and a zero
-wrench is sent at the end (or on Ctrl-C) to leave the body unforced.
+wrench is sent at the end (or on Ctrl-C) to leave the body unforced; it counts as arrived when
+the simulator reports it on applied_wrench (beside the wrench topic) or DDS acknowledges it.
+Every force and torque must be finite with a norm of at most --max-wrench (the simulator's
+max_wrench parameter, default 1e6): a bad argument or row is one line on stderr, exit status 2.
 """
 
 from __future__ import annotations
@@ -25,37 +28,107 @@ from geometry_msgs.msg import Wrench, WrenchStamped
 import rclpy
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
+from rclpy.qos import QoSProfile
 from rclpy.signals import SignalHandlerOptions
 
 from rb_sim_ros import ros_arguments
 
 FIELDS = ('t', 'fx', 'fy', 'fz', 'tx', 'ty', 'tz')
+MAX_WRENCH = 1.0e6  # the simulator's max_wrench parameter's default (N, N m)
+MIN_RATE, MAX_RATE = 0.1, 10_000.0  # Hz
+MAX_SECONDS = 1e9  # --duration, --wait and profile times: finite, and at most ~31 years
+ZERO_TIMEOUT_S = 10.0  # for the final zero to be reported or acknowledged
 
 
-def load_profile(path: str) -> list[tuple[float, tuple[float, ...], str | None]]:
+def check_wrench(values, max_wrench: float, where: str) -> None:
+    """ValueError (naming ``where``) unless force and torque (6 values) are finite with norms
+    (math.hypot: no overflow) of at most ``max_wrench``, as the simulator requires."""
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f'{where}: non-finite wrench {list(values)}')
+    for name, vec in (('force', values[:3]), ('torque', values[3:])):
+        norm = math.hypot(*vec)
+        if not norm <= max_wrench:
+            raise ValueError(f'{where}: {name} norm {norm:.6g} exceeds --max-wrench '
+                             f'{max_wrench:.6g}')
+
+
+def load_profile(path: str, max_wrench: float = MAX_WRENCH
+                 ) -> list[tuple[float, tuple[float, ...], str | None]]:
     """Rows (t, (fx, fy, fz, tx, ty, tz), frame or None) sorted by t; ValueError names the line."""
     rows = []
-    with open(path, newline='') as f:
-        reader = csv.DictReader(f)
-        missing = [c for c in FIELDS if c not in (reader.fieldnames or [])]
-        if missing:
-            raise ValueError(f'{path}: missing columns {missing} (need {",".join(FIELDS)})')
-        for line, row in enumerate(reader, start=2):
-            try:
-                values = tuple(float(row[c]) for c in FIELDS)
-            except (TypeError, ValueError):
-                raise ValueError(f'{path}:{line}: not a number in {row}') from None
-            if not all(math.isfinite(v) for v in values):
-                raise ValueError(f'{path}:{line}: non-finite value in {row}')
-            frame = (row.get('frame') or '').strip() or None
-            if frame not in (None, 'world', 'body'):
-                raise ValueError(f"{path}:{line}: frame must be world or body, got '{frame}'")
-            rows.append((values[0], values[1:], frame))
+    line = 1
+    try:
+        with open(path, newline='') as f:
+            reader = csv.DictReader(f)
+            missing = [c for c in FIELDS if c not in (reader.fieldnames or [])]
+            if missing:
+                raise ValueError(f'{path}: missing columns {missing} (need {",".join(FIELDS)})')
+            for line, row in enumerate(reader, start=2):
+                rows.append(_row(path, line, row, max_wrench))
+    except csv.Error as e:  # a field over csv's size limit, a NUL byte...
+        raise ValueError(f'{path}:{line + 1}: not a CSV profile: {e}') from None
+    except UnicodeDecodeError as e:
+        raise ValueError(f'{path}: not a text file ({e.reason} at byte {e.start})') from None
     if not rows:
         raise ValueError(f'{path}: no rows')
     if any(b[0] < a[0] for a, b in zip(rows, rows[1:])):
         raise ValueError(f'{path}: times must not decrease')
     return rows
+
+
+def _row(path: str, line: int, row: dict, max_wrench: float):
+    try:
+        values = tuple(float(row[c]) for c in FIELDS)
+    except (TypeError, ValueError):
+        raise ValueError(f'{path}:{line}: not a number in {_short(row)}') from None
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f'{path}:{line}: non-finite value in {_short(row)}')
+    if not 0 <= values[0] <= MAX_SECONDS:
+        raise ValueError(f'{path}:{line}: t must be from 0 to {MAX_SECONDS:g} s, '
+                         f'got {values[0]!r}')
+    check_wrench(values[1:], max_wrench, f'{path}:{line}')
+    frame = row.get('frame')
+    frame = (frame.strip() if isinstance(frame, str) else '') or None
+    if frame not in (None, 'world', 'body'):
+        raise ValueError(f"{path}:{line}: frame must be world or body, got '{frame[:40]}'")
+    return values[0], values[1:], frame
+
+
+def _short(row: dict) -> str:
+    text = str(row)
+    return text if len(text) <= 200 else text[:200] + '...'
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line on stderr and exit status 2."""
+
+    def error(self, message: str):
+        print(f'{self.prog}: {message}', file=sys.stderr)
+        sys.exit(2)
+
+
+def _check_options(opts) -> str:
+    """What is wrong with the options, or ''."""
+    if not 0 < opts.max_wrench <= 1e300:
+        return f'--max-wrench must be a finite number > 0, got {opts.max_wrench!r}'
+    if not MIN_RATE <= opts.rate <= MAX_RATE:
+        return f'--rate must be from {MIN_RATE:g} to {MAX_RATE:g} Hz, got {opts.rate!r}'
+    for name in ('duration', 'wait'):
+        value = getattr(opts, name)
+        if value is not None and not 0 <= value <= MAX_SECONDS:
+            return f'--{name} must be from 0 to {MAX_SECONDS:g} s, got {value!r}'
+    if not opts.csv:
+        try:
+            check_wrench(tuple(opts.force) + tuple(opts.torque), opts.max_wrench,
+                         '--force/--torque')
+        except ValueError as e:
+            return str(e)
+    return ''
+
+
+def _applied_topic(wrench_topic: str) -> str:
+    """The simulator's applied_wrench beside its wrench (or wrench_stamped) topic."""
+    return wrench_topic.rpartition('/')[0] + '/applied_wrench'
 
 
 def _message(values, frame, world_frame, body_frame):
@@ -71,8 +144,8 @@ def _message(values, frame, world_frame, body_frame):
 
 def main(args=None) -> int:
     argv = sys.argv if args is None else args
-    p = argparse.ArgumentParser(prog='send_wrench', description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = _Parser(prog='send_wrench', description=__doc__,
+                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument('--force', nargs=3, type=float, default=(0.0, 0.0, 0.0), metavar='N')
     p.add_argument('--torque', nargs=3, type=float, default=(0.0, 0.0, 0.0), metavar='NM')
     p.add_argument('--frame', choices=('world', 'body'),
@@ -81,22 +154,29 @@ def main(args=None) -> int:
     p.add_argument('--csv', help='a wrench profile (see above) instead of --force/--torque')
     p.add_argument('--duration', type=float, default=None,
                    help='seconds to hold the (last) wrench (default 1 s, or 0 with --csv)')
-    p.add_argument('--rate', type=float, default=50.0, help='republish rate (Hz)')
+    p.add_argument('--rate', type=float, default=50.0,
+                   help=f'republish rate (Hz, {MIN_RATE:g} to {MAX_RATE:g})')
     p.add_argument('--wait', type=float, default=10.0,
                    help='seconds to wait for the simulator to subscribe')
+    p.add_argument('--max-wrench', type=float, default=MAX_WRENCH,
+                   help='largest force norm (N) and torque norm (N m) to send (default: the '
+                   "simulator's max_wrench default, 1e6)")
     p.add_argument('--world-frame', default='odom')
     p.add_argument('--body-frame', default='base_link')
     opts = p.parse_args(ros_arguments.non_ros_args(argv, 'send_wrench'))
+    problem = _check_options(opts)
+    if problem:
+        p.error(problem)
     try:
-        profile = (load_profile(opts.csv) if opts.csv
+        profile = (load_profile(opts.csv, opts.max_wrench) if opts.csv
                    else [(0.0, tuple(opts.force) + tuple(opts.torque), opts.frame)])
-    except (OSError, ValueError) as e:
+    except OSError as e:
+        print(f'send_wrench: {opts.csv}: cannot read: {e.strerror}', file=sys.stderr)
+        return 2
+    except ValueError as e:
         print(f'send_wrench: {e}', file=sys.stderr)
         return 2
     duration = opts.duration if opts.duration is not None else (0.0 if opts.csv else 1.0)
-    if duration < 0 or not opts.rate > 0:
-        print('send_wrench: --duration must be >= 0 and --rate > 0', file=sys.stderr)
-        return 2
     stamped = any(frame is not None for _, _, frame in profile)
     # No rclpy signal handler: Ctrl-C raises KeyboardInterrupt with the context still up,
     # so the zero wrench below still goes out.
@@ -104,6 +184,9 @@ def main(args=None) -> int:
     node = rclpy.create_node('send_wrench')
     pub = (node.create_publisher(WrenchStamped, 'wrench_stamped', 10) if stamped
            else node.create_publisher(Wrench, 'wrench', 10))
+    zero_reported = []  # set when the simulator reports a zero wrench after ours was sent
+    node.create_subscription(WrenchStamped, _applied_topic(pub.topic_name),
+                             lambda m: _on_applied(m, zero_reported), QoSProfile(depth=10))
     zero = (profile[-1][0], (0.0,) * 6, profile[-1][2])
     try:
         end = time.monotonic() + opts.wait
@@ -132,19 +215,38 @@ def main(args=None) -> int:
         pass
     finally:
         if rclpy.ok():
+            zero_reported.clear()
+            zero_reported.append(False)  # only reports from now on count
             pub.publish(_message(zero[1], zero[2], opts.world_frame, opts.body_frame))
             # Destroying the writer at once can drop the zero before the simulator has it,
-            # leaving the last wrench held: wait for the (reliable) delivery to be acked.
+            # leaving the last wrench held: wait until the simulator reports the zero on
+            # applied_wrench (at once) or DDS acknowledges it (Fast DDS acknowledges at its
+            # next heartbeat, up to 3 s later: needed when the wrench held was already zero).
             try:
-                acked = pub.wait_for_all_acked(Duration(seconds=2.0))
+                arrived = _wait_for_zero(node, pub, zero_reported)
             except KeyboardInterrupt:  # a second Ctrl-C: stop waiting, still shut down
-                acked = False
-            if not acked:
-                print('send_wrench: the final zero wrench was not acknowledged',
-                      file=sys.stderr)
+                arrived = False
+            if not arrived:
+                print(f'send_wrench: the final zero wrench was not acknowledged within '
+                      f'{ZERO_TIMEOUT_S:g} s', file=sys.stderr)
         node.destroy_node()
         rclpy.try_shutdown()
     return 0
+
+
+def _on_applied(msg: WrenchStamped, zero_reported: list) -> None:
+    f, t = msg.wrench.force, msg.wrench.torque
+    if zero_reported and (f.x, f.y, f.z, t.x, t.y, t.z) == (0.0,) * 6:
+        zero_reported[0] = True
+
+
+def _wait_for_zero(node, pub, zero_reported: list) -> bool:
+    end = time.monotonic() + ZERO_TIMEOUT_S
+    while time.monotonic() < end:
+        if zero_reported[0] or pub.wait_for_all_acked(Duration(seconds=0)):
+            return True
+        rclpy.spin_once(node, timeout_sec=0.02)
+    return zero_reported[0] or pub.wait_for_all_acked(Duration(seconds=0))
 
 
 if __name__ == '__main__':
