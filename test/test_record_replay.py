@@ -280,3 +280,68 @@ def test_a_collision_recording_replays_bit_for_bit(start_sim, probe, installed, 
     result = _replay(installed, ros_env, '--verify', str(f))
     assert result.returncode == 0, result.stdout + result.stderr
     assert 'identical: every output message re-simulated bit for bit' in result.stdout
+
+
+def test_a_bad_record_path_is_one_line_and_exit_2(start_sim, tmp_path):
+    existing = tmp_path / 'existing.mcap'
+    existing.write_bytes(b'precious')
+    cases = {tmp_path / 'missing' / 'run.mcap': 'No such file or directory',
+             existing: 'set record_overwrite:=true to replace it',
+             existing / 'run.mcap': 'Not a directory'}
+    for path, why in cases.items():
+        sim = start_sim('-p', f'record:={path}')
+        assert sim.proc.wait(60) == 2, sim.output()
+        lines = [line for line in sim.output().splitlines() if line.strip()]
+        assert lines == [line for line in lines if line.startswith('simulator: ')], lines
+        assert len(lines) == 1 and str(path) in lines[0] and why in lines[0], lines
+    assert existing.read_bytes() == b'precious'
+
+
+def test_replay_refuses_malformed_metadata_in_one_line(installed, ros_env, tmp_path):
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+    with open(FIXTURE, 'rb') as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        messages = [m for _s, _c, m in reader.iter_messages()]
+        meta = next(dict(m.metadata) for m in reader.iter_metadata() if m.name == 'rb_sim_ros')
+    for name, change in {'deep': {'config': '[' * 200_000 + ']' * 200_000},
+                         'format': {'format': '2'},
+                         'tiny dt': {'config': meta['config'].replace(
+                             '"dt": 0.001', f'"dt": {0.001 / (2 ** 32 + 1)!r}')}}.items():
+        bad = tmp_path / f'{name}.mcap'
+        with open(bad, 'wb') as f:
+            w = Writer(f)
+            w.start(profile='ros2', library='test')
+            sids = {i: w.register_schema(s.name, s.encoding, s.data)
+                    for i, s in summary.schemas.items()}
+            cids = {i: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id],
+                                          dict(c.metadata)) for i, c in summary.channels.items()}
+            for m in messages:
+                w.add_message(cids[m.channel_id], m.log_time, m.data, m.publish_time,
+                              m.sequence)
+            w.add_metadata('rb_sim_ros', {**meta, **change})
+            w.finish()
+        result = _replay(installed, ros_env, '--verify', str(bad))
+        assert result.returncode == 2, (name, result.stdout, result.stderr)
+        assert result.stderr.startswith(f'replay: {bad}: ') and result.stderr.count('\n') == 1
+        assert result.stdout == ''
+
+
+def test_replay_stops_on_sigint_without_a_traceback(probe, installed, ros_env, tmp_path):
+    err = tmp_path / 'stderr.txt'
+    with open(err, 'w') as err_file:
+        proc = subprocess.Popen([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), str(FIXTURE),
+                                 '--rate', '0.001'], env=ros_env, stdout=subprocess.PIPE,
+                                stderr=err_file, text=True)
+        try:
+            probe.wait_for(lambda: 'replay: t =' in err.read_text(), timeout=60,
+                           what='playback to start')
+            proc.send_signal(signal.SIGINT)
+            probe.wait_for(lambda: proc.poll() is not None, timeout=60, what='replay to stop')
+        finally:
+            proc.kill()
+            proc.wait()
+    text = err.read_text()
+    assert proc.returncode == 130, text
+    assert 'Traceback' not in text and text.rstrip().endswith('replay: interrupted'), text

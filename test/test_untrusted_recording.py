@@ -8,9 +8,11 @@ OutputMessages and NodeRecorder, period by period). rosbags is the independent r
 """
 
 import contextlib
+import errno
 import io
 import json
 import math
+import os
 from pathlib import Path
 
 from hypothesis import given, HealthCheck, settings, strategies as st
@@ -388,3 +390,52 @@ def test_bad_playback_options_are_one_line_and_exit_2(option, value):
 def test_the_json_depth_bound_ignores_brackets_in_strings():
     assert replay.json_depth('{"a": "[[[[{{{{", "b": [1, [2, {"c": "]]\\"]"}]]}') == 4
     assert replay.json_depth('1') == 0
+
+
+def test_a_full_disk_stops_the_node_recorder_quietly_and_recover_repairs_the_file(tmp_path):
+    f = tmp_path / 'run.mcap'
+    spec = BodySpec(inertia=(0.2, 0.3, 0.4), initial_angular_velocity=(0.3, 1, -0.2))
+    config = Config(dt=0.001, steps_per_publish=10, bodies=(spec,))
+    params = _params()
+    rec = NodeRecorder(str(f), config, params, {'body': {k: f'/{k}' for k in OUTPUT_KINDS}})
+    writer = rec._writer
+    writer.flush(wait=True)
+    left = [20_000]  # bytes the disk still takes; the write that needs more gets part of it
+
+    def disk_full(data):
+        n = min(len(data), left[0])
+        os.write(writer._sink.fd, bytes(data[:n]))
+        left[0] -= n
+        if n < len(data):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        writer._sink.position += n
+        return n
+
+    writer._sink.write = disk_full
+    sim = Simulation(config)
+    out = OutputMessages()
+    period = 0
+    while rec.failed is None and period < 100_000:  # event() and output() never raise
+        if period % 7 == 0:
+            event = SetWrench(Wrench((0.1 * period, 0, 0), (0, 0, 0.01)), 'body')
+            sim.apply(event)
+            rec.event(sim.step_count, sim.time_ns, event)
+        out.fill(sim.time_ns, *sim.pose_twist('body'))
+        rec.output('body', sim.step_count, sim.time_ns, out)
+        sim.run(config.steps_per_publish)
+        period += 1
+        if period % 20 == 0:
+            writer.flush(wait=True)
+    assert rec.failed.startswith(f'{f}: writing failed: No space left on device (ENOSPC)')
+    for _ in range(1000):  # no-ops now
+        rec.output('body', sim.step_count, sim.time_ns, out)
+    rec.close()  # does not raise
+    rec.close()
+    assert rec.failed.startswith(f'{f}: writing failed: No space left on device')
+    repaired = tmp_path / 'repaired.mcap'
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert replay.main(['replay', '--recover', str(f), str(repaired)]) == 0
+    n = len(_rosbags_outputs(repaired))
+    assert n > 0
+    code, text, err = _verify(repaired)  # what was kept re-simulates bit for bit
+    assert code == 0 and f'{n} of {n} recorded output messages compared' in text, text + err
