@@ -349,7 +349,10 @@ def resimulate(rec: Recording, errors: list | None = None):
     count goes on (the node pauses there and publishes that state); the error's text is
     appended to ``errors``. ReaderError if an input cannot be applied (a file that was not
     recorded from a run)."""
-    sim = Simulation(rec.config)
+    try:
+        sim = Simulation(rec.config)
+    except ValueError as e:
+        raise _bad(rec.path, f'config: {e}') from None
     twist_frame = rec.parameters.get('twist_frame', 'body')
     outs = {b.name: OutputMessages(*rec.frames(b.name), twist_frame) for b in rec.config.bodies}
     events = rec.inputs

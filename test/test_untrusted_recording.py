@@ -14,6 +14,7 @@ import json
 import math
 import os
 from pathlib import Path
+from unittest import mock
 
 from hypothesis import given, HealthCheck, settings, strategies as st
 from mcap.reader import make_reader
@@ -62,11 +63,23 @@ def _rewrite(path, meta):
     return path
 
 
+MAX_TEST_STEPS = 100_000  # far more than any recording here needs
+
+
+class _CountingSimulation(Simulation):
+    """A Simulation that fails the test, instead of hanging it, past MAX_TEST_STEPS steps."""
+
+    def run(self, n):
+        assert self.step_count + n <= MAX_TEST_STEPS, f'replay asked for {n} more steps'
+        super().run(n)
+
+
 def _verify(path):
     """(exit status, stdout, stderr) of ``replay --verify path``, in this process: any
     exception escaping main() fails the test (it would be a traceback)."""
     out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), \
+            mock.patch.object(replay, 'Simulation', _CountingSimulation):
         code = replay.main(['replay', '--verify', str(path)])
     return code, out.getvalue(), err.getvalue()
 
