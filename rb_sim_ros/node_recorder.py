@@ -155,6 +155,11 @@ class NodeRecorder:
         """Why recording stopped (the file and the reason, one line), or None while it works."""
         return self._writer.failed or self._closed_error
 
+    @property
+    def error(self) -> str | None:
+        """The same as ``failed``."""
+        return self.failed
+
     def event(self, step: int, time_ns: int, event) -> None:
         if self._writer.error is not None:
             return
