@@ -49,7 +49,12 @@ def _numbers_only(value: Any, depth: int = 2) -> bool:
     if isinstance(value, np.ndarray):
         return value.dtype.kind in 'iuf'
     if isinstance(value, (list, tuple)):
-        return depth > 0 and all(_numbers_only(c, depth - 1) for c in value)
+        if depth <= 0:
+            return False
+        for c in value:
+            if type(c) is not float and not _numbers_only(c, depth - 1):
+                return False
+        return True
     return is_number(value)
 
 
@@ -82,8 +87,9 @@ def finite_floats(name: str, value: Any, size: int) -> tuple[float, ...]:
         raise ValueError(f'{name} must be {size} numbers, got {short(value)}') from None
     if len(items) != size:
         raise ValueError(f'{name} must be {size} numbers, got {len(items)}')
-    if not all(is_number(c) for c in items):
-        raise ValueError(f'{name} must be {size} numbers, got {short(value)}')
+    for c in items:
+        if type(c) is not float and not is_number(c):
+            raise ValueError(f'{name} must be {size} numbers, got {short(value)}')
     out = tuple(_float(c) for c in items)
     if not all(math.isfinite(c) for c in out):
         raise ValueError(f'{name} must be finite, got {list(out)}')
@@ -122,9 +128,10 @@ def _matrix(name: str, value: Any) -> np.ndarray:
 
 def scaled_to_one(vector: Any) -> np.ndarray | None:
     """``vector`` (finite) times the power of two that brings its largest component into
-    [0.5, 1), or None for the zero vector. Exact (no bits change, barring components below
-    2^-1074 of the largest), so a norm taken afterwards neither overflows nor underflows and
-    the direction is that of the vector as given."""
+    [0.5, 1), or None for the zero vector. A norm taken afterwards neither overflows nor
+    underflows, and the scaling is exact: a unit vector computed from the result has the bits
+    of one computed from ``vector`` wherever that does not overflow or underflow (components
+    that become subnormal, below 2^-1022 of [0.5, 1), lose low bits)."""
     vector = np.asarray(vector, dtype=float)
     big = float(np.max(np.abs(vector)))
     if big == 0.0:
@@ -180,7 +187,8 @@ class RigidBody:
         inertia = 0.5 * inertia + 0.5 * inertia.T
         exponent = math.frexp(scale)[1]
         scaled = np.linalg.eigvalsh(np.ldexp(inertia, -exponent))
-        moments = np.ldexp(scaled, exponent)
+        with np.errstate(over='ignore'):  # only shown in a message
+            moments = np.ldexp(scaled, exponent)
         if scaled[0] <= 0.0:
             raise ValueError(
                 f'inertia must be positive definite, principal moments {moments.tolist()}')

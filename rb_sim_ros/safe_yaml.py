@@ -18,13 +18,16 @@ refuses, as it meets them:
   longer than ``max_scalar`` characters (a long digit string costs quadratic time as an int)
   and more than one document.
 
-Anchors are allowed (they do nothing without an alias). The parser is libyaml's when PyYAML
+Plain scalars resolve as in YAML 1.1 (``yes`` is true), except that a float's exponent needs no
+decimal point (``1e-3`` is a float, as in YAML 1.2 and JSON, not a string). Anchors are
+allowed (they do nothing without an alias). The parser is libyaml's when PyYAML
 has it (``yaml.CSafeLoader``), else PyYAML's own; both produce events one by one, so an input
 is refused as soon as it crosses a bound, whatever follows.
 """
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import yaml
@@ -47,7 +50,26 @@ _SCALARS = {_TAG + 'null': _CONSTRUCTOR.construct_yaml_null,
             _TAG + 'int': _CONSTRUCTOR.construct_yaml_int,
             _TAG + 'float': _CONSTRUCTOR.construct_yaml_float,
             _TAG + 'str': _CONSTRUCTOR.construct_yaml_str}
-_RESOLVER = Resolver()
+
+
+class _Resolver(Resolver):
+    """YAML 1.1's implicit types, with floats as YAML 1.2 (and JSON) write them too: an
+    exponent needs no decimal point and no sign (``1e-3``, ``1e308``, ``2E5``), where
+    PyYAML alone reads those as strings."""
+
+
+_FLOAT = _TAG + 'float'
+_Resolver.yaml_implicit_resolvers = {
+    first: [(tag, regexp) for tag, regexp in resolvers if tag != _FLOAT]
+    for first, resolvers in Resolver.yaml_implicit_resolvers.items()}
+_Resolver.add_implicit_resolver(_FLOAT, re.compile(r"""^(?:
+    [-+]?[0-9][0-9_]*\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+    |[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+
+    |[-+]?\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+    |[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+\.[0-9_]*
+    |[-+]?\.(?:inf|Inf|INF)
+    |\.(?:nan|NaN|NAN))$""", re.X), list('-+0123456789.'))
+_RESOLVER = _Resolver()
 _VALUE_EVENTS = {events.ScalarEvent, events.SequenceStartEvent, events.MappingStartEvent,
                  events.AliasEvent}
 
@@ -72,7 +94,12 @@ def _short(text: str, limit: int = 40) -> str:
     return ascii(text[:limit]) + ('...' if len(text) > limit else '')
 
 
-def _scalar(event: events.ScalarEvent, stack: list) -> Any:
+def _scalar(event: events.ScalarEvent, stack: list, seen: dict) -> Any:
+    """The value of a scalar; ``seen`` keeps those of untagged ones by text and style (keys
+    and common numbers recur: each is resolved once)."""
+    key = (event.value, event.implicit[0]) if event.tag is None else None
+    if key is not None and key in seen:
+        return seen[key]
     if len(event.value) > MAX_SCALAR:
         raise YamlError(f'a value of {len(event.value)} characters (at most {MAX_SCALAR})',
                         _path(stack), _line(event))
@@ -86,10 +113,13 @@ def _scalar(event: events.ScalarEvent, stack: list) -> Any:
         raise YamlError(f'{what} not allowed (only null, booleans, numbers and strings)',
                         _path(stack), _line(event))
     try:
-        return construct(ScalarNode(tag, event.value))
+        value = construct(ScalarNode(tag, event.value))
     except (ValueError, ArithmeticError) as e:
         raise YamlError(f'cannot read {_short(event.value)} as a {tag[len(_TAG):]}: {e}',
                         _path(stack), _line(event)) from None
+    if key is not None:
+        seen[key] = value  # immutable: None, a bool, an int, a float or a str
+    return value
 
 
 def _path(stack: list) -> list:
@@ -109,6 +139,7 @@ def load(text: str, max_depth: int = MAX_DEPTH, max_nodes: int = MAX_NODES) -> A
     stack: list[list] = []  # each open collection: [container, the key awaiting its value]
     root: Any = None
     nodes = documents = 0
+    seen: dict = {}
     parser = _PARSER(text)
     try:
         while parser.check_event():
@@ -128,7 +159,7 @@ def load(text: str, max_depth: int = MAX_DEPTH, max_nodes: int = MAX_NODES) -> A
                     raise YamlError(f'aliases (*{anchor}) are not allowed', _path(stack),
                                     _line(event))
                 if kind is events.ScalarEvent:
-                    value = _scalar(event, stack)
+                    value = _scalar(event, stack, seen)
                     if awaiting_key:
                         if type(value) is not str:
                             raise YamlError(f'keys must be strings, got {value!r}',

@@ -54,7 +54,7 @@ from typing import Any, NamedTuple, NoReturn
 
 from rb_sim_ros import safe_yaml
 from rb_sim_ros.collision_shapes import Box, Plane, shape_from_dict, Sphere
-from rb_sim_ros.rigid_body import RigidBody, State
+from rb_sim_ros.rigid_body import RigidBody
 from rb_sim_ros.simulation import BodySpec, ContactSettings
 
 TOP_KEYS = {'gravity', 'contact', 'bodies'}
@@ -212,6 +212,15 @@ def _inertia(where: str, value: Any) -> tuple:
     return tuple(_number(where, f'inertia[{i}]', v, unit=unit) for i, v in enumerate(value))
 
 
+def _plainly_valid(inertia: tuple) -> bool:
+    """True for 3 principal moments > 0 that obey the triangle inequality with room to spare
+    (the common case, checked without numpy); False means: ask RigidBody."""
+    if len(inertia) != 3:
+        return False
+    a, b, c = sorted(inertia)
+    return a > 0.0 and a + b > c and c < 1e300
+
+
 def _body(path: str, index: int, data: Any) -> BodySpec:
     where = f'{path}: body {index}'
     if not isinstance(data, dict):
@@ -244,20 +253,19 @@ def _body(path: str, index: int, data: Any) -> BodySpec:
         if 'inertia' in data:
             kwargs['inertia'] = _inertia(where, data['inertia'])
         field = 'inertia'
-    try:  # what a list of numbers alone cannot say: positive definite, the triangle inequality
-        inertia = kwargs.get('inertia', BodySpec.inertia)
-        RigidBody(kwargs.get('mass', BodySpec.mass),
-                  inertia if len(inertia) == 3 else [inertia[0:3], inertia[3:6], inertia[6:9]])
-    except ValueError as e:
-        _fail(where, field, str(e))
+    inertia = kwargs.get('inertia', BodySpec.inertia)
+    if not _plainly_valid(inertia):
+        try:  # what numbers alone cannot say: positive definite, the triangle inequality
+            RigidBody(kwargs.get('mass', BodySpec.mass), inertia if len(inertia) == 3
+                      else [inertia[0:3], inertia[3:6], inertia[6:9]])
+        except ValueError as e:
+            _fail(where, field, str(e))
     for key, spec_field, size in _VECTORS:
         if key in data:
             kwargs[spec_field] = _vector(where, key, data[key], size)
-    if 'orientation' in data:
-        try:
-            State.from_quaternion_xyzw(quaternion_xyzw=kwargs['initial_orientation_xyzw'])
-        except ValueError as e:
-            _fail(where, 'orientation', f'must be a non-zero quaternion [x, y, z, w] ({e})')
+    if 'orientation' in data and not any(kwargs['initial_orientation_xyzw']):
+        _fail(where, 'orientation', 'must be a non-zero quaternion [x, y, z, w] (of any '
+              'length), got [0, 0, 0, 0]')
     for key in ('linear_damping', 'angular_damping'):
         if key in data:
             kwargs[key] = _number(where, key, data[key], 0.0, unit=' (1/s)')
@@ -346,7 +354,14 @@ def _read(path: str) -> str:
     """The text of the file: at most MAX_BYTES of UTF-8."""
     try:
         with open(path, 'rb') as f:
-            raw = f.read(MAX_BYTES + 1)
+            chunks, size = [], 0
+            while size <= MAX_BYTES:  # in pieces: read(MAX_BYTES + 1) would allocate it all
+                chunk = f.read(min(1 << 20, MAX_BYTES + 1 - size))
+                if not chunk:
+                    break
+                chunks.append(chunk)
+                size += len(chunk)
+            raw = b''.join(chunks)
     except OSError as e:
         raise SceneError(f'{path}: cannot read: {e.strerror or e}') from None
     if len(raw) > MAX_BYTES:
