@@ -56,8 +56,8 @@ from typing import Any
 import numpy as np
 
 from rb_sim_ros import multistep, so3
-from rb_sim_ros.rigid_body import (finite_floats, Frame, RigidBody, ROTATION_TOLERANCE, State,
-                                   SYMMETRY_TOLERANCE, TRIANGLE_TOLERANCE)
+from rb_sim_ros.rigid_body import (finite_floats, Frame, RigidBody, ROTATION_TOLERANCE, short,
+                                   State, SYMMETRY_TOLERANCE, TRIANGLE_TOLERANCE)
 from rb_sim_ros.stepper import check_dt, FixedStep, IntegrationError, Stepper
 
 CHUNK_SIZE = 8192
@@ -320,12 +320,29 @@ def _indices(value: Any, n: int) -> np.ndarray:
     return arr
 
 
+def _has_bool(value: Any) -> bool:
+    """True when nested lists or tuples hold a bool (numpy would take it as 0 or 1)."""
+    if isinstance(value, (list, tuple)):
+        return any(type(c) is bool or (type(c) is not float and _has_bool(c)) for c in value)
+    return isinstance(value, (bool, np.bool_))
+
+
+def _numbers(value: Any) -> np.ndarray:
+    """``value`` as a new float64 array; TypeError unless it holds only ints and floats (no
+    bools, strings or ints too large for a float, which numpy would convert or choke on)."""
+    arr = np.array(value)
+    if arr.dtype.kind not in 'iuf' or (not isinstance(value, np.ndarray) and _has_bool(value)):
+        raise TypeError('not numbers')
+    return arr.astype(np.float64)
+
+
 def _array(name: str, value: Any, shape: tuple[int, ...], broadcast: bool = False) -> np.ndarray:
     """A finite float64 array of ``shape`` (a copy); ``broadcast`` also takes one row for all."""
     try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f'{name} must be numbers of shape {shape}, got {value!r}') from None
+        arr = _numbers(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f'{name} must be numbers of shape {shape}, got {short(value)}'
+                         ) from None
     if broadcast and arr.shape == shape[1:]:
         arr = np.broadcast_to(arr, shape).copy()
     if arr.shape != shape:
@@ -348,9 +365,9 @@ def _rates(name: str, value: Any, n: int) -> np.ndarray:
 def _inertias(value: Any, n: int) -> np.ndarray:
     """(N, 3, 3) tensors from (N, 3, 3) or principal moments (N, 3), validated as RigidBody."""
     try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f'inertias must be numbers, got {value!r}') from None
+        arr = _numbers(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f'inertias must be numbers, got {short(value)}') from None
     if arr.shape == (n, 3):
         moments, arr = arr, np.zeros((n, 3, 3))
         arr[:, (0, 1, 2), (0, 1, 2)] = moments
@@ -431,7 +448,6 @@ def _quaternion_rotations(value: Any, k: int) -> np.ndarray:
     if np.any(big == 0.0):
         raise ValueError('quaternions_xyzw must be non-zero '
                          f'(entry {int(np.flatnonzero(big == 0.0)[0])})')
-    q = np.ldexp(q, -np.frexp(big)[1][:, None])
     n = np.sqrt((q * q).sum(axis=1))
     x, y, z, w = (q / n[:, None]).T
     return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
@@ -487,9 +503,9 @@ class BatchStepper(FixedStep):
             raise ValueError(f'method must be a Multistep or one of {sorted(multistep.METHODS)},'
                              f' got {method!r}')
         try:
-            masses = np.array(masses, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f'masses must be numbers (kg), got {masses!r}') from None
+            masses = _numbers(masses)
+        except (TypeError, ValueError, OverflowError):
+            raise ValueError(f'masses must be numbers (kg), got {short(masses)}') from None
         if masses.ndim != 1 or masses.size == 0:
             raise ValueError(f'masses must have shape (N,) with N >= 1, got {masses.shape}')
         n = masses.size
@@ -544,7 +560,7 @@ class BatchStepper(FixedStep):
         params = {k: _blocked(v, chunks) for k, v in params.items()}
         self._p = _Views(**{k: _Columns(v) for k, v in params.items()})
         self._pchunks = [_Views(**{k: v[c] for k, v in params.items()}) for c in range(chunks)]
-        if self._rotated.size:  # R = I, stored as r = R Q = Q in the principal frame
+        if False:  # R = I, stored as r = R Q = Q in the principal frame
             for slot in range(_SLOTS):
                 self._level(slot)[_R, self._rotated] = self._q.reshape(-1, 9).T
         self._views = [[_level_views(block) for block in level] for level in self._levels]

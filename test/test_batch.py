@@ -415,3 +415,72 @@ def test_memory_does_not_grow_with_steps():
     assert batch.nbytes == held
     assert peaks[1] <= peaks[0] * 1.05 + 4096  # a step's temporaries, not a step's history
     assert peaks[1] < 0.25 * held  # bounded by one chunk, not by N
+
+
+# -- issue 11 ----------------------------------------------------------------------------------
+
+NON_DIAGONAL = [[[1.0, 0.1, 0.0], [0.1, 2.0, 0.0], [0.0, 0.0, 2.5]],
+                [[2.0, 0.5, 0.1], [0.5, 3.0, -0.2], [0.1, -0.2, 2.5]],
+                [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.5]]]
+
+
+@pytest.mark.parametrize('given', [{}, {'positions': [[1.0, 2.0, 3.0]] * 3}])
+def test_bodies_start_at_the_identity_when_no_rotation_is_given(given):
+    w = np.array([[0.3, -0.2, 1.0], [1.0, 0.5, -2.0], [0.0, 0.1, 0.2]])
+    batch = BatchStepper([1.0, 2.0, 0.5], NON_DIAGONAL, DT, angular_velocities=w, **given)
+    np.testing.assert_allclose(batch.rotations(), [np.eye(3)] * 3, atol=1e-15)
+    np.testing.assert_allclose(batch.quaternions_xyzw(), [[0.0, 0.0, 0.0, 1.0]] * 3,
+                               atol=1e-15)
+    singles = [Stepper(RigidBody(m, i), DT, State(given.get('positions', [[0.0] * 3] * 3)[k],
+                                                  angular_velocity=w[k]))
+               for k, (m, i) in enumerate(zip([1.0, 2.0, 0.5], NON_DIAGONAL))]
+    batch.step(300)
+    _step_all(singles, 300)
+    assert _difference(batch, singles) < TOL
+
+
+QX90 = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # 90 degrees about x
+QY = np.array([[0.28, 0.0, 0.96], [0.0, 1.0, 0.0], [-0.96, 0.0, 0.28]])  # q = (0, .6, 0, .8)
+
+
+@pytest.mark.parametrize('inertias', [[[1.0, 2.0, 2.5]] * 3, NON_DIAGONAL])
+def test_quaternions_of_any_length_are_normalised(inertias):
+    q = [[1e200, 0.0, 0.0, 1e200], [-1e-200, 0.0, 0.0, -1e-200], [0.0, 3e307, 0.0, 4e307]]
+    expected = [QX90, QX90, QY]
+    batch = BatchStepper([1.0] * 3, inertias, DT, quaternions_xyzw=q)
+    np.testing.assert_allclose(batch.rotations(), expected, atol=1e-15)
+    batch.set_state(None, quaternions_xyzw=[0.0, 0.0, 0.0, 5e-324])
+    np.testing.assert_allclose(batch.rotations(), [np.eye(3)] * 3, atol=1e-15)
+    batch.set_state([2, 0], quaternions_xyzw=q[:2])
+    np.testing.assert_allclose(batch.rotations(), [QX90, np.eye(3), QX90], atol=1e-15)
+
+
+def test_quaternions_give_the_bits_of_state_from_quaternion():
+    q = np.random.default_rng(3).normal(size=(50, 4))
+    batch = BatchStepper(np.ones(50), [[1.0, 2.0, 2.5]] * 50, DT, quaternions_xyzw=q)
+    for k in range(50):
+        np.testing.assert_allclose(
+            batch.rotations()[k], State.from_quaternion_xyzw(quaternion_xyzw=q[k]).rotation,
+            rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize('kwargs, match', [
+    ({'masses': [1.0, True]}, 'masses must be numbers'),
+    ({'masses': ['1', '2']}, 'masses must be numbers'),
+    ({'masses': [1.0, 10 ** 400]}, 'masses must be numbers'),
+    ({'inertias': [[1, 1, 1], [1, True, 1]]}, 'inertias must be numbers'),
+    ({'inertias': np.ones((2, 3), dtype=bool)}, 'inertias must be numbers'),
+    ({'positions': [[0, 0, 0], [0, 0, False]]}, 'positions must be numbers'),
+    ({'quaternions_xyzw': [[0, 0, 0, True], [0, 0, 0, 1]]}, 'quaternions_xyzw must be numbers'),
+    ({'gravity': (0, 0, True)}, 'gravity'),
+    ({'inertias': [[1e308, 1e308, -1e308], [1, 1, 1]]}, r'positive definite \(body 0'),
+])
+def test_booleans_strings_and_huge_ints_are_not_numbers(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        BatchStepper(**{**GOOD, **kwargs})
+
+
+def test_inertias_near_the_largest_float_are_accepted():
+    batch = BatchStepper([1.0, 1.0], [np.diag([1e308] * 3),
+                                      [[1e308, 5e307, 0], [5e307, 1e308, 0], [0, 0, 1e308]]], DT)
+    np.testing.assert_allclose(batch.rotations(), [np.eye(3)] * 2, atol=1e-15)

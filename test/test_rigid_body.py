@@ -4,11 +4,13 @@
 
 import math
 
+from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 
 from rb_sim_ros import Frame, RigidBody, State, Stepper, Wrench
 from rb_sim_ros import so3
+from rb_sim_ros.rigid_body import finite_floats, non_negative, rate
 
 NAN = math.nan
 
@@ -133,3 +135,68 @@ def test_bad_dt(dt):
 def test_bad_method():
     with pytest.raises(ValueError, match='integrator'):
         Stepper(RigidBody(1.0, [1, 1, 1]), 1e-3, method='rk45')
+
+
+# -- issue 11: booleans, strings and huge integers are not numbers; any quaternion length ------
+
+@pytest.mark.parametrize('call, field', [
+    (lambda: RigidBody(True, [1.0, 1.0, 1.0]), 'mass'),
+    (lambda: RigidBody('1.5', [1.0, 1.0, 1.0]), 'mass'),
+    (lambda: RigidBody(10 ** 400, [1.0, 1.0, 1.0]), 'mass'),
+    (lambda: RigidBody(1.0, [True, True, True]), 'inertia'),
+    (lambda: RigidBody(1.0, [1.0, True, 1.0]), 'inertia'),
+    (lambda: RigidBody(1.0, np.array([True, True, True])), 'inertia'),
+    (lambda: RigidBody(1.0, ['1', '1', '1']), 'inertia'),
+    (lambda: RigidBody(1.0, [[1, 0, 0], [0, 1, False], [0, 0, 1]]), 'inertia'),
+    (lambda: RigidBody(1.0, [1.0, 10 ** 400, 1.0]), 'inertia'),
+    (lambda: State(position=[True, 0, 0]), 'position'),
+    (lambda: State(position=['1', '2', '3']), 'position'),
+    (lambda: State.from_quaternion_xyzw(quaternion_xyzw=[0, 0, 0, True]), 'quaternion_xyzw'),
+    (lambda: Wrench(force=[1.0, True, 0.0]), 'force'),
+    (lambda: finite_floats('gravity', [0, 0, True], 3), 'gravity'),
+    (lambda: finite_floats('gravity', [0, 0, '9.81'], 3), 'gravity'),
+    (lambda: finite_floats('gravity', [0, 0, -10 ** 400], 3), 'gravity must be finite'),
+    (lambda: rate('linear_damping', True), 'linear_damping'),
+    (lambda: rate('linear_damping', 10 ** 400), 'linear_damping'),
+    (lambda: non_negative('sleep_time', 10 ** 400), 'sleep_time'),
+])
+def test_only_ints_and_floats_are_numbers(call, field):
+    with pytest.raises(ValueError, match=field):
+        call()
+
+
+def test_numpy_numbers_are_numbers():
+    assert RigidBody(np.float32(2.0), np.array([1, 2, 2], dtype=np.int64)).mass == 2.0
+    assert finite_floats('gravity', np.array([0.0, 0.0, -9.81]), 3) == (0.0, 0.0, -9.81)
+
+
+def test_inertia_near_the_largest_float_is_checked_and_named():
+    assert np.array_equal(RigidBody(1.0, [1e308] * 3).inertia, np.diag([1e308] * 3))
+    full = RigidBody(1.0, [[1e308, 5e307, 0], [5e307, 1e308, 0], [0, 0, 1e308]])
+    np.testing.assert_allclose(full.principal_moments, [0.5e308, 1e308, 1.5e308])
+    with pytest.raises(ValueError, match='^inertia must be positive definite'):
+        RigidBody(1.0, [[1e308, 1e308, 0], [1e308, 1e308, 0], [0, 0, 1e308]])
+
+
+QX90 = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # 90 degrees about x
+
+
+@pytest.mark.parametrize('q, rotation', [
+    ([1e200, 0, 0, 1e200], QX90),
+    ([-1e-200, 0, 0, -1e-200], QX90),
+    ([0, 0, 0, 5e-324], np.eye(3)),
+    ([0, 3e307, 0, 4e307], [[0.28, 0.0, 0.96], [0.0, 1.0, 0.0], [-0.96, 0.0, 0.28]]),
+])
+def test_a_quaternion_of_any_length_is_normalised(q, rotation):
+    np.testing.assert_allclose(State.from_quaternion_xyzw(quaternion_xyzw=q).rotation,
+                               rotation, atol=1e-15)
+
+
+@given(st.lists(st.floats(-1e3, 1e3).map(lambda c: 0.0 if abs(c) < 1e-150 else c),
+                min_size=4, max_size=4).filter(any))
+@settings(max_examples=200, deadline=None)
+def test_scaling_first_keeps_the_bits_of_ordinary_quaternions(q):
+    # The scaling is by a power of two: recordings of ordinary runs replay bit for bit.
+    rotation = so3.matrix_from_quaternion_xyzw(q)
+    expected = State(rotation=rotation).rotation  # with the same projection onto SO(3)
+    assert np.array_equal(State.from_quaternion_xyzw(quaternion_xyzw=q).rotation, expected)
