@@ -448,6 +448,7 @@ def _quaternion_rotations(value: Any, k: int) -> np.ndarray:
     if np.any(big == 0.0):
         raise ValueError('quaternions_xyzw must be non-zero '
                          f'(entry {int(np.flatnonzero(big == 0.0)[0])})')
+    q = np.ldexp(q, -np.frexp(big)[1][:, None])
     n = np.sqrt((q * q).sum(axis=1))
     x, y, z, w = (q / n[:, None]).T
     return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
@@ -560,7 +561,7 @@ class BatchStepper(FixedStep):
         params = {k: _blocked(v, chunks) for k, v in params.items()}
         self._p = _Views(**{k: _Columns(v) for k, v in params.items()})
         self._pchunks = [_Views(**{k: v[c] for k, v in params.items()}) for c in range(chunks)]
-        if False:  # R = I, stored as r = R Q = Q in the principal frame
+        if self._rotated.size:  # R = I, stored as r = R Q = Q in the principal frame
             for slot in range(_SLOTS):
                 self._level(slot)[_R, self._rotated] = self._q.reshape(-1, 9).T
         self._views = [[_level_views(block) for block in level] for level in self._levels]
