@@ -56,16 +56,21 @@ class BodyPorts:
         node.create_subscription(PoseStamped, prefix + 'set_pose', self._on_set_pose, qos)
         node.create_subscription(Twist, prefix + 'set_twist', self._on_set_twist, qos)
 
-    def publish(self, time_ns: int, pose_twist, recorder=None, step: int = 0) -> None:
+    def publish(self, time_ns: int, pose_twist, recorder=None, step: int = 0) -> bool:
         """Publish the state to whoever listens: a topic with no subscriber (and no recording)
-        costs neither a fill nor a serialisation."""
+        costs neither a fill nor a serialisation. A non-finite state, or one whose body-frame
+        twist overflows, is never published: False then."""
+        if not all(math.isfinite(c) for vec in pose_twist for c in vec):
+            return False
         pubs = [p for p in self.state_pubs if p[0].get_subscription_count()]
         if pubs or recorder is not None:
-            self.out.fill(time_ns, *pose_twist)
+            if not self.out.fill(time_ns, *pose_twist):
+                return False
             for pub, msg in pubs:
                 pub.publish(msg)
             if recorder is not None:
                 recorder.output(self.name, step, time_ns, self.out)
+        return True
 
     def applied(self, wrench, time_ns: int) -> None:
         msg = WrenchStamped()

@@ -18,31 +18,100 @@ from rb_sim_ros import multistep
 from rb_sim_ros.rigid_body import Frame
 
 
+# The work of one publish period is bounded: at most this many physics steps (a period of
+# dt = 1e-300 would otherwise never end, and the node would not answer a signal).
+MAX_STEPS_PER_PERIOD = 1_000_000
+# A real_time_factor below this would make one period last longer than 10^4 times its sim time.
+MIN_REAL_TIME_FACTOR = 1e-4
+MAX_CATCHUP = 10_000
+
+
+def _number(name: str, v: Any) -> float:
+    """A finite int or float (never a bool), as a float; ValueError naming ``name``."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ValueError(f'{name} must be a number, got {type(v).__name__} {v!r}')
+    try:
+        f = float(v)
+    except OverflowError:
+        raise ValueError(f'{name} must be a finite number, got {v!r}') from None
+    if not math.isfinite(f):
+        raise ValueError(f'{name} must be a finite number, got {v!r}')
+    return f
+
+
 def _positive(name: str, v: Any) -> None:
-    if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+    if _number(name, v) <= 0.0:
         raise ValueError(f'{name} must be a finite number > 0, got {v!r}')
 
 
 def _non_negative(name: str, v: Any) -> None:
-    if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+    if _number(name, v) < 0.0:
         raise ValueError(f'{name} must be a finite number >= 0, got {v!r}')
 
 
+def _dt(name: str, v: Any) -> None:
+    if not 1e-9 <= _number(name, v) <= 10.0:
+        raise ValueError(f'{name} must be between 1e-9 and 10 s, got {v!r}')
+
+
+def _real_time_factor(name: str, v: Any) -> None:
+    f = _number(name, v)
+    if f != 0.0 and not MIN_REAL_TIME_FACTOR <= f <= 1e9:
+        raise ValueError(f'{name} must be 0 (as fast as possible) or between '
+                         f'{MIN_REAL_TIME_FACTOR:g} and 1e9, got {v!r}')
+
+
+def _count(name: str, v: Any) -> None:
+    if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= MAX_CATCHUP:
+        raise ValueError(f'{name} must be an integer from 1 to {MAX_CATCHUP}, got {v!r}')
+
+
+def _bool(name: str, v: Any) -> None:
+    if not isinstance(v, bool):
+        raise ValueError(f'{name} must be true or false, got {v!r}')
+
+
+def _string(name: str, v: Any) -> None:
+    if not isinstance(v, str):
+        raise ValueError(f'{name} must be a string, got {type(v).__name__} {v!r}')
+    if '\0' in v or len(v) > 4096:
+        raise ValueError(f'{name} must be a path or name of at most 4096 characters without '
+                         f'NUL, got {v[:40]!r}...')
+
+
+def _vector(*sizes: int):
+    def check(name: str, v: Any) -> None:
+        if isinstance(v, (str, bytes)) or not hasattr(v, '__len__') or len(v) not in sizes:
+            want = ' or '.join(str(n) for n in sizes)
+            raise ValueError(f'{name} must be a list of {want} numbers, got {v!r}')
+        for c in v:
+            _number(name, c)
+    return check
+
+
+def _orientation(name: str, v: Any) -> None:
+    _vector(4)(name, v)
+    if not any(v):
+        raise ValueError(f'{name} must be a non-zero quaternion x, y, z, w, got {list(v)}')
+
+
 def _frame(name: str, v: Any) -> None:
+    if not isinstance(v, str):
+        raise ValueError(f"{name} must be 'world' or 'body', got {v!r}")
     Frame.parse(v)
 
 
 def _frame_id(name: str, v: Any) -> None:
-    if not isinstance(v, str) or not v or v.startswith('/'):
-        raise ValueError(f'{name} must be a non-empty frame id without a leading /, got {v!r}')
+    if not isinstance(v, str) or not v or v.startswith('/') or len(v) > 256:
+        raise ValueError(f'{name} must be a non-empty frame id (at most 256 characters) '
+                         f'without a leading /, got {v!r}')
 
 
 def _integrator(name: str, v: Any) -> None:
+    if not isinstance(v, str):
+        raise ValueError(f'{name} must be a string, one of {sorted(multistep.METHODS)}, '
+                         f'got {v!r}')
     multistep.method_by_name(v)
-
-
-def _any(name: str, v: Any) -> None:
-    pass
 
 
 @dataclass(frozen=True)
@@ -51,26 +120,28 @@ class Param:
     default: Any
     description: str
     read_only: bool = False
-    check: Callable[[str, Any], None] = _any
+    check: Callable[[str, Any], None] | None = None  # every parameter has one (checked below)
 
 
 PARAMS = (
-    Param('dt', 0.001, 'Physics step (s). Simulated time is always step_count * dt.', True,
-          _positive),
+    Param('dt', 0.001, 'Physics step (s), 1e-9 to 10. Simulated time is always step_count * dt.',
+          True, _dt),
     Param('publish_rate', 100.0, 'Rate (Hz, sim time) of pose/twist/odom/clock. 1/(rate*dt) '
           'must be a whole number of physics steps.', True, _positive),
     Param('integrator', multistep.EQ27.name,
           f'Integration method: one of {sorted(multistep.METHODS)}.', True, _integrator),
     Param('mass', 1.0, 'Body mass (kg).', True, _positive),
     Param('inertia', [0.1, 0.1, 0.1], 'Body-frame inertia about the centre of mass (kg m^2): '
-          '3 principal moments, or 9 row-major components of a symmetric tensor.', True),
+          '3 principal moments, or 9 row-major components of a symmetric tensor.', True,
+          _vector(3, 9)),
     Param('initial_position', [0.0, 0.0, 0.0], 'Initial position (m) in world_frame; also '
-          'the reset pose.'),
+          'the reset pose.', False, _vector(3)),
     Param('initial_orientation', [0.0, 0.0, 0.0, 1.0],
-          'Initial orientation quaternion x, y, z, w in world_frame.'),
-    Param('initial_linear_velocity', [0.0, 0.0, 0.0], 'Initial velocity (m/s), world frame.'),
+          'Initial orientation quaternion x, y, z, w in world_frame.', False, _orientation),
+    Param('initial_linear_velocity', [0.0, 0.0, 0.0], 'Initial velocity (m/s), world frame.',
+          False, _vector(3)),
     Param('initial_angular_velocity', [0.0, 0.0, 0.0],
-          'Initial angular velocity (rad/s), world frame.'),
+          'Initial angular velocity (rad/s), world frame.', False, _vector(3)),
     Param('world_frame', 'odom', 'Fixed frame (REP-105) of pose and odom headers.', True,
           _frame_id),
     Param('body_frame', 'base_link', 'Body frame (REP-105): odom child_frame_id.', True,
@@ -84,24 +155,28 @@ PARAMS = (
     Param('max_wrench', 1.0e6, 'Largest accepted force norm (N) and torque norm (N m); '
           'larger or non-finite commands are rejected.', False, _positive),
     Param('real_time_factor', 1.0, 'Sim time per wall time: 1.0 follows the wall clock, 2.0 '
-          'runs twice as fast, 0 runs as fast as possible (follow /clock with use_sim_time).',
-          False, _non_negative),
+          'runs twice as fast, 0 runs as fast as possible (follow /clock with use_sim_time); '
+          f'otherwise {MIN_REAL_TIME_FACTOR:g} to 1e9.', False, _real_time_factor),
     Param('max_catchup', 10, 'Most publish periods stepped in one tick to catch up after a '
-          'late tick; beyond that, real time is dropped (counted in diagnostics).', False,
-          _positive),
+          'late tick (1 to 10000); beyond that, real time is dropped (counted in diagnostics).',
+          False, _count),
     Param('start_paused', False, 'Start paused at step 0. While paused, inputs take effect '
           'as they arrive (at the step the next step call takes), so a script of inputs and '
-          'step calls gives the same run every time.', True),
+          'step calls gives the same run every time.', True, _bool),
     Param('publish_clock', True, 'Publish /clock (rosgraph_msgs/Clock, best-effort) with sim '
-          'time.', True),
+          'time.', True, _bool),
     Param('scene_file', '', 'A YAML scene (several bodies, gravity, damping; see '
           'rb_sim_ros/scene.py). Empty: one body from the parameters above. Each scene body '
-          'has its own topics <name>/wrench, <name>/pose, ...', True),
-    Param('record', '', 'Path of an MCAP file to record the run to; empty: no recording.', True),
-    Param('record_overwrite', False, 'Overwrite an existing recording file.', True),
+          'has its own topics <name>/wrench, <name>/pose, ...', True, _string),
+    Param('record', '', 'Path of an MCAP file to record the run to; empty: no recording.', True,
+          _string),
+    Param('record_overwrite', False, 'Overwrite an existing recording file.', True, _bool),
 )
 
 BY_NAME = {p.name: p for p in PARAMS}
+_unchecked = [p.name for p in PARAMS if p.check is None]
+if _unchecked:  # pragma: no cover - a programming error, caught by importing the module
+    raise RuntimeError(f'parameters without a check: {_unchecked}')
 
 
 def help_text() -> str:
@@ -114,5 +189,11 @@ def help_text() -> str:
 
 
 def check(name: str, value: Any) -> None:
-    """Raise ValueError with the reason if ``value`` is not valid for parameter ``name``."""
-    BY_NAME[name].check(name, value)
+    """Raise ValueError with the reason, naming the parameter, if ``value`` is not valid for
+    parameter ``name``."""
+    try:
+        BY_NAME[name].check(name, value)
+    except ValueError as e:
+        if not str(e).startswith(name):
+            raise ValueError(f'{name}: {e}') from None
+        raise

@@ -32,13 +32,21 @@ def wrench_from_msg(msg: WrenchMsg, frame: Frame, max_wrench: float) -> Wrench:
     """
     f = (msg.force.x, msg.force.y, msg.force.z)
     t = (msg.torque.x, msg.torque.y, msg.torque.z)
-    if not all(math.isfinite(c) for c in f + t):
+    check_wrench(f, t, max_wrench)
+    return Wrench(f, t, frame)
+
+
+def check_wrench(force, torque, max_wrench: float) -> None:
+    """ValueError naming what is wrong unless force (N) and torque (N m) are finite with norms
+    <= ``max_wrench``. The norm is math.hypot's, which does not overflow: a finite component
+    of 1e200 is over the limit, not an OverflowError."""
+    f, t = tuple(force), tuple(torque)
+    if not all(isinstance(c, float) and math.isfinite(c) for c in f + t):
         raise ValueError(f'non-finite wrench: force {f}, torque {t}')
     for name, vec in (('force', f), ('torque', t)):
-        norm = math.sqrt(vec[0] ** 2 + vec[1] ** 2 + vec[2] ** 2)
-        if norm > max_wrench:
+        norm = math.hypot(*vec)
+        if not norm <= max_wrench:
             raise ValueError(f'{name} norm {norm:.6g} exceeds max_wrench {max_wrench:.6g}')
-    return Wrench(f, t, frame)
 
 
 def rotate(r, v, transpose=False):
@@ -76,8 +84,9 @@ class OutputMessages:
         self.twist_in_body = Frame.parse(twist_frame) is Frame.BODY
 
     def fill(self, time_ns: int, position, quaternion_xyzw, linear_velocity,
-             angular_velocity) -> None:
-        """Fill all three from a world-frame state at ``time_ns`` (sim time, ns)."""
+             angular_velocity) -> bool:
+        """Fill all three from a world-frame state at ``time_ns`` (sim time, ns). False if a
+        body-frame velocity overflowed (|v| near 1e308): then nothing must be sent."""
         stamp = time_msg(time_ns)
         pose = self.pose.pose
         pose.position.x, pose.position.y, pose.position.z = position
@@ -96,3 +105,4 @@ class OutputMessages:
         ot = self.odom.twist.twist
         ot.linear.x, ot.linear.y, ot.linear.z = lin_b
         ot.angular.x, ot.angular.y, ot.angular.z = ang_b
+        return all(math.isfinite(c) for c in lin_b + ang_b)

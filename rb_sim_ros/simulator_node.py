@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import collections
 import math
+import signal
 import sys
 import threading
 import time
@@ -34,6 +35,7 @@ import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_srvs.srv import Empty, SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
@@ -50,12 +52,24 @@ from rb_sim_ros.stepper import IntegrationError
 
 __all__ = ['APPLIED_QOS', 'SimulatorNode', 'main']
 
+# Most steps run between two looks at the stop flag: shutdown never waits for a long period.
+_CHUNK_STEPS = 1000
+
 
 class SimulatorNode(Node):
     """Rigid bodies on ROS topics; see README.md for topics, services and parameters."""
 
     def __init__(self, **kwargs) -> None:
         super().__init__('rb_sim', **kwargs)
+        self._thread = self._recorder = None
+        self._stop = threading.Event()
+        try:
+            self._start()
+        except BaseException:  # a bad value or a signal while starting: leave nothing open
+            self.close()
+            raise
+
+    def _start(self) -> None:
         for p in node_params.PARAMS:
             self.declare_parameter(p.name, p.default, ParameterDescriptor(
                 description=p.description, read_only=p.read_only, dynamic_typing=True))
@@ -68,8 +82,8 @@ class SimulatorNode(Node):
         self._v = values
         self._pending: collections.deque = collections.deque()
         self._lock = threading.Lock()  # the step loop against service and parameter callbacks
-        self._stop = threading.Event()
         self._wake = threading.Event()
+        self._error_paused = False  # paused by an error (not by a user): reset resumes
         self._periods = 0
         self._paused = bool(values['start_paused'])
         self._timeout_steps = 0
@@ -125,14 +139,35 @@ class SimulatorNode(Node):
         for spec in self.config.bodies:
             if not spec.static:
                 self._queue(Reset(body=spec.name))
+        with self._lock:
+            if self._error_paused:  # the state that failed is gone: run again
+                self._resume()
+            self.diagnostics.error = ''
         return response
+
+    def _resume(self) -> None:
+        """Run (again) from the current step; clears an error that had paused the node."""
+        while self._pending:  # inputs queued while paused take effect at this step
+            self._apply(self._pending.popleft())
+        self._paused = self._error_paused = False
+        self.diagnostics.error = ''
+        self._anchor()
+        self._wake.set()
+
+    def _fail(self, reason: str) -> None:
+        """Stop stepping on an error: logged once, /diagnostics ERROR, services still answer;
+        reset or unpause clear it."""
+        self._paused = self._error_paused = True
+        self.diagnostics.error = reason
+        self.get_logger().error(f'{reason}; paused at the last finite state (reset or unpause '
+                                'to go on)')
 
     def _on_pause(self, request, response):
         with self._lock:
-            self._paused = bool(request.data)
-            if not self._paused:
-                self._anchor()
-                self._wake.set()
+            if request.data:
+                self._paused = True
+            else:
+                self._resume()
         response.success = True
         response.message = 'paused' if self._paused else 'running'
         return response
@@ -160,29 +195,38 @@ class SimulatorNode(Node):
         self._anchor()
 
     def _loop(self) -> None:
-        try:
-            while not self._stop.is_set():
-                if self._paused:
-                    self._wake.wait(0.1)
-                    self._wake.clear()
-                elif self._period_wall_ns == 0.0:  # as fast as possible
-                    with self._lock:
-                        for _ in range(10):
-                            if not self._paused:
-                                self._period()
-                    time.sleep(0)  # let the executor thread take the GIL for inputs
-                else:
-                    due_at = self._anchor_wall + (self._periods + 1 - self._anchor_period) * \
-                        self._period_wall_ns
-                    now = time.monotonic_ns()
-                    if now < due_at:
-                        self._stop.wait((due_at - now) * 1e-9)
-                        continue
-                    with self._lock:
-                        self._tick(now, now - due_at)
-        except Exception as e:  # never die silently: say why stepping stopped
-            self.get_logger().fatal(f'step loop stopped: {e!r}')
-            raise
+        """The step-loop thread. It never dies while the node lives: an unexpected error is
+        logged once with its reason, pauses the node and shows as ERROR in /diagnostics;
+        reset or unpause go on."""
+        while not self._stop.is_set():
+            try:
+                self._loop_once()
+            except Exception as e:  # noqa: B902 - whatever it was, the node must not go mute
+                if self._stop.is_set():
+                    return
+                with self._lock:
+                    self._fail(f'step loop error: {type(e).__name__}: {e}')
+
+    def _loop_once(self) -> None:
+        if self._paused:
+            self._wake.wait(0.1)
+            self._wake.clear()
+        elif self._period_wall_ns == 0.0:  # as fast as possible
+            with self._lock:
+                for _ in range(10):
+                    if self._paused or self._stop.is_set():
+                        break
+                    self._period()
+            time.sleep(0)  # let the executor thread take the GIL for inputs
+        else:
+            due_at = self._anchor_wall + (self._periods + 1 - self._anchor_period) * \
+                self._period_wall_ns
+            now = time.monotonic_ns()
+            if now < due_at:
+                self._stop.wait(min((due_at - now) * 1e-9, 1.0))
+                return
+            with self._lock:
+                self._tick(now, now - due_at)
 
     def _tick(self, now: int, lateness_ns: float) -> None:
         if self._paused or self._period_wall_ns == 0.0:
@@ -196,6 +240,8 @@ class SimulatorNode(Node):
             self._anchor_wall = now
             self._anchor_period = self._periods + due
         for _ in range(due):
+            if self._paused or self._stop.is_set():
+                break
             self._period()
 
     def _period(self) -> None:
@@ -209,24 +255,34 @@ class SimulatorNode(Node):
                         and sim.steppers[port.name].wrench != ZERO_WRENCH):
                     self._apply(SetWrench(ZERO_WRENCH, port.name), command=False)
         t0 = time.perf_counter_ns()
+        start = sim.step_count
         try:
-            sim.run(self.config.steps_per_publish)
+            # In chunks, so that a long period (many steps, many bodies) still stops at once
+            # on shutdown; chunking does not change a run.
+            end = start + self.config.steps_per_publish
+            while sim.step_count < end and not self._stop.is_set():
+                sim.run(min(end - sim.step_count, _CHUNK_STEPS))
         except IntegrationError as e:
-            self._paused = True
-            self.diagnostics.error = str(e)
-            self.get_logger().error(f'{e}; paused at the last finite state (reset to go on)')
-        self.diagnostics.stepped(self.config.steps_per_publish, time.perf_counter_ns() - t0,
+            self._fail(str(e))
+        self.diagnostics.stepped(sim.step_count - start, time.perf_counter_ns() - t0,
                                  sim.time_ns)
         if sim.world is not None:
             self.diagnostics.contacts = sim.world.last_stats
         self._periods += 1
-        self._publish()
+        if self._recorder is not None and self._recorder.failed:
+            recorder, self._recorder = self._recorder, None
+            self.diagnostics.error = f'recording stopped: {recorder.failed}'
+            self.get_logger().error(f'{self.diagnostics.error}; simulating on without it')
+            recorder.close()
+        if not self._stop.is_set():
+            self._publish()
 
     def _apply(self, event, command: bool = True) -> None:
         if isinstance(event, TwistInput):  # turned into the world frame now, at its step
             lin, ang = event.linear, event.angular
             if event.in_body:
-                r = tuple(self.sim.steppers[event.body].state.rotation.reshape(9))
+                q = self.sim.pose_twist(event.body)[1]
+                r = ros_messages.rotation_from_quaternion(q)
                 lin, ang = ros_messages.rotate(r, lin), ros_messages.rotate(r, ang)
             event = SetTwist(lin, ang, event.body)
         elif isinstance(event, Reset) and event.position is None:
@@ -237,7 +293,7 @@ class SimulatorNode(Node):
         held = stepper.wrench if stepper else None
         try:
             self.sim.apply(event)
-        except ValueError as e:
+        except (ValueError, IntegrationError) as e:
             self._reject(type(event).__name__, e)
             return
         port = self.ports[name]
@@ -253,8 +309,10 @@ class SimulatorNode(Node):
         t_ns = sim.time_ns
         for port in self.ports.values():
             moving = port.name in sim.steppers  # a static body is not recorded: it never moves
-            port.publish(t_ns, sim.pose_twist(port.name), self._recorder if moving else None,
-                         sim.step_count)
+            if not port.publish(t_ns, sim.pose_twist(port.name),
+                                self._recorder if moving else None, sim.step_count):
+                self._fail(f"body '{port.name}' has a non-finite state at step "
+                           f'{sim.step_count}; not published')
         if self._pub_markers is not None and self._pub_markers.get_subscription_count():
             poses = {b.name: sim.pose_twist(b.name)[:2] for b in self.config.bodies}
             self._pub_markers.publish(self._markers.fill(t_ns, poses, sim.world.last_contacts()))
@@ -266,7 +324,9 @@ class SimulatorNode(Node):
     # -- parameters ------------------------------------------------------------------------
     def _apply_settings(self) -> None:
         timeout = self._v['command_timeout']
-        self._timeout_steps = math.ceil(timeout / self.config.dt - 1e-9) if timeout else 0
+        # A timeout shorter than a step still times out (at the next step), never disables.
+        self._timeout_steps = max(1, math.ceil(timeout / self.config.dt - 1e-9)) if timeout \
+            else 0
 
     def _on_set_parameters(self, params) -> SetParametersResult:
         new = dict(self._v)
@@ -279,6 +339,8 @@ class SimulatorNode(Node):
             config = _config(new, self._scene)
         except ValueError as e:
             return SetParametersResult(successful=False, reason=str(e))
+        except Exception as e:  # noqa: B902 - a bug must refuse the value, not kill the node
+            return SetParametersResult(successful=False, reason=f'{type(e).__name__}: {e}')
         with self._lock:
             rtf_changed = new['real_time_factor'] != self._v['real_time_factor']
             self._v = new
@@ -290,13 +352,19 @@ class SimulatorNode(Node):
         return SetParametersResult(successful=True)
 
     def close(self) -> None:
-        """Stop the step loop and finish the recording (idempotent)."""
+        """Stop and join the step loop, then finish the recording (idempotent; safe on a
+        node that did not finish starting)."""
         self._stop.set()
-        self._wake.set()
-        if self._thread.is_alive() and threading.current_thread() is not self._thread:
-            self._thread.join()
-        if self._recorder is not None:
-            self._recorder.close()
+        wake = getattr(self, '_wake', None)
+        if wake is not None:
+            wake.set()
+        thread = self._thread
+        if thread is not None and thread.is_alive() and \
+                threading.current_thread() is not thread:
+            thread.join()
+        recorder, self._recorder = self._recorder, None
+        if recorder is not None:
+            recorder.close()
 
 
 class _Settings:
@@ -311,6 +379,10 @@ class _Settings:
 
 def _config(v: dict, scene=None) -> Config:
     steps = 1.0 / (v['publish_rate'] * v['dt'])
+    if not math.isfinite(steps) or steps > node_params.MAX_STEPS_PER_PERIOD:
+        raise ValueError(f"publish_rate {v['publish_rate']} Hz with dt {v['dt']} s makes "
+                         f'{steps:.3g} steps a period; at most '
+                         f'{node_params.MAX_STEPS_PER_PERIOD} (raise publish_rate or dt)')
     if abs(steps - round(steps)) > 1e-6 * steps or round(steps) < 1:
         raise ValueError(f"publish_rate {v['publish_rate']} Hz must divide 1/dt = "
                          f"{1.0 / v['dt']:.9g} Hz into a whole number of steps >= 1")
@@ -319,11 +391,18 @@ def _config(v: dict, scene=None) -> Config:
         gravity, bodies, contact = scene
     else:
         gravity = (0.0, 0.0, 0.0)
-        bodies = (BodySpec(name='body', mass=float(v['mass']), inertia=tuple(v['inertia']),
-                           initial_position=tuple(v['initial_position']),
-                           initial_orientation_xyzw=tuple(v['initial_orientation']),
-                           initial_linear_velocity=tuple(v['initial_linear_velocity']),
-                           initial_angular_velocity=tuple(v['initial_angular_velocity'])),)
+        for name in ('mass', 'inertia', 'initial_position', 'initial_orientation',
+                     'initial_linear_velocity', 'initial_angular_velocity'):
+            node_params.check(name, v[name])
+        bodies = (BodySpec(name='body', mass=float(v['mass']),
+                           inertia=tuple(float(c) for c in v['inertia']),
+                           initial_position=tuple(float(c) for c in v['initial_position']),
+                           initial_orientation_xyzw=tuple(
+                               float(c) for c in v['initial_orientation']),
+                           initial_linear_velocity=tuple(
+                               float(c) for c in v['initial_linear_velocity']),
+                           initial_angular_velocity=tuple(
+                               float(c) for c in v['initial_angular_velocity'])),)
     return Config(dt=float(v['dt']), steps_per_publish=int(round(steps)),
                   integrator=v['integrator'], gravity=gravity, bodies=bodies, contact=contact)
 
@@ -340,6 +419,14 @@ def _open_recorder(node: SimulatorNode, values: dict):
 
 
 def main(args=None) -> int:
+    """Run the node until SIGINT or SIGTERM; then stop and join the step loop, finish the
+    recording, destroy the node and shut rclpy down, in that order, and exit 0.
+
+    rclpy's own signal handler is off: it would shut the context down under the step loop,
+    which then fails to publish (and a second handler race could leave the process up). Ours
+    only sets a flag that the executor loop looks at every 0.1 s; while the node is still
+    starting (a large scene), a signal interrupts the start and exits cleanly.
+    """
     argv = sys.argv if args is None else args
     parser = argparse.ArgumentParser(
         prog='simulator', formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -348,27 +435,43 @@ def main(args=None) -> int:
         'odom, /clock, /diagnostics; services reset, pause, step.',
         epilog=node_params.help_text())
     parser.parse_args(ros_arguments.non_ros_args(argv, 'simulator'))
-    rclpy.init(args=argv)
+    stop = threading.Event()
+    starting = [True]
+
+    def on_signal(signum, frame):
+        stop.set()
+        if starting[0]:
+            raise KeyboardInterrupt
+    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
     node = None
     try:
-        node = SimulatorNode()
-        # Not rclpy.experimental.EventsExecutor: in Jazzy's rclpy 7.1.6 its spin() holds the
-        # GIL and ignores SIGINT/SIGTERM (measured), so the recording could not be finalised.
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        executor.spin()
-    except (ValueError, OSError) as e:
-        if node is None:
+        rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+        try:
+            node = SimulatorNode()
+        except (ValueError, OSError) as e:
             print(f'simulator: {e}', file=sys.stderr)
             return 2
-        raise
-    except (KeyboardInterrupt, ExternalShutdownException):
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        starting[0] = False
+        while not stop.is_set():
+            try:
+                executor.spin_once(timeout_sec=0.1)
+            except (KeyboardInterrupt, ExternalShutdownException):
+                break
+            except Exception as e:  # noqa: B902 - a callback's bug must not kill the node
+                node.get_logger().error(f'callback failed: {type(e).__name__}: {e}',
+                                        throttle_duration_sec=1.0)
+    except KeyboardInterrupt:  # a signal while starting
         pass
     finally:
+        starting[0] = False  # a second signal during the shutdown only sets the flag
         if node is not None:
             node.close()
             node.destroy_node()
         rclpy.try_shutdown()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     return 0
 
 

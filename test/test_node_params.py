@@ -1,0 +1,69 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Every node parameter is type- and range-checked before it is used (no ROS needed)."""
+
+import math
+
+from hypothesis import given, settings, strategies as st
+import pytest
+
+from rb_sim_ros import node_params
+from rb_sim_ros.simulator_node import _config
+
+DEFAULTS = {p.name: p.default for p in node_params.PARAMS}
+
+# Values a ROS parameter can hold: bool, int, float, str and arrays of each.
+SCALARS = st.one_of(st.booleans(), st.integers(-10**30, 10**30), st.floats(allow_nan=True),
+                    st.text(max_size=8))
+VALUES = st.one_of(SCALARS, st.lists(st.booleans(), max_size=10),
+                   st.lists(st.integers(-10**30, 10**30), max_size=10),
+                   st.lists(st.floats(allow_nan=True), max_size=10),
+                   st.lists(st.text(max_size=4), max_size=10))
+
+
+@settings(max_examples=600, deadline=None)
+@given(st.sampled_from([p.name for p in node_params.PARAMS]), VALUES)
+def test_a_value_is_refused_with_its_name_or_accepted_and_usable(name, value):
+    """check() raises ValueError naming the parameter, or the value builds a configuration
+    (else ValueError): never TypeError, OverflowError or an unbounded period."""
+    try:
+        node_params.check(name, value)
+    except ValueError as e:
+        assert name in str(e)
+        return
+    values = dict(DEFAULTS, **{name: value})
+    try:
+        config = _config(values)
+    except ValueError:
+        return
+    assert 1 <= config.steps_per_publish <= node_params.MAX_STEPS_PER_PERIOD
+    assert math.isfinite(config.dt) and config.dt > 0
+
+
+@pytest.mark.parametrize('name, value', [
+    ('inertia', 5), ('initial_position', 5), ('initial_orientation', [0, 0, 0, 0]),
+    ('record', 5), ('scene_file', 5), ('dt', 1e-300), ('dt', True),
+    ('max_catchup', 0.5), ('max_catchup', 0), ('max_catchup', True),
+    ('real_time_factor', 1e-300), ('real_time_factor', math.inf),
+    ('mass', True), ('max_wrench', True), ('command_timeout', False),
+    ('inertia', [True, True, True]), ('initial_position', [1.0, 2.0]),
+    ('start_paused', 1), ('publish_clock', 0.0), ('record_overwrite', 'yes'),
+    ('integrator', 3), ('wrench_frame', 1), ('world_frame', 7), ('dt', 10**400),
+])
+def test_the_values_that_killed_the_node_are_refused(name, value):
+    with pytest.raises(ValueError, match=name):
+        node_params.check(name, value)
+
+
+def test_a_period_of_unbounded_work_is_refused():
+    values = dict(DEFAULTS, dt=1e-9, publish_rate=1e-3)
+    with pytest.raises(ValueError, match='steps a period'):
+        _config(values)
+    assert _config(dict(DEFAULTS, dt=1e-6, publish_rate=1.0)).steps_per_publish == 10**6
+
+
+def test_every_parameter_has_a_description_and_accepts_its_default():
+    for p in node_params.PARAMS:
+        assert p.description
+        node_params.check(p.name, p.default)
+    _config(DEFAULTS)
