@@ -39,8 +39,9 @@ file, the body and the field; unknown keys are errors, not ignored.
 A scene file is untrusted input: whatever it holds, ``load_scene`` returns a valid Scene or
 raises SceneError (a ValueError) naming the file, the body and the field, and nothing else.
 The YAML is read by ``safe_yaml`` (no aliases, no duplicate or non-string keys, no types but
-null, booleans, numbers and strings, at most ``MAX_DEPTH`` levels), from at most ``MAX_BYTES``
-of UTF-8, with at most ``MAX_BODIES`` bodies. Numbers are ints or floats (a boolean is not a
+null, booleans, numbers and strings, at most ``MAX_DEPTH`` levels and ``MAX_VALUES`` values),
+from at most ``MAX_BYTES`` of UTF-8, with at most ``MAX_BODIES`` bodies. A float may be written
+``1e-3`` (YAML 1.2) as well as ``1.0e-3``. Numbers are ints or floats (a boolean is not a
 number) that fit a finite float. A body name becomes a ROS topic name token and a frame id:
 an ASCII letter, then ASCII letters, digits and underscores, at most ``MAX_NAME`` in all.
 """
@@ -67,6 +68,7 @@ COLLIDER_TYPES = ('box', 'capsule', 'plane', 'shape', 'sphere')
 MAX_BYTES = 16 * 1024 * 1024
 MAX_BODIES = 20_000
 MAX_DEPTH = 8  # the scene's own structure needs 6 (bodies, a body, colliders, one, position)
+MAX_VALUES = 2_000_000  # about 100 values per body at MAX_BODIES; some 100 MB as Python objects
 MAX_NAME = 64
 # A ROS 2 topic name token (rcl/rmw: alphanumerics and '_', not starting with a digit),
 # and further: ASCII only, starting with a letter.
@@ -390,7 +392,7 @@ def load_scene(path: str) -> Scene:
     """The scene of the file ``path``; SceneError says what and where."""
     text = _read(path)
     try:
-        data = safe_yaml.load(text, max_depth=MAX_DEPTH)
+        data = safe_yaml.load(text, max_depth=MAX_DEPTH, max_nodes=MAX_VALUES)
     except safe_yaml.YamlError as e:
         raise _yaml_error(path, e) from None
     if not isinstance(data, dict):

@@ -281,6 +281,14 @@ def test_a_file_larger_than_the_bound_is_refused_unread(tmp_path, monkeypatch):
              ': larger than 100 bytes (MAX_BYTES): not a scene')
 
 
+def test_a_scene_of_too_many_values_is_refused_where_it_crosses_the_bound(tmp_path,
+                                                                          monkeypatch):
+    monkeypatch.setattr(scene, 'MAX_VALUES', 20)
+    _refused(tmp_path, 'bodies: [{name: a, mass: 1, inertia: [1, 1, 1]}, '
+             '{name: b, mass: 1, inertia: [1, 1, 1]}, {name: c, mass: 1, inertia: [1, 1, 1]}]',
+             ': body 1: inertia[0]: more than 20 values (line 1)')  # 3 + 10 + 7 before it
+
+
 def test_the_loader_bounds_the_number_of_values():
     with pytest.raises(safe_yaml.YamlError, match=r'more than 5 values \(line 1\)') as e:
         safe_yaml.load('a: [1, 2, 3, 4, 5]', max_nodes=5)
