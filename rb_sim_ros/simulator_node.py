@@ -211,6 +211,8 @@ class SimulatorNode(Node):
         if self._paused:
             self._wake.wait(0.1)
             self._wake.clear()
+            with self._lock:  # /diagnostics goes on while paused (it may say why)
+                self.diagnostics.maybe_publish(self, self._v['real_time_factor'])
         elif self._period_wall_ns == 0.0:  # as fast as possible
             with self._lock:
                 for _ in range(10):

@@ -1,0 +1,250 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""What a hostile or careless user sends never kills, hangs or poisons the node (issue 11)."""
+
+import math
+import random
+import signal
+import subprocess
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import PoseStamped, Twist, Wrench, WrenchStamped
+from nav_msgs.msg import Odometry
+import pytest
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
+from std_srvs.srv import Empty, SetBool, Trigger
+
+from rb_sim_ros.simulator_node import APPLIED_QOS
+from ros_harness import stamp_ns
+
+
+def _value(v) -> ParameterValue:
+    if isinstance(v, bool):
+        return ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=v)
+    if isinstance(v, int):
+        return ParameterValue(type=ParameterType.PARAMETER_INTEGER, integer_value=v)
+    if isinstance(v, float):
+        return ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=v)
+    if isinstance(v, str):
+        return ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=v)
+    return ParameterValue(type=ParameterType.PARAMETER_DOUBLE_ARRAY,
+                          double_array_value=[float(c) for c in v])
+
+
+def _set(probe, **values):
+    req = SetParameters.Request()
+    req.parameters = [Parameter(name=k, value=_value(v)) for k, v in values.items()]
+    return probe.call(SetParameters, 'rb_sim/set_parameters', req).results
+
+
+def _wrench(f, t=(0.0, 0.0, 0.0)):
+    m = Wrench()
+    m.force.x, m.force.y, m.force.z = f
+    m.torque.x, m.torque.y, m.torque.z = t
+    return m
+
+
+def _finite(msg) -> bool:
+    if isinstance(msg, PoseStamped):
+        p, o = msg.pose.position, msg.pose.orientation
+        vals = (p.x, p.y, p.z, o.x, o.y, o.z, o.w)
+    elif isinstance(msg, Odometry):
+        p, o, t = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
+        vals = (p.x, p.y, p.z, o.x, o.y, o.z, o.w, t.linear.x, t.linear.y, t.linear.z,
+                t.angular.x, t.angular.y, t.angular.z)
+    else:
+        vals = (msg.linear.x, msg.linear.y, msg.linear.z, msg.angular.x, msg.angular.y,
+                msg.angular.z)
+    return all(math.isfinite(v) for v in vals)
+
+
+@pytest.mark.parametrize('args, name', [
+    (('-p', 'inertia:=5'), 'inertia'),
+    (('-p', 'initial_position:=5'), 'initial_position'),
+    (('-p', 'record:=5'), 'record'),
+    (('-p', 'scene_file:=5'), 'scene_file'),
+    (('-p', 'dt:=1e-300'), 'dt'),
+    (('-p', 'mass:=true'), 'mass'),
+    (('-p', 'max_catchup:=0.5'), 'max_catchup'),
+    (('-p', 'real_time_factor:=1e-300'), 'real_time_factor'),
+    (('-p', 'start_paused:=1'), 'start_paused'),
+    (('-p', 'dt:=1e-9', '-p', 'publish_rate:=0.001'), 'steps a period'),
+    (('-p', 'record:=/nonexistent-dir/run.mcap'), 'nonexistent-dir'),
+])
+def test_bad_startup_values_are_one_line_and_exit_2(start_sim, args, name):
+    sim = start_sim(*args)
+    assert sim.proc.wait(60) == 2
+    out = sim.output()
+    assert name in out and 'Traceback' not in out, out
+    assert len(out.strip().splitlines()) == 1, out
+
+
+def test_bad_runtime_values_are_refused_and_the_node_keeps_stepping(start_sim, probe):
+    start_sim()
+    poses = probe.collect(PoseStamped, 'pose')
+    probe.wait_for(lambda: poses, what='a pose')
+    for name, value in (('initial_position', 5), ('max_catchup', 0.5),
+                        ('real_time_factor', 1e-300), ('command_timeout', True),
+                        ('max_wrench', 'big'), ('initial_orientation', [0.0, 0.0, 0.0, 0.0]),
+                        ('wrench_frame', 3)):
+        (result,) = _set(probe, **{name: value})
+        assert not result.successful and name in result.reason, (name, result.reason)
+    n = len(poses)
+    probe.wait_for(lambda: len(poses) > n + 5, what='poses after the refusals')
+
+
+def test_a_huge_finite_wrench_is_rejected_not_fatal(start_sim, probe):
+    sim = start_sim('-p', 'command_timeout:=0.0')
+    applied = probe.collect(WrenchStamped, 'applied_wrench', APPLIED_QOS)
+    poses = probe.collect(PoseStamped, 'pose')
+    pub = probe.publisher(Wrench, 'wrench')
+    pub.publish(_wrench((1.4e154, 0.0, 0.0)))
+    pub.publish(_wrench((0.0, 0.0, 0.0), (1e300, 1e300, 0.0)))
+    pub.publish(_wrench((0.0, 2.0, 0.0)))
+    probe.wait_for(lambda: applied, what='the good wrench')
+    assert applied[0].wrench.force.y == 2.0 and len(applied) == 1
+    n = len(poses)
+    probe.wait_for(lambda: len(poses) > n + 3, what='poses after the huge wrenches')
+    assert sim.proc.poll() is None
+    assert 'exceeds max_wrench' in sim.output()
+
+
+def test_a_timeout_shorter_than_a_step_still_times_out(start_sim, probe):
+    start_sim('-p', 'command_timeout:=1e-13')
+    applied = probe.collect(WrenchStamped, 'applied_wrench', APPLIED_QOS)
+    pub = probe.publisher(Wrench, 'wrench')
+    pub.publish(_wrench((1.0, 0.0, 0.0)))
+    probe.wait_for(lambda: len(applied) >= 2, what='the command and its timeout')
+    cmd, zero = applied[:2]
+    assert cmd.wrench.force.x == 1.0 and zero.wrench == Wrench()
+    # Checked at the start of each 10-step period: the next one.
+    assert stamp_ns(zero.header.stamp) - stamp_ns(cmd.header.stamp) == 10_000_000
+
+
+def test_an_integration_error_pauses_with_an_error_and_reset_goes_on(start_sim, probe):
+    """A 1e-10 kg body under 1e300 N: the step overflows. Nothing non-finite is published,
+    /diagnostics says ERROR, set_twist does not kill the node, reset clears it and runs."""
+    sim = start_sim('-p', 'mass:=1e-10', '-p', 'max_wrench:=1e301', '-p',
+                    'command_timeout:=0.0')
+    poses = probe.collect(PoseStamped, 'pose')
+    odoms = probe.collect(Odometry, 'odom')
+    diags = probe.collect(DiagnosticArray, '/diagnostics')
+    probe.wait_for(lambda: poses, what='a pose')
+    probe.publisher(Wrench, 'wrench').publish(_wrench((1e300, 0.0, 0.0)))
+    probe.wait_for(lambda: any(d.status[0].level == DiagnosticStatus.ERROR for d in diags),
+                   what='an ERROR in /diagnostics')
+    probe.publisher(Twist, 'set_twist').publish(Twist())
+    time_at_error = stamp_ns(poses[-1].header.stamp)
+    probe.call(Empty, 'reset', Empty.Request())
+    probe.wait_for(lambda: stamp_ns(poses[-1].header.stamp) > time_at_error + 50_000_000,
+                   what='stepping again after reset')
+    n = len(diags)
+    probe.wait_for(lambda: len(diags) > n and diags[-1].status[0].level == DiagnosticStatus.OK,
+                   what='/diagnostics OK again')
+    assert all(_finite(m) for m in poses + odoms)
+    assert sim.proc.poll() is None
+    assert sim.output().count('paused at the last finite state') == 1
+
+
+def test_sigint_at_full_speed_exits_0_and_the_recording_verifies(start_sim, probe, installed,
+                                                               ros_env, tmp_path):
+    out = tmp_path / 'run.mcap'
+    sim = start_sim('-p', 'real_time_factor:=0.0', '-p', f'record:={out}')
+    poses = probe.collect(PoseStamped, 'pose')
+    probe.wait_for(lambda: len(poses) > 50, what='poses')
+    pub = probe.publisher(Wrench, 'wrench')
+    for k in range(20):
+        pub.publish(_wrench((0.1 * k, 0.0, 0.0), (0.0, 0.0, 0.01)))
+    probe.wait_for(lambda: len(poses) > 200, what='more poses')
+    assert sim.stop(signal.SIGINT, timeout=60) == 0
+    log = sim.output()
+    assert 'Traceback' not in log and 'FATAL' not in log and 'RCLError' not in log, log
+    result = subprocess.run([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), '--verify',
+                             str(out)], env=ros_env, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_sigterm_while_a_large_scene_starts_exits_cleanly(start_sim, tmp_path):
+    scene = tmp_path / 'many.yaml'
+    scene.write_text('bodies:\n' + ''.join(
+        f'  - {{name: b{i}, mass: 1.0, inertia: [0.1, 0.1, 0.1], position: [{i}, 0, 0]}}\n'
+        for i in range(3000)))
+    sim = start_sim('-p', f'scene_file:={scene}')
+    time.sleep(1.5)  # not a budget: only to signal while it is (probably) still starting
+    assert sim.stop(signal.SIGTERM, timeout=60) == 0
+    assert 'Traceback' not in sim.output()
+
+
+def test_soak_a_fuzzing_publisher(start_sim, probe, installed, ros_env, tmp_path):
+    """About 15 s of random finite, infinite, NaN and huge inputs, teleports, parameter sets
+    and service calls: the node stays up, publishes only finite numbers, exits 0 on SIGINT,
+    and its recording verifies."""
+    out = tmp_path / 'soak.mcap'
+    sim = start_sim('-p', 'real_time_factor:=5.0', '-p', f'record:={out}',
+                    '-p', 'max_wrench:=1e6')
+    poses = probe.collect(PoseStamped, 'pose')
+    odoms = probe.collect(Odometry, 'odom')
+    twists = probe.collect(Twist, 'twist')
+    wrench = probe.publisher(Wrench, 'wrench')
+    stamped = probe.publisher(WrenchStamped, 'wrench_stamped')
+    set_pose = probe.publisher(PoseStamped, 'set_pose')
+    set_twist = probe.publisher(Twist, 'set_twist')
+    rng = random.Random(11)
+    specials = [0.0, -0.0, 1.0, -3.5, 1e6, 1e154, 1.5e154, 1e300, -1e308, math.inf, -math.inf,
+                math.nan, 5e-324, 1e-300]
+
+    def num():
+        return rng.choice(specials) if rng.random() < 0.4 else rng.uniform(-20.0, 20.0)
+
+    end = time.monotonic() + 15.0
+    sent = 0
+    while time.monotonic() < end:
+        kind = rng.randrange(8)
+        if kind == 0:
+            wrench.publish(_wrench((num(), num(), num()), (num(), num(), num())))
+        elif kind == 1:
+            m = WrenchStamped()
+            m.header.frame_id = rng.choice(['', 'world', 'body', 'base_link', 'odom', 'x', '/'])
+            m.wrench = _wrench((num(), num(), num()), (num(), num(), num()))
+            stamped.publish(m)
+        elif kind == 2:
+            m = PoseStamped()
+            m.header.frame_id = rng.choice(['', 'odom', 'map'])
+            p, o = m.pose.position, m.pose.orientation
+            p.x, p.y, p.z = num(), num(), num()
+            o.x, o.y, o.z, o.w = num(), num(), num(), num()
+            set_pose.publish(m)
+        elif kind == 3:
+            m = Twist()
+            m.linear.x, m.linear.y, m.linear.z = num(), num(), num()
+            m.angular.x, m.angular.y, m.angular.z = num(), num(), num()
+            set_twist.publish(m)
+        elif kind == 4:
+            name = rng.choice(['command_timeout', 'max_wrench', 'real_time_factor',
+                               'max_catchup', 'wrench_frame', 'initial_position', 'dt'])
+            value = rng.choice([num(), rng.randrange(-3, 30), True, 'body', 'world',
+                                [num(), num(), num()]])
+            if name == 'real_time_factor' and isinstance(value, float) and value == 0.0:
+                value = 1.0  # keep the run bounded in size
+            _set(probe, **{name: value})
+        elif kind == 5:
+            probe.call(SetBool, 'pause', SetBool.Request(data=rng.random() < 0.5))
+        elif kind == 6:
+            probe.call(Trigger, 'step', Trigger.Request())
+        else:
+            probe.call(Empty, 'reset', Empty.Request())
+        sent += 1
+        probe.executor.spin_once(timeout_sec=0.0)
+    probe.call(SetBool, 'pause', SetBool.Request(data=False))
+    n = len(poses)
+    probe.wait_for(lambda: len(poses) > n + 3, what='poses after the soak')
+    assert sim.proc.poll() is None
+    assert sent > 100 and poses and odoms and twists
+    assert all(_finite(m) for m in poses + odoms + twists)
+    assert sim.stop(signal.SIGINT, timeout=60) == 0
+    assert 'Traceback' not in sim.output()
+    result = subprocess.run([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), '--verify',
+                             str(out)], env=ros_env, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stdout + result.stderr
