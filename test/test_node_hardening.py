@@ -148,8 +148,8 @@ def test_an_integration_error_pauses_with_an_error_and_reset_goes_on(start_sim, 
     assert sim.output().count('paused at the last finite state') == 1
 
 
-def test_sigint_at_full_speed_exits_0_and_the_recording_verifies(start_sim, probe, installed,
-                                                               ros_env, tmp_path):
+def test_sigint_at_full_speed_exits_0_and_the_recording_verifies(start_sim, probe,
+                                                                 installed, ros_env, tmp_path):
     out = tmp_path / 'run.mcap'
     sim = start_sim('-p', 'real_time_factor:=0.0', '-p', f'record:={out}')
     poses = probe.collect(PoseStamped, 'pose')
