@@ -66,6 +66,11 @@ def _count(name: str, v: Any) -> None:
         raise ValueError(f'{name} must be an integer from 1 to {MAX_CATCHUP}, got {v!r}')
 
 
+def _body_topics(name: str, v: Any) -> None:
+    if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 100_000:
+        raise ValueError(f'{name} must be an integer from 0 to 100000, got {v!r}')
+
+
 def _bool(name: str, v: Any) -> None:
     if not isinstance(v, bool):
         raise ValueError(f'{name} must be true or false, got {v!r}')
@@ -168,6 +173,11 @@ PARAMS = (
     Param('scene_file', '', 'A YAML scene (several bodies, gravity, damping; see '
           'rb_sim_ros/scene.py). Empty: one body from the parameters above. Each scene body '
           'has its own topics <name>/wrench, <name>/pose, ...', True, _string),
+    Param('max_body_topics', 100, 'How many bodies of a scene (in file order) get their own '
+          'topics <name>/wrench, <name>/pose, ... (0 to 100000). Each topic is a DDS endpoint, '
+          'and endpoints cost time and memory to create: the rest are simulated, recorded '
+          "only through their effect on the others, and published together on 'poses'.",
+          True, _body_topics),
     Param('record', '', 'Path of an MCAP file to record the run to; empty: no recording.', True,
           _string),
     Param('record_overwrite', False, 'Overwrite an existing recording file.', True, _bool),

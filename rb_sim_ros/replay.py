@@ -219,9 +219,12 @@ def _parameters(data, config: Config, path: str) -> dict:
     return data
 
 
-def _output_topics(data, config: Config, path: str) -> dict:
+def _output_topics(data, config: Config, parameters: dict, path: str) -> dict:
     _mapping(data, 'output_topics', path)
-    moving = [b.name for b in config.bodies if not b.static]
+    # The node gives own topics (and so recorded outputs) to the first max_body_topics bodies
+    # of a scene; recordings made before that parameter existed have all of them.
+    limit = parameters.get('max_body_topics', len(config.bodies))
+    moving = [b.name for b in config.bodies[:limit] if not b.static]
     if sorted(data) != sorted(moving):
         raise _bad(path, f'output_topics are for bodies {sorted(data)}, but the moving bodies '
                    f'of the config are {sorted(moving)}')
@@ -253,7 +256,8 @@ def load(path: str) -> Recording:
                    f'{node_recorder.FORMAT!r} only')
     config = _config(_json(meta, 'config', path), path)
     parameters = _parameters(_json(meta, 'parameters', path), config, path)
-    output_topics = _output_topics(_json(meta, 'output_topics', path), config, path)
+    output_topics = _output_topics(_json(meta, 'output_topics', path), config, parameters,
+                                   path)
     by_topic = {topic: (body, kind) for body, topics in output_topics.items()
                 for kind, topic in topics.items()}
     moving = {b.name for b in config.bodies if not b.static}

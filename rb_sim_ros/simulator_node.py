@@ -30,6 +30,7 @@ import sys
 import threading
 import time
 
+from geometry_msgs.msg import Pose, PoseArray
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -89,8 +90,8 @@ class SimulatorNode(Node):
         self._timeout_steps = 0
         self.diagnostics = Diagnostics()
         self.ports: dict[str, BodyPorts] = {}
-        for spec in self.config.bodies:
-            single = self._scene is None
+        single = self._scene is None
+        for spec in self.config.bodies[:values['max_body_topics'] if not single else 1]:
             self.ports[spec.name] = BodyPorts(
                 self, spec.name, '' if single else spec.name + '/', values['world_frame'],
                 values['body_frame'] if single else spec.name, values['twist_frame'],
@@ -103,6 +104,10 @@ class SimulatorNode(Node):
             else None)
         self._clock_msg = ClockMsg()
         self.diagnostics.create_publisher(self)
+        self._pub_poses = self.create_publisher(PoseArray, 'poses', 10)
+        self._poses_msg = PoseArray()
+        self._poses_msg.header.frame_id = values['world_frame']
+        self._poses_msg.poses = [Pose() for _ in self.config.bodies]
         self._markers = self._pub_markers = None
         if self.config.collides:
             self._markers = CollisionMarkers(self.config, values['world_frame'])
@@ -116,7 +121,10 @@ class SimulatorNode(Node):
         self._thread = threading.Thread(target=self._loop, name='rb_sim_step_loop', daemon=True)
         self._thread.start()
         bodies = ', '.join(f'{b.name} ({b.mass:g} kg{", static" if b.static else ""})'
-                           for b in self.config.bodies)
+                           for b in self.config.bodies[:10])
+        if len(self.config.bodies) > 10:
+            bodies += (f' and {len(self.config.bodies) - 10} more ({len(self.ports)} with '
+                       "topics of their own, all on 'poses')")
         self.get_logger().info(
             f'simulating {bodies}; dt {self.config.dt} s, publishing every '
             f'{self.config.steps_per_publish} steps, real_time_factor '
@@ -298,10 +306,10 @@ class SimulatorNode(Node):
         except (ValueError, IntegrationError) as e:
             self._reject(type(event).__name__, e)
             return
-        port = self.ports[name]
-        if isinstance(event, SetWrench) and command:
+        port = self.ports.get(name)  # None for a body of a large scene without topics
+        if port is not None and isinstance(event, SetWrench) and command:
             port.last_command_step = self.sim.step_count
-        if stepper.wrench != held:
+        if port is not None and stepper.wrench != held:
             port.applied(stepper.wrench, self.sim.time_ns)
         if self._recorder is not None:
             self._recorder.event(self.sim.step_count, self.sim.time_ns, event)
@@ -315,6 +323,8 @@ class SimulatorNode(Node):
                                 self._recorder if moving else None, sim.step_count):
                 self._fail(f"body '{port.name}' has a non-finite state at step "
                            f'{sim.step_count}; not published')
+        if self._pub_poses.get_subscription_count():
+            self._fill_poses(t_ns)
         if self._pub_markers is not None and self._pub_markers.get_subscription_count():
             poses = {b.name: sim.pose_twist(b.name)[:2] for b in self.config.bodies}
             self._pub_markers.publish(self._markers.fill(t_ns, poses, sim.world.last_contacts()))
@@ -322,6 +332,20 @@ class SimulatorNode(Node):
             self._clock_msg.clock = ros_messages.time_msg(t_ns)
             self._pub_clock.publish(self._clock_msg)
         self.diagnostics.maybe_publish(self, self._v['real_time_factor'])
+
+    def _fill_poses(self, t_ns: int) -> None:
+        """Every body's pose, in scene order, as one PoseArray (what a large scene has instead
+        of per-body topics); not sent if one is not finite."""
+        msg = self._poses_msg
+        msg.header.stamp = ros_messages.time_msg(t_ns)
+        for spec, pose in zip(self.config.bodies, msg.poses):
+            x, q = self.sim.pose_twist(spec.name)[:2]
+            if not all(math.isfinite(c) for c in x + q):
+                return
+            pose.position.x, pose.position.y, pose.position.z = x
+            o = pose.orientation
+            o.x, o.y, o.z, o.w = q
+        self._pub_poses.publish(msg)
 
     # -- parameters ------------------------------------------------------------------------
     def _apply_settings(self) -> None:

@@ -248,3 +248,32 @@ def test_soak_a_fuzzing_publisher(start_sim, probe, installed, ros_env, tmp_path
     result = subprocess.run([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), '--verify',
                              str(out)], env=ros_env, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_a_large_scene_gives_topics_to_the_first_bodies_and_poses_to_all(
+        start_sim, probe, installed, ros_env, tmp_path):
+    """Each topic is a DDS endpoint whose creation costs time against all the others: past
+    max_body_topics bodies get no topics of their own, but all are on 'poses' (PoseArray)
+    and the recording of the run verifies."""
+    from geometry_msgs.msg import PoseArray
+    scene = tmp_path / 'five.yaml'
+    scene.write_text('bodies:\n' + ''.join(
+        f'  - {{name: b{i}, mass: 1.0, inertia: [0.1, 0.1, 0.1], position: [{i}, 0, 0], '
+        f'linear_velocity: [0, 0, {i}]}}\n' for i in range(5)))
+    out = tmp_path / 'five.mcap'
+    sim = start_sim('-p', f'scene_file:={scene}', '-p', 'max_body_topics:=2',
+                    '-p', f'record:={out}')
+    arrays = probe.collect(PoseArray, 'poses')
+    probe.wait_for(lambda: arrays and arrays[-1].header.stamp.sec >= 1, what='1 s of poses')
+    msg = arrays[-1]
+    t = stamp_ns(msg.header.stamp) * 1e-9
+    assert len(msg.poses) == 5 and msg.header.frame_id == 'odom'
+    for i, pose in enumerate(msg.poses):  # x = i, z = i t (no gravity): exact to rounding
+        assert pose.position.x == i and abs(pose.position.z - i * t) < 1e-9 * (1 + i * t)
+    topics = {name for name, _types in probe.node.get_topic_names_and_types()}
+    assert {'/b0/pose', '/b1/wrench'} <= topics
+    assert not any(name.startswith(('/b2/', '/b3/', '/b4/')) for name in topics)
+    assert sim.stop(signal.SIGINT, timeout=60) == 0
+    result = subprocess.run([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), '--verify',
+                             str(out)], env=ros_env, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout + result.stderr

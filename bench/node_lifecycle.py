@@ -1,0 +1,158 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""How the node starts and stops: start-up time and memory against scene size, and a loop of
+SIGINT/SIGTERM at full speed with recordings that must verify.
+
+    python bench/node_lifecycle.py [--bodies 1000 10000] [--runs 20]
+
+Start-up: the simulator as users run it (a separate process, a private ROS domain), on a
+scene of N free bodies; the time from starting the process to the first 'poses' message this
+process receives, and the node's peak memory (VmHWM). Stop: `--runs` times, a node at
+real_time_factor 0 recording, `send_wrench` run against it, then SIGINT or SIGTERM
+(alternating); each must exit 0 without a traceback or FATAL, within 2 s of the signal, and its
+recording must pass `replay --verify`. Prints the figures; exit 1 if a stop failed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+import random
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+from geometry_msgs.msg import PoseArray, PoseStamped
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+
+
+def _env(domain: int) -> dict:
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST',
+               PYTHONUNBUFFERED='1')
+    env.setdefault('AMENT_PREFIX_PATH', sys.prefix)
+    return env
+
+
+class _Probe:
+    def __init__(self, domain: int) -> None:
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, domain_id=domain)
+        self.node = rclpy.create_node('lifecycle_probe', context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+
+    def wait(self, predicate, timeout: float) -> bool:
+        end = time.monotonic() + timeout
+        while not predicate():
+            if time.monotonic() > end:
+                return False
+            self.executor.spin_once(timeout_sec=0.01)
+        return True
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+
+def _vm_hwm_mb(pid: int) -> float:
+    with open(f'/proc/{pid}/status') as f:
+        for line in f:
+            if line.startswith('VmHWM:'):
+                return int(line.split()[1]) / 1024.0
+    return float('nan')
+
+
+def startup(n: int, tmp: Path) -> tuple[float, float]:
+    scene = tmp / f'bodies_{n}.yaml'
+    scene.write_text('bodies:\n' + ''.join(
+        f'  - {{name: b{i}, mass: 1.0, inertia: [0.1, 0.1, 0.1], position: [{i}, 0, 0], '
+        f'linear_velocity: [0, 0, 1]}}\n' for i in range(n)))
+    domain = random.randint(1, 100)
+    probe = _Probe(domain)
+    got: list = []
+    probe.node.create_subscription(PoseArray, 'poses', got.append, 10)
+    t0 = time.monotonic()
+    proc = subprocess.Popen([sys.executable, '-m', 'rb_sim_ros.simulator_node', '--ros-args',
+                             '-p', f'scene_file:={scene}'], env=_env(domain),
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        if not probe.wait(lambda: got or proc.poll() is not None, 600.0) or not got:
+            raise RuntimeError(f'{n} bodies: no poses ({proc.poll()})')
+        seconds = time.monotonic() - t0
+        memory = _vm_hwm_mb(proc.pid)
+        assert len(got[0].poses) == n
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(60)
+        probe.close()
+    return seconds, memory
+
+
+def stop_loop(runs: int, tmp: Path) -> list[str]:
+    failures = []
+    exit_times = []
+    for k in range(runs):
+        domain = random.randint(1, 100)
+        out = tmp / f'run{k}.mcap'
+        probe = _Probe(domain)
+        poses: list = []
+        probe.node.create_subscription(PoseStamped, 'pose', poses.append, 10)
+        proc = subprocess.Popen([sys.executable, '-m', 'rb_sim_ros.simulator_node',
+                                 '--ros-args', '-p', 'real_time_factor:=0.0',
+                                 '-p', f'record:={out}'], env=_env(domain),
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        probe.wait(lambda: len(poses) > 20, 120.0)
+        subprocess.run([sys.executable, '-m', 'rb_sim_ros.send_wrench', '--force', '1', '0',
+                        '0', '--torque', '0', '0', '0.1', '--duration', '0.3'],
+                       env=_env(domain), capture_output=True, timeout=120)
+        probe.close()
+        sig = signal.SIGINT if k % 2 == 0 else signal.SIGTERM
+        t0 = time.monotonic()
+        proc.send_signal(sig)
+        try:
+            code = proc.wait(30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            code = 'hung'
+        seconds = time.monotonic() - t0
+        exit_times.append(seconds)
+        log = proc.stdout.read()
+        verify = subprocess.run([sys.executable, '-m', 'rb_sim_ros.replay', '--verify',
+                                 str(out)], env=_env(domain), capture_output=True, text=True)
+        bad = [what for what, ok in (('exit code', code == 0), ('time', seconds <= 2.0),
+                                     ('traceback', 'Traceback' not in log),
+                                     ('FATAL', 'FATAL' not in log),
+                                     ('verify', verify.returncode == 0)) if not ok]
+        print(f'  run {k + 1:2d} {sig.name}: exit {code} after {seconds:.2f} s, '
+              f'verify {verify.returncode}{"  FAILED: " + ", ".join(bad) if bad else ""}',
+              flush=True)
+        if bad:
+            failures.append(f'run {k + 1}: {", ".join(bad)}')
+    exit_times.sort()
+    print(f'stop: {runs - len(failures)} of {runs} clean; exit after the signal: median '
+          f'{exit_times[len(exit_times) // 2]:.2f} s, worst {exit_times[-1]:.2f} s')
+    return failures
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('--bodies', type=int, nargs='*', default=[1000, 10000])
+    parser.add_argument('--runs', type=int, default=20)
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as d:
+        tmp = Path(d)
+        for n in args.bodies:
+            seconds, memory = startup(n, tmp)
+            print(f'start-up, {n} bodies: first poses after {seconds:.2f} s, peak memory '
+                  f'{memory:.0f} MB', flush=True)
+        failures = stop_loop(args.runs, tmp) if args.runs else []
+    return 1 if failures else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
