@@ -281,7 +281,7 @@ class SimulatorNode(Node):
         self._periods += 1
         if self._recorder is not None and self._recorder.failed:
             recorder, self._recorder = self._recorder, None
-            self.diagnostics.error = f'recording stopped: {recorder.failed}'
+            self.diagnostics.error = recorder.failed  # says what, where and what to do
             self.get_logger().error(f'{self.diagnostics.error}; simulating on without it')
             recorder.close()
         if not self._stop.is_set():

@@ -277,3 +277,51 @@ def test_a_large_scene_gives_topics_to_the_first_bodies_and_poses_to_all(
     result = subprocess.run([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), '--verify',
                              str(out)], env=ros_env, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_a_full_disk_stops_the_recording_not_the_simulation(installed, ros_env, probe,
+                                                            tmp_path):
+    """The node's files may grow to 300 kB (RLIMIT_FSIZE, SIGXFSZ ignored: writes fail with
+    EFBIG as on a full disk). The node says so once, in the log and /diagnostics, steps on,
+    exits 0 on SIGINT, and `replay --recover` repairs what was written into a file that
+    verifies."""
+    import resource
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    def limit_files():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (300_000, 300_000))
+
+    out = tmp_path / 'full.mcap'
+    env = dict(ros_env, ROS_LOG_DIR=str(tmp_path / 'log'))
+    proc = subprocess.Popen([str(installed / 'lib' / 'rb_sim_ros' / 'simulator'), '--ros-args',
+                             '-p', 'real_time_factor:=0.0', '-p', f'record:={out}',
+                             '-p', 'initial_angular_velocity:=[0.1, 0.2, 3.0]'],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, preexec_fn=limit_files)
+    try:
+        poses = probe.collect(PoseStamped, 'pose')
+        diags = probe.collect(DiagnosticArray, '/diagnostics')
+        probe.wait_for(lambda: any('recording stopped' in d.status[0].message for d in diags),
+                       what='the recording error in /diagnostics')
+        assert diags[-1].status[0].level == DiagnosticStatus.ERROR
+        t = stamp_ns(poses[-1].header.stamp)
+        probe.wait_for(lambda: stamp_ns(poses[-1].header.stamp) > t + 1_000_000_000,
+                       what='stepping on without the recording')
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(60) == 0
+        log = proc.stdout.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert 'Traceback' not in log and log.count('recording stopped') == 1, log
+    assert out.stat().st_size <= 300_000
+    replay = str(installed / 'lib' / 'rb_sim_ros' / 'replay')
+    fixed = tmp_path / 'fixed.mcap'
+    result = subprocess.run([replay, '--recover', str(out), str(fixed)], env=ros_env,
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout + result.stderr
+    result = subprocess.run([replay, '--verify', str(fixed)], env=ros_env,
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout + result.stderr
