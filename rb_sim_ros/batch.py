@@ -386,11 +386,14 @@ def _inertias(value: Any, n: int) -> np.ndarray:
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
             raise ValueError(f'inertias must be {why} (body {i}: {arr[i].tolist()})')
-    # As RigidBody: halves first (no overflow near the largest float), and the moments of
-    # each tensor scaled exactly by a power of two near 1/scale (LAPACK can fail beyond).
-    arr = 0.5 * arr + 0.5 * arr.transpose(0, 2, 1)
+    # As RigidBody: symmetrised and checked as each tensor times the power of two that
+    # brings its largest entry into [0.5, 1), exactly (no overflow or underflow, and LAPACK
+    # sees entries near 1).
     exponent = np.frexp(scale)[1][:, None]
-    scaled = np.linalg.eigvalsh(np.ldexp(arr, -exponent[:, :, None]))
+    symmetric = np.ldexp(arr, -exponent[:, :, None])
+    symmetric = 0.5 * (symmetric + symmetric.transpose(0, 2, 1))
+    arr = np.ldexp(symmetric, exponent[:, :, None])
+    scaled = np.linalg.eigvalsh(symmetric)
     with np.errstate(over='ignore'):
         moments = np.ldexp(scaled, exponent)
     flat = scaled[:, 0] + scaled[:, 1] < scaled[:, 2] * (1.0 - TRIANGLE_TOLERANCE)

@@ -181,12 +181,16 @@ class RigidBody:
             raise ValueError('inertia must be positive definite, got the zero matrix')
         if np.max(np.abs(inertia - inertia.T)) > SYMMETRY_TOLERANCE * scale:
             raise ValueError(f'inertia must be symmetric, got {inertia.tolist()}')
-        # Halves first, so that moments near the largest float do not overflow (the same bits
-        # as 0.5 (I + I^T) otherwise); the moments of I scaled by a power of two near 1/scale,
-        # exact, are checked, since LAPACK can fail on entries near the largest float.
-        inertia = 0.5 * inertia + 0.5 * inertia.T
+        # Symmetrised and checked as S = I 2^-e, scaled exactly by the power of two that
+        # brings its largest entry into [0.5, 1): I + I^T cannot overflow near the largest
+        # float nor 0.5 I underflow near the smallest, LAPACK (which can fail on entries near
+        # the largest float) sees entries near 1, and I = S 2^e has the bits of 0.5 (I + I^T)
+        # wherever that neither overflows nor underflows.
         exponent = math.frexp(scale)[1]
-        scaled = np.linalg.eigvalsh(np.ldexp(inertia, -exponent))
+        symmetric = np.ldexp(inertia, -exponent)
+        symmetric = 0.5 * (symmetric + symmetric.T)
+        inertia = np.ldexp(symmetric, exponent)
+        scaled = np.linalg.eigvalsh(symmetric)
         with np.errstate(over='ignore'):  # only shown in a message
             moments = np.ldexp(scaled, exponent)
         if scaled[0] <= 0.0:

@@ -51,6 +51,7 @@ from __future__ import annotations
 import math
 import re
 import reprlib
+import sys
 from typing import Any, NamedTuple, NoReturn
 
 from rb_sim_ros import safe_yaml
@@ -75,6 +76,8 @@ MAX_NAME = 64
 NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]*\Z')
 # The bounds of the contact solver's iteration counts (each one costs a pass over contacts).
 MAX_ITERATIONS = 1000
+# The smallest mass or principal moment: the smallest normal float, whose inverse is finite.
+TINY = sys.float_info.min
 
 _VECTORS = (('position', 'initial_position', 3), ('orientation', 'initial_orientation_xyzw', 4),
             ('linear_velocity', 'initial_linear_velocity', 3),
@@ -127,7 +130,7 @@ def _number(where: str, field: str, value: Any, low: float = -math.inf,
     if not math.isfinite(number):
         _fail(where, field, f'must be a finite number{unit}, got {number!r}')
     if number < low or (strict and number == low):
-        _fail(where, field, f'must be a finite number {">" if strict else ">="} {low:g}{unit}, '
+        _fail(where, field, f'must be a finite number {">" if strict else ">="} {low:.3g}{unit}, '
               f'got {_show(value)}')
     return number
 
@@ -190,10 +193,14 @@ def _shape_mass(where: str, data: dict, shape: Any) -> tuple[float, tuple, dict]
     if 'density' not in data:
         _fail(where, 'density', 'missing (kg/m^3, needed with a shape)')
     density = _number(where, 'density', data['density'], 0.0, True, ' (kg/m^3)')
-    mass, moments = mass_and_inertia(shape, density, dims)
-    if not all(math.isfinite(v) and v > 0.0 for v in (mass, *moments)):
+    try:
+        mass, moments = mass_and_inertia(shape, density, dims)
+    except OverflowError:  # r ** 3 raises where a product would give inf
+        mass, moments = math.inf, (math.inf,) * 3
+    if not all(math.isfinite(v) and v >= TINY for v in (mass, *moments)):
         _fail(where, 'shape', f'this {shape} and density give mass {mass!r} kg and moments '
-              f'{list(moments)} kg m^2, which must be finite and > 0')
+              f'{list(moments)} kg m^2, which must be finite and > 0, and at least {TINY:.3g} '
+              '(their inverses must be finite floats)')
     return mass, moments, dims
 
 
@@ -220,7 +227,7 @@ def _plainly_valid(inertia: tuple) -> bool:
     if len(inertia) != 3:
         return False
     a, b, c = sorted(inertia)
-    return a > 0.0 and a + b > c and c < 1e300
+    return 1e-300 < a and a + b > c and c < 1e300
 
 
 def _body(path: str, index: int, data: Any) -> BodySpec:
@@ -251,17 +258,20 @@ def _body(path: str, index: int, data: Any) -> BodySpec:
                 if key not in data:
                     _fail(where, key, 'missing (or give a shape and density)')
         if 'mass' in data:
-            kwargs['mass'] = _number(where, 'mass', data['mass'], 0.0, True, ' (kg)')
+            kwargs['mass'] = _number(where, 'mass', data['mass'], TINY, unit=' (kg)')
         if 'inertia' in data:
             kwargs['inertia'] = _inertia(where, data['inertia'])
         field = 'inertia'
     inertia = kwargs.get('inertia', BodySpec.inertia)
     if not _plainly_valid(inertia):
         try:  # what numbers alone cannot say: positive definite, the triangle inequality
-            RigidBody(kwargs.get('mass', BodySpec.mass), inertia if len(inertia) == 3
-                      else [inertia[0:3], inertia[3:6], inertia[6:9]])
+            body = RigidBody(kwargs.get('mass', BodySpec.mass), inertia if len(inertia) == 3
+                             else [inertia[0:3], inertia[3:6], inertia[6:9]])
         except ValueError as e:
             _fail(where, field, str(e))
+        if min(body.principal_moments) < TINY:
+            _fail(where, field, f'principal moments {body.principal_moments.tolist()} kg m^2: '
+                  f'each must be at least {TINY:.3g} (its inverse must be a finite float)')
     for key, spec_field, size in _VECTORS:
         if key in data:
             kwargs[spec_field] = _vector(where, key, data[key], size)

@@ -107,6 +107,27 @@ def test_a_400_digit_integer_in_a_collider_is_refused_by_name(tmp_path, collider
              f'colliders: [{collider}]}}]', f"body 0 ('a'): colliders[0]: {field}")
 
 
+@pytest.mark.parametrize('body', [
+    '{name: a, shape: sphere, radius: 1.0e+200, density: 1}',
+    '{name: a, shape: box, size: [1.0e+200, 1.0e+200, 1], density: 1}',
+    '{name: a, shape: cylinder, radius: 1.0e+200, length: 1, density: 1.0e+300}',
+    '{name: a, shape: sphere, radius: 1.0e-200, density: 1}',
+])
+def test_a_shape_whose_mass_is_not_a_finite_positive_float_is_refused(tmp_path, body):
+    _refused(tmp_path, f'bodies: [{body}]', "body 0 ('a'): shape: this ", 'must be finite and > 0')
+
+
+@pytest.mark.parametrize('body, where', [
+    ('{name: a, mass: 5.0e-324, inertia: [1, 1, 1]}',
+     "body 0 ('a'): mass: must be a finite number >= 2.23e-308 (kg), got 5e-324"),
+    ('{name: a, mass: 1, inertia: [5.0e-324, 5.0e-324, 5.0e-324]}',
+     "body 0 ('a'): inertia: principal moments [5e-324, 5e-324, 5e-324] kg m^2: each must be "
+     'at least 2.23e-308 (its inverse must be a finite float)'),
+])
+def test_a_mass_or_moment_whose_inverse_overflows_is_refused(tmp_path, body, where):
+    _refused(tmp_path, f'bodies: [{body}]', where)
+
+
 def test_a_list_as_the_shape_is_refused_by_name(tmp_path):
     _refused(tmp_path, 'bodies: [{name: a, shape: [box], size: [1, 1, 1], density: 1}]',
              "body 0 ('a'): shape: must be one of ['box', 'cylinder', 'sphere'], got ['box']")
@@ -311,17 +332,29 @@ def test_ten_thousand_bodies_load(tmp_path):
 
 # -- properties: any input gives a valid scene or a SceneError ---------------------------------
 
+# What follows 'body i: ' in a message: a field of the body (with an index or a key under it),
+# or what is wrong with the body's mapping itself.
+_BODY_FIELD = re.compile(r'(%s)(\[\d+\])*(\.\S+)?: |must be a mapping of fields|unknown field|'
+                         r'keys must be strings|not valid YAML|more than \d+ values'
+                         % '|'.join(sorted(scene.BODY_KEYS)))
+
+
 def _load_text(text):
     """load_scene of ``text`` (str or bytes) in a fresh file: a Scene, checked valid, or the
-    SceneError, checked to begin with the file's name. Any other exception fails the test."""
+    SceneError, checked to begin with the file's name and, for a body with a plain name (or
+    none), to name the field. Any other exception fails the test."""
     with tempfile.TemporaryDirectory() as d:
         f = Path(d) / 'scene.yaml'
         f.write_bytes(text if isinstance(text, bytes) else text.encode('utf-8', 'surrogatepass'))
         try:
             loaded = load_scene(str(f))
         except SceneError as e:
-            assert str(e).startswith(f'{f}: '), str(e)
-            assert '\n' not in str(e) and len(str(e)) < 2000, str(e)
+            message = str(e)
+            assert message.startswith(f'{f}: '), message
+            assert '\n' not in message and len(message) < 2000, message
+            body = re.match(r": body \d+( \('\w*'\))?: (.*)", message[len(str(f)):])
+            if body:
+                assert _BODY_FIELD.match(body.group(2)), message
             return e
     assert isinstance(loaded, Scene) and loaded.bodies
     assert all(isinstance(b, BodySpec) and scene.NAME.match(b.name) for b in loaded.bodies)
@@ -333,7 +366,8 @@ def _load_text(text):
 _SCALARS = (st.none() | st.booleans() | st.integers() | st.just(10 ** 400) | st.just(-10 ** 400)
             | st.floats() | st.text(st.characters(blacklist_categories=('Cs',)), max_size=12)
             | st.sampled_from(['box', 'sphere', 'cylinder', 'capsule', 'plane', 'shape', 'a',
-                               '1e400', '.nan', 'yes', '~', '*a', '&a', '<<', '!!binary x']))
+                               '1e400', '.nan', 'yes', '~', '*a', '&a', '<<', '!!binary x'])
+            | st.sampled_from([1e308, -1e308, 1e200, 1e-200, 5e-324, -0.0, 0, 1, -1]))
 _KEYS = st.sampled_from(sorted(scene.BODY_KEYS | scene.TOP_KEYS | {
     'type', 'normal', 'offset', 'restitution', 'friction', 'speculative', 'slop'})) | st.text(
         st.characters(blacklist_categories=('Cs',)), max_size=6)
@@ -341,39 +375,63 @@ _VALUES = st.recursive(_SCALARS, lambda inner: st.lists(inner, max_size=4)
                        | st.dictionaries(_KEYS, inner, max_size=4), max_leaves=20)
 
 
-# Good values of each field, mixed with anything: so that a random body gets past its first
-# checks as often as not, and every later check meets anything too.
+# Well-typed values of each field (some at the ends of the float range, some inertias that are
+# not physical), mixed with anything: so that a random body gets past its first checks as often
+# as not, and every later check meets anything too.
 _V3 = [0.0, 1.0, 2.0]
-_GOOD = {'name': ['a', 'b', 'ball_1'], 'mass': [1.0, 2], 'inertia': [_V3[1:] + [1.5],
-         [[1, 0.1, 0], [0.1, 1, 0], [0, 0, 1]], [1, 0, 0, 0, 1, 0, 0, 0, 1]],
-         'shape': ['box', 'sphere', 'cylinder'], 'size': [[1, 2, 3]], 'radius': [0.5],
-         'length': [1.0], 'density': [100.0], 'position': [_V3], 'orientation': [[0, 0, 0, 1]],
-         'linear_velocity': [_V3], 'angular_velocity': [_V3], 'linear_damping': [0.1],
+_GOOD = {'name': ['a', 'b', 'ball_1'], 'mass': [1.0, 2, 1e308, 5e-324],
+         'inertia': [[1, 2, 1.5], [[1, 0.1, 0], [0.1, 1, 0], [0, 0, 1]],
+                     [1, 0, 0, 0, 1, 0, 0, 0, 1], [1e308] * 3, [5e-324] * 3, [1, 1, 5],
+                     [[1, 2, 0], [2, 1, 0], [0, 0, 1]], [[1, 0.5, 0], [0, 1, 0], [0, 0, 1]]],
+         'shape': ['box', 'sphere', 'cylinder'], 'size': [[1, 2, 3], [1e200, 1e200, 1]],
+         'radius': [0.5, 1e200, 1e-200], 'length': [1.0, 1e308], 'density': [100.0, 1e300],
+         'position': [_V3, [1e308, -1e308, 0]], 'linear_velocity': [_V3],
+         'orientation': [[0, 0, 0, 1], [1e200, 0, 0, 1e200], [0, 0, 0, 5e-324]],
+         'angular_velocity': [_V3, [0, 0, 1e308]], 'linear_damping': [0.1, 1e308],
          'angular_damping': [0.0], 'static': [True, False], 'colliders': ['shape', []],
-         'type': ['sphere', 'box', 'capsule', 'plane', 'shape'], 'normal': [[0, 0, 1]],
-         'offset': [0.5], 'restitution': [0.5], 'friction': [0.3]}
+         'type': ['sphere', 'box', 'capsule', 'plane', 'shape'],
+         'normal': [[0, 0, 1], [0, 1e200, 1e200], [0, 0, 5e-324]], 'offset': [0.5, -1e308],
+         'restitution': [0.5, 1], 'friction': [0.3, 1e308]}
+
+
+def _mostly(good):
+    """Mostly ``good``, else anything (and ``good`` as what shrinking aims for)."""
+    return st.integers(0, 9).flatmap(lambda k: good if k < 9 else _VALUES)
 
 
 def _field(key):
-    """A good value of ``key`` 9 times in 10 (a fresh copy: a shared one would be dumped as
-    an alias), else anything."""
-    good = st.sampled_from(_GOOD[key]).map(copy.deepcopy)
-    return st.integers(0, 9).flatmap(lambda k: good if k else _VALUES)
+    """Mostly a good value of ``key`` (a fresh copy: a shared one would be dumped as an
+    alias)."""
+    return _mostly(st.sampled_from(_GOOD[key]).map(copy.deepcopy))
 
 
 _COLLIDER = st.fixed_dictionaries({'type': _field('type')}, optional={
     k: _field(k) for k in ('radius', 'length', 'size', 'normal', 'offset', 'position',
                            'orientation', 'restitution', 'friction')})
-_BODY = st.fixed_dictionaries({'name': _field('name')}, optional={
-    **{k: _field(k) for k in sorted(scene.BODY_KEYS - {'name', 'colliders'})},
-    'colliders': _field('colliders') | st.lists(_COLLIDER | _VALUES, max_size=3)})
-_CONTACT = st.dictionaries(st.sampled_from(sorted(ContactSettings.__dataclass_fields__)) | _KEYS,
-                           st.sampled_from([0, 1, 0.5, 10, True, False]) | _VALUES, max_size=4)
+_COMMON = {k: _field(k) for k in (
+    'position', 'orientation', 'linear_velocity', 'angular_velocity', 'linear_damping',
+    'angular_damping', 'static')}
+_COMMON['colliders'] = _field('colliders') | st.lists(_COLLIDER | _VALUES, max_size=3)
+_SHAPE_DIMENSIONS = {'box': ('size',), 'sphere': ('radius',), 'cylinder': ('radius', 'length')}
+# A body given by mass and inertia, one given by a shape (with the dimensions it needs), or
+# any fields at all: mostly bodies that get as far as their last checks.
+_BODY = st.one_of(
+    st.fixed_dictionaries({k: _field(k) for k in ('name', 'mass', 'inertia')},
+                          optional=_COMMON),
+    st.sampled_from(sorted(_SHAPE_DIMENSIONS)).flatmap(lambda shape: st.fixed_dictionaries(
+        {'name': _field('name'), 'shape': st.just(shape), 'density': _field('density'),
+         **{k: _field(k) for k in _SHAPE_DIMENSIONS[shape]}}, optional=_COMMON)),
+    st.fixed_dictionaries({'name': _field('name')}, optional={
+        **{k: _field(k) for k in sorted(scene.BODY_KEYS - {'name'})}, **_COMMON}))
+_CONTACT = st.dictionaries(
+    st.integers(0, 9).flatmap(lambda k: st.sampled_from(
+        sorted(ContactSettings.__dataclass_fields__)) if k < 9 else _KEYS),
+    _mostly(st.sampled_from([0, 1, 0.5, 10, True, False])), max_size=3)
 
 
-@given(gravity=st.just([0.0, 0.0, -9.81]) | _VALUES, contact=_CONTACT | _VALUES,
-       bodies=st.lists(_BODY | _VALUES, min_size=1, max_size=4) | _VALUES, top=_VALUES,
-       unicode=st.booleans(), flow=st.booleans())
+@given(gravity=_mostly(st.just([0.0, 0.0, -9.81])), contact=_mostly(_CONTACT),
+       bodies=_mostly(st.lists(_mostly(_BODY), min_size=1, max_size=4)),
+       top=_mostly(st.just({})), unicode=st.booleans(), flow=st.booleans())
 @settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_any_structure_gives_a_scene_or_a_scene_error(gravity, contact, bodies, top, unicode,
                                                       flow):
