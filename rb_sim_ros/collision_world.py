@@ -68,6 +68,9 @@ FEATURE_BITS = 12
 # rounding noise of contacts whose lever arm is parallel to the normal (a sphere's), and
 # skipping them saves an exp() per body. A real correction is ~depth / size, 1e-6 rad or more.
 MIN_TURN = 1e-12
+# A solve whose bodies end with more kinetic energy than this relative gain raises: the solver
+# keeps the energy to contact_solver.ENERGY_TOLERANCE (1e-9), rounding is ~1e-15.
+GAIN_TOLERANCE = 1e-6
 
 
 @dataclass
@@ -412,7 +415,7 @@ class CollisionWorld:
             try:
                 s.step(1)
             except IntegrationError as e:
-                error = error or e
+                error = error or IntegrationError(e.step, f"body '{self._owner(s)}': {e}")
         self._step_count += 1
         if error is not None:
             raise error
@@ -470,22 +473,28 @@ class CollisionWorld:
                                           self._materials[1][pair_ids[1]])
             result = contact_solver.solve(contacts, bodies, self.settings, warm_n, warm_t,
                                           e, mu)
+            step = self._step_count - 1 if integrated else self._step_count
+            spared, failed = self._check_solve(contacts, bodies, result, nb, step)
+            error = error or failed
             if self.warm_start:
                 self._store_warm(keys, result.normal_impulse, result.tangent_impulse)
             t4 = clock()
             touched = np.flatnonzero(result.touched[:nb])
             turn = np.einsum('ij,ij->i', result.rotation, result.rotation) > MIN_TURN ** 2
-            step = self._step_count - 1 if integrated else self._step_count
             for i in touched.tolist():
-                r_new = rot[i]
+                if i in spared:
+                    continue
+                r_new, w_new = rot[i], result.angular_velocity[i]
                 if turn[i]:
-                    r_new = so3.exp(result.rotation[i]) @ r_new
+                    # The correction turns the body with its spin (omega in the body frame
+                    # kept): turning R under a fixed world omega would change 1/2 w . I w.
+                    correction = so3.exp(result.rotation[i])
+                    r_new, w_new = correction @ r_new, correction @ w_new
                 try:
                     self._moving_steppers[i].apply_contact(
-                        x[i] + result.displacement[i], r_new, result.velocity[i],
-                        result.angular_velocity[i], step)
+                        x[i] + result.displacement[i], r_new, result.velocity[i], w_new, step)
                 except IntegrationError as failed:  # the others still get theirs; raised below
-                    error = error or failed
+                    error = error or self._named(i, failed)
             if self._sleep_steps and integrated:
                 self._fall_asleep(contacts, result, nb, pairs)
             stats.active = int(np.count_nonzero(result.normal_impulse > 0.0))
@@ -516,6 +525,45 @@ class CollisionWorld:
             tot.seconds[k] = tot.seconds.get(k, 0.0) + s
         if error is not None:
             raise error
+
+    def _owner(self, stepper) -> str:
+        """The name of the body that ``stepper`` moves."""
+        return next(name for name, s in self.steppers.items() if s is stepper)
+
+    def _name(self, i: int) -> str:
+        """The name of moving body ``i`` (an index among those with colliders)."""
+        return self.bodies[self._moving_specs[i]].name
+
+    def _named(self, i: int, error: IntegrationError) -> IntegrationError:
+        return IntegrationError(error.step, f"body '{self._name(i)}': {error}")
+
+    def _check_solve(self, contacts, bodies, result, nb: int, step: int):
+        """(bodies not to write, IntegrationError naming them, or None): the bodies to which
+        the solve gave a non-finite value, or, if it gave the bodies more kinetic energy than
+        they had (the solver keeps the energy by construction, docs/collisions.md "Energy":
+        this is the last guard, so that no garbage reaches a Stepper or the node), the ones
+        whose energy rose. They keep their states; the others get their contacts."""
+        which = np.unique(np.concatenate([contacts.body_a, contacts.body_b]))
+        which = which[which < nb]
+        u0 = np.concatenate([bodies.velocity, bodies.angular_velocity], axis=1)
+        u1 = np.concatenate([result.velocity, result.angular_velocity, result.displacement,
+                             result.rotation], axis=1)
+        bad = which[~np.all(np.isfinite(u1[which]), axis=1)]
+        if len(bad):
+            what = 'non-finite'
+        else:
+            e0 = contact_solver.kinetic_energies(bodies, u0, which)
+            e1 = contact_solver.kinetic_energies(bodies, u1[:, :6], which)
+            total0, total1 = float(np.sum(e0)), float(np.sum(e1))
+            if total1 <= total0 * (1.0 + GAIN_TOLERANCE) or not math.isfinite(total0):
+                return (), None
+            order = np.argsort(e0 - e1, kind='stable')  # the largest gain first
+            bad = which[order][(e1 > e0)[order]]
+            what = f'gain kinetic energy ({total0:.6g} J -> {total1:.6g} J)'
+        names = ', '.join(f"'{self._name(i)}'" for i in bad.tolist())
+        return set(bad.tolist()), IntegrationError(
+            step, f'the contact solve made {names} {what} at step {step} '
+            f'(t = {step * self.dt:.9g} s); they keep their states before the contacts')
 
     def _read(self, nb: int, dyn: np.ndarray, cb: np.ndarray):
         """(x, R, v, omega, speculative margin) of the moving bodies with colliders (a zero

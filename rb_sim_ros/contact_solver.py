@@ -19,7 +19,13 @@ sliding contact's impulse converges to the direction opposite its slip) projecte
 Coulomb disc |lambda_t| <= mu lambda_n. Targets of
 the normal velocity: -e (v_rel . n before) for an impact (approach faster than the bounce
 threshold), 0 for a resting or sliding contact, and -gap/dt for a speculative one (a gap that
-the bodies may close in one step, but not more: no tunnelling).
+the bodies may close in one step, but not more: no tunnelling); never above -(v_rel . n before),
+so a contact that was separating does no positive work.
+
+Energy: the velocity pass never adds kinetic energy. Where Newton's law with friction (Kane's
+paradox), simultaneous contacts or an unfinished warm start would, the result is blended with
+the plastic solve to the largest restitution that keeps the energy (``_within_energy``;
+docs/collisions.md, "Energy").
 
 Rolling resistance (``rolling_resistance`` mu_r, a length in m, 0 by default): after the
 velocity iterations, each pressed contact gets a couple in the tangent plane (equal and
@@ -34,7 +40,8 @@ along n of at most mu_t lambda_n, bounded by what stops w_n.
 Position correction is split from the velocities (split impulse / non-linear projection): a
 second Gauss-Seidel pass on pseudo-velocities that are displacements, with the same rows,
 moves the bodies apart by ``position_fraction`` of the penetration beyond ``slop``. It never
-changes v or omega, so the velocity impulses keep momentum exactly and add no energy.
+changes v or omega (the collision world turns omega with R, keeping 1/2 w . I w), so the
+velocity impulses keep momentum exactly and add no energy.
 
 Two kernels run the iterations, with the same arithmetic in the same order: plain floats for
 few contacts, numpy over batches of contacts for many. The contacts are coloured so that no
@@ -262,34 +269,23 @@ def solve(contacts: ContactArrays, bodies: Bodies, settings: SolverSettings,
     vn0 = rows.normal_velocity(u0)
     depth = contacts.depth
     dt = settings.dt
-    target = np.where(depth < 0.0, depth / dt, 0.0)
-    bounce = (vn0 < -settings.bounce_threshold) & (vn0 < target)
+    # A contact that was separating (vn0 > 0) may be pressed back at most at -vn0: its impulse
+    # then does no positive work (docs/collisions.md, "Energy").
+    plastic = np.minimum(np.where(depth < 0.0, depth / dt, 0.0), -vn0)
+    bounce = (vn0 < -settings.bounce_threshold) & (vn0 < plastic)
     e = settings.restitution if restitution is None else restitution
-    target = np.where(bounce, -e * vn0, target)
+    target = np.where(bounce, -e * vn0, plastic)
     mu = np.full(count, float(settings.friction)) if friction is None else friction
     with_friction = bool(np.any(mu > 0.0))
-
-    lam = np.zeros((count, 3))
-    u = u0.copy()
-    if warm_normal is not None:
-        lam[:, 0] = np.maximum(warm_normal, 0.0)
-        if warm_tangent is not None and with_friction:
-            l1 = np.einsum('mi,mi->m', warm_tangent, rows.t1)
-            l2 = np.einsum('mi,mi->m', warm_tangent, rows.t2)
-            limit = mu * lam[:, 0]
-            norm = np.sqrt(l1 * l1 + l2 * l2)
-            scale = np.where(norm > limit, limit / np.where(norm > 0.0, norm, 1.0), 1.0)
-            lam[:, 1], lam[:, 2] = l1 * scale, l2 * scale
-        impulse = (lam[:, 0:1] * rows.w[0] + lam[:, 1:2] * rows.w[1]) + lam[:, 2:3] * rows.w[2]
-        np.add.at(u, rows.a, impulse[:, :6])
-        np.add.at(u, rows.b, impulse[:, 6:])
     kernel = _batched if count >= settings.batch_threshold else _scalar
-    u, lam, v_done = kernel(rows, u, lam, target, mu, batches, settings.velocity_iterations,
-                            with_friction, settings.tolerance)
-
-    if settings.rolling_resistance > 0.0 or settings.torsional_friction > 0.0:
-        u = _resist_rolling(contacts, bodies, rows, u, lam[:, 0], settings.rolling_resistance,
-                            settings.torsional_friction, batches, kernel is _batched)
+    u, lam, v_done = _velocities(contacts, bodies, settings, rows, u0, target, mu, batches,
+                                 with_friction, kernel, warm_normal, warm_tangent)
+    # Newton's law with friction or with simultaneous contacts (Kane's paradox), or a warm
+    # start the iterations did not undo, can create energy: then the impulses are scaled back
+    # just enough (docs/collisions.md, "Energy").
+    u, lam, v_more = _within_energy(contacts, bodies, settings, rows, u0, u, lam, plastic, mu,
+                                    batches, with_friction, kernel)
+    v_done += v_more
 
     # Position correction on pseudo-velocities (displacements), normal rows only.
     q = np.zeros((body_count, 6))
@@ -305,6 +301,93 @@ def solve(contacts: ContactArrays, bodies: Bodies, settings: SolverSettings,
     tangent = lam[:, 1:2] * rows.t1 + lam[:, 2:3] * rows.t2
     return SolveResult(u[:, :3], u[:, 3:], q[:, :3], q[:, 3:], lam[:, 0], tangent,
                        p_lam[:, 0], touched, int(colours.max()) + 1, v_done, p_done)
+
+
+def kinetic_energies(bodies: Bodies, u: np.ndarray, which: np.ndarray) -> np.ndarray:
+    """Kinetic energy (J) of each moving body ``which`` (indices) at velocities ``u`` (N, 6):
+    1/2 m v.v + 1/2 w . I w, with I w solved from the world inverse inertia."""
+    v, w = u[which, :3], u[which, 3:6]
+    iw = np.linalg.solve(bodies.inverse_inertia[which], w[:, :, None])[:, :, 0]
+    return 0.5 * (np.einsum('ni,ni->n', v, v) / bodies.inverse_mass[which]
+                  + np.einsum('ni,ni->n', w, iw))
+
+
+def kinetic_energy(bodies: Bodies, u: np.ndarray, which: np.ndarray) -> float:
+    """The total of ``kinetic_energies`` (J)."""
+    return float(np.sum(kinetic_energies(bodies, u, which)))
+
+
+# Relative gain of kinetic energy above which a velocity solve is taken to have created energy
+# (rounding of the solve is ~1e-15 relative).
+ENERGY_TOLERANCE = 1e-9
+
+
+def _within_energy(contacts, bodies, settings, rows, u0, u, lam, plastic, mu, batches,
+                   with_friction, kernel):
+    """(u, lam, extra iterations): the solve ``u``, ``lam`` if it has no more kinetic energy
+    than ``u0`` (to ENERGY_TOLERANCE); else a blend that has none. The base is the plastic solve
+    (every target the one without restitution, no warm start), or if even that gained, the
+    blend of u0 towards it that keeps the energy; then from the base towards ``u`` by the
+    largest s in [0, 1] that keeps the energy. Every candidate is a set of equal and opposite
+    impulses with lambda_n >= 0 inside the friction cones, and so is a blend of them (the
+    constraints are convex): momentum is kept, and s scales the restitution down."""
+    moving = bodies.inverse_mass > 0.0
+    which = np.unique(np.concatenate([contacts.body_a, contacts.body_b]))
+    which = which[moving[which]]
+    e0 = kinetic_energy(bodies, u0, which)
+    if not kinetic_energy(bodies, u, which) > e0 * (1.0 + ENERGY_TOLERANCE):
+        return u, lam, 0  # (a non-finite one too: the collision world's check says so)
+    base, base_lam, done = _velocities(contacts, bodies, settings, rows, u0, plastic, mu,
+                                       batches, with_friction, kernel, None, None)
+    s = _largest_step(bodies, which, u0, base, e0)
+    base, base_lam = u0 + s * (base - u0), s * base_lam
+    s = _largest_step(bodies, which, base, u, e0)
+    return base + s * (u - base), base_lam + s * (lam - base_lam), done
+
+
+def _largest_step(bodies, which, start, end, limit) -> float:
+    """The largest s in [0, 1] with kinetic energy at start + s (end - start) <= ``limit``,
+    given that of ``start`` is (0 if it is not)."""
+    e_start = kinetic_energy(bodies, start, which)
+    e_end = kinetic_energy(bodies, end, which)
+    if e_end <= limit:
+        return 1.0
+    if not e_start <= limit:
+        return 0.0
+    # E(s) = e_start + b s + a s^2; the root of E(s) = limit in [0, 1).
+    a = kinetic_energy(bodies, end - start, which)
+    b = e_end - e_start - a
+    if not a > 0.0:
+        return 0.0
+    s = (-b + math.sqrt(max(b * b + 4.0 * a * (limit - e_start), 0.0))) / (2.0 * a)
+    return min(max(s, 0.0), 1.0) * (1.0 - 1e-12)
+
+
+def _velocities(contacts, bodies, settings, rows, u0, target, mu, batches, with_friction,
+                kernel, warm_normal, warm_tangent):
+    """The velocity pass (warm start, Gauss-Seidel, rolling and torsional couples) towards
+    ``target``: (u, lam, iterations)."""
+    count = len(contacts)
+    lam = np.zeros((count, 3))
+    u = u0.copy()
+    if warm_normal is not None:
+        lam[:, 0] = np.maximum(warm_normal, 0.0)
+        if warm_tangent is not None and with_friction:
+            l1 = np.einsum('mi,mi->m', warm_tangent, rows.t1)
+            l2 = np.einsum('mi,mi->m', warm_tangent, rows.t2)
+            limit = mu * lam[:, 0]
+            norm = np.sqrt(l1 * l1 + l2 * l2)
+            scale = np.where(norm > limit, limit / np.where(norm > 0.0, norm, 1.0), 1.0)
+            lam[:, 1], lam[:, 2] = l1 * scale, l2 * scale
+        impulse = (lam[:, 0:1] * rows.w[0] + lam[:, 1:2] * rows.w[1]) + lam[:, 2:3] * rows.w[2]
+        np.add.at(u, rows.a, impulse[:, :6])
+        np.add.at(u, rows.b, impulse[:, 6:])
+    u, lam, done = kernel(rows, u, lam, target, mu, batches, settings.velocity_iterations,
+                          with_friction, settings.tolerance)
+    if settings.rolling_resistance > 0.0 or settings.torsional_friction > 0.0:
+        u = _resist_rolling(contacts, bodies, rows, u, lam[:, 0], settings.rolling_resistance,
+                            settings.torsional_friction, batches, kernel is _batched)
+    return u, lam, done
 
 
 def _scalar(rows: _Rows, u: np.ndarray, lam: np.ndarray, target: np.ndarray, mu: np.ndarray,
