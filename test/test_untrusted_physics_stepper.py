@@ -181,3 +181,29 @@ def test_free_rotation_never_gains_energy_unnoticed(moments, axis, turn):
     if turn <= 0.5:  # well inside the limit: no error and no gain at all
         assert s.step_count == 2000
         assert s.state.kinetic_energy(body) <= e0 * (1.0 + 1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(bodies(), turns), min_size=1, max_size=3),
+       st.lists(st.tuples(st.integers(0, 2), wrenches, st.tuples(vectors, turns)),
+                min_size=1, max_size=6))
+def test_a_simulation_never_reads_a_non_finite_number(specs, events):
+    # What the node publishes after each period: Simulation.pose_twist of every body, after
+    # any mix of huge wrenches, twists and IntegrationErrors; a twist then always applies.
+    dt = 1e-3
+    config = Config(dt=dt, bodies=tuple(
+        BodySpec(f'b{i}', mass=body.mass, inertia=tuple(body.inertia.reshape(9).tolist()),
+                 initial_angular_velocity=tuple(c / dt for c in turn))
+        for i, (body, turn) in enumerate(specs)))
+    sim = Simulation(config)
+    for index, wrench, (linear, turn) in events:
+        name = f'b{index % len(specs)}'
+        sim.apply(SetWrench(wrench, name))
+        try:
+            sim.run(7)
+        except IntegrationError:
+            pass
+        for i in range(len(specs)):
+            assert _finite(sim.pose_twist(f'b{i}'))
+        sim.apply(SetTwist(linear, tuple(c / dt for c in turn), name))
+        assert _finite(sim.pose_twist(name))
