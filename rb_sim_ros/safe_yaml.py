@@ -15,7 +15,7 @@ refuses, as it meets them:
 * explicit or implicit types other than null, bool, int, float and str (timestamps,
   ``!!binary``, ``!!set``, ``!!python/...``), and merge keys (``<<``);
 * more than ``max_depth`` nested collections, more than ``max_nodes`` values in all, a scalar
-  longer than ``max_scalar`` characters (a long digit string costs quadratic time as an int)
+  longer than ``MAX_SCALAR`` characters (a long digit string costs quadratic time as an int)
   and more than one document.
 
 Plain scalars resolve as in YAML 1.1 (``yes`` is true), except that a float's exponent needs no
@@ -140,8 +140,9 @@ def load(text: str, max_depth: int = MAX_DEPTH, max_nodes: int = MAX_NODES) -> A
     root: Any = None
     nodes = documents = 0
     seen: dict = {}
-    parser = _PARSER(text)
+    parser = None
     try:
+        parser = _PARSER(text)  # PyYAML's own reader checks the characters here
         while parser.check_event():
             event = parser.get_event()
             kind = type(event)
@@ -205,5 +206,6 @@ def load(text: str, max_depth: int = MAX_DEPTH, max_nodes: int = MAX_NODES) -> A
         raise YamlError(f'not valid YAML: {problem}', _path(stack),
                         mark.line + 1 if mark is not None else 0) from None
     finally:
-        parser.dispose()
+        if parser is not None:
+            parser.dispose()
     return root
