@@ -12,6 +12,7 @@ events at the same steps reproduce a run bit for bit, whatever the scheduling wa
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+import re
 from typing import Any, Union
 
 import numpy as np
@@ -21,6 +22,10 @@ from rb_sim_ros.collision_shapes import is_shape, Plane, shape_from_dict, shape_
 from rb_sim_ros.rigid_body import (finite_floats, non_negative, rate, RigidBody, State, Wrench,
                                    ZERO_WRENCH)
 from rb_sim_ros.stepper import step_all, Stepper
+
+
+# What a body's name may be: it becomes a topic namespace and a frame id (scene.NAME too).
+_NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]{0,63}\Z')
 
 
 @dataclass(frozen=True)
@@ -47,8 +52,9 @@ class BodySpec:
     colliders: tuple = ()
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name.isidentifier():
-            raise ValueError(f'name must be a ROS-safe identifier (letters, digits, _), '
+        if not isinstance(self.name, str) or not _NAME.match(self.name):
+            raise ValueError(f'name must be an ASCII letter, then ASCII letters, digits and '
+                             f'underscores, at most 64 in all (it names topics and a frame), '
                              f'got {self.name!r}')
         inertia = finite_floats('inertia', self.inertia, len(tuple(self.inertia)))
         if len(inertia) not in (3, 9):

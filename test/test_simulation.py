@@ -104,3 +104,13 @@ def test_bodies_are_independent_and_static_ones_never_move():
         sim.apply(SetWrench(w, 'wall'))
     with pytest.raises(ValueError, match="no body named 'd'"):
         sim.apply(SetWrench(w, 'd'))
+
+
+def test_a_body_name_must_be_a_ros_name_token():
+    """A name becomes '<name>/pose' and a frame id: non-ASCII or odd names are refused even
+    when a configuration does not come through the scene loader (a recording, code)."""
+    for good in ('b', 'ball_2', 'B' * 64):
+        assert BodySpec(name=good).name == good
+    for bad in ('ä', 'bäll', '2ball', '_ball', 'a/b', 'a b', 'B' * 65, '', 5):
+        with pytest.raises(ValueError, match='ASCII letter'):
+            BodySpec(name=bad)
