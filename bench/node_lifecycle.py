@@ -26,8 +26,8 @@ import tempfile
 import time
 
 from geometry_msgs.msg import PoseArray, PoseStamped
-import rclpy
-from rclpy.executors import SingleThreadedExecutor
+
+from node_timing import Probe
 
 
 def _env(domain: int) -> dict:
@@ -35,28 +35,6 @@ def _env(domain: int) -> dict:
                PYTHONUNBUFFERED='1')
     env.setdefault('AMENT_PREFIX_PATH', sys.prefix)
     return env
-
-
-class _Probe:
-    def __init__(self, domain: int) -> None:
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context, domain_id=domain)
-        self.node = rclpy.create_node('lifecycle_probe', context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-
-    def wait(self, predicate, timeout: float) -> bool:
-        end = time.monotonic() + timeout
-        while not predicate():
-            if time.monotonic() > end:
-                return False
-            self.executor.spin_once(timeout_sec=0.01)
-        return True
-
-    def close(self) -> None:
-        self.executor.shutdown()
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
 
 
 def _vm_hwm_mb(pid: int) -> float:
@@ -73,7 +51,7 @@ def startup(n: int, tmp: Path) -> tuple[float, float]:
         f'  - {{name: b{i}, mass: 1.0, inertia: [0.1, 0.1, 0.1], position: [{i}, 0, 0], '
         f'linear_velocity: [0, 0, 1]}}\n' for i in range(n)))
     domain = random.randint(1, 100)
-    probe = _Probe(domain)
+    probe = Probe(domain)
     got: list = []
     probe.node.create_subscription(PoseArray, 'poses', got.append, 10)
     t0 = time.monotonic()
@@ -81,7 +59,7 @@ def startup(n: int, tmp: Path) -> tuple[float, float]:
                              '-p', f'scene_file:={scene}'], env=_env(domain),
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
-        if not probe.wait(lambda: got or proc.poll() is not None, 600.0) or not got:
+        if not probe.spin_until(lambda: got or proc.poll() is not None, 600.0) or not got:
             raise RuntimeError(f'{n} bodies: no poses ({proc.poll()})')
         seconds = time.monotonic() - t0
         memory = _vm_hwm_mb(proc.pid)
@@ -99,14 +77,14 @@ def stop_loop(runs: int, tmp: Path) -> list[str]:
     for k in range(runs):
         domain = random.randint(1, 100)
         out = tmp / f'run{k}.mcap'
-        probe = _Probe(domain)
+        probe = Probe(domain)
         poses: list = []
         probe.node.create_subscription(PoseStamped, 'pose', poses.append, 10)
         proc = subprocess.Popen([sys.executable, '-m', 'rb_sim_ros.simulator_node',
                                  '--ros-args', '-p', 'real_time_factor:=0.0',
                                  '-p', f'record:={out}'], env=_env(domain),
                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        probe.wait(lambda: len(poses) > 20, 120.0)
+        probe.spin_until(lambda: len(poses) > 20, 120.0)
         subprocess.run([sys.executable, '-m', 'rb_sim_ros.send_wrench', '--force', '1', '0',
                         '0', '--torque', '0', '0', '0.1', '--duration', '0.3'],
                        env=_env(domain), capture_output=True, timeout=120)

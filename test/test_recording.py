@@ -308,7 +308,7 @@ def test_finish_is_idempotent_and_writing_after_it_is_refused(tmp_path):
     assert RecordingReader(tmp_path / 'run.mcap').message_count == 1
 
 
-def _disk_full_after(w, budget):
+def disk_full_after(w, budget):
     """Make writer ``w``'s file take ``budget`` more bytes, the last write only in part, then
     fail with ENOSPC, as a full disk does."""
     left = [budget]
@@ -340,7 +340,7 @@ def test_a_full_disk_stops_the_recording_quietly_and_leaves_a_recoverable_file(t
         w.register_topic(topic, cls)
     w.write_metadata('rb_sim_ros', META)
     w.flush(wait=True)
-    _disk_full_after(w, 3000)
+    disk_full_after(w, 3000)
     sent = []
     for i in range(2000):  # never raises on this thread
         topic, msg = _message(i)

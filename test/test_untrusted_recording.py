@@ -8,11 +8,9 @@ OutputMessages and NodeRecorder, period by period). rosbags is the independent r
 """
 
 import contextlib
-import errno
 import io
 import json
 import math
-import os
 from pathlib import Path
 from unittest import mock
 
@@ -28,6 +26,7 @@ from rb_sim_ros.rigid_body import Wrench
 from rb_sim_ros.ros_messages import OutputMessages
 from rb_sim_ros.simulation import BodySpec, Config, SetWrench, Simulation
 from rb_sim_ros.stepper import IntegrationError
+from test_recording import disk_full_after
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
 OUTPUT_KINDS = ('pose', 'twist', 'odom')
@@ -413,18 +412,7 @@ def test_a_full_disk_stops_the_node_recorder_quietly_and_recover_repairs_the_fil
     rec = NodeRecorder(str(f), config, params, {'body': {k: f'/{k}' for k in OUTPUT_KINDS}})
     writer = rec._writer
     writer.flush(wait=True)
-    left = [20_000]  # bytes the disk still takes; the write that needs more gets part of it
-
-    def disk_full(data):
-        n = min(len(data), left[0])
-        os.write(writer._sink.fd, bytes(data[:n]))
-        left[0] -= n
-        if n < len(data):
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-        writer._sink.position += n
-        return n
-
-    writer._sink.write = disk_full
+    disk_full_after(writer, 20_000)
     sim = Simulation(config)
     out = OutputMessages()
     period = 0
