@@ -10,9 +10,11 @@ it also checks every recorded ``type_description_hash`` against its own RIHS01 c
 import errno
 import os
 from pathlib import Path
+import selectors
 import signal
 import subprocess
 import sys
+import time
 
 from geometry_msgs.msg import PoseStamped, Twist, WrenchStamped
 from mcap.exceptions import EndOfFile
@@ -534,6 +536,24 @@ while True:
 """
 
 
+def _read_line(stream, timeout: float) -> str:
+    """One line from a child's pipe, or what came before EOF; fails after ``timeout`` s of
+    waiting, where a bare readline() would hang the suite on a child that never writes."""
+    data = b''
+    end = time.monotonic() + timeout
+    with selectors.DefaultSelector() as sel:
+        sel.register(stream, selectors.EVENT_READ)
+        while not data.endswith(b'\n'):
+            left = end - time.monotonic()
+            if left <= 0 or not sel.select(left):
+                pytest.fail(f'no line from the child after {timeout} s (got {data!r})')
+            chunk = os.read(stream.fileno(), 1)  # byte by byte: nothing read past the line
+            if not chunk:
+                break
+            data += chunk
+    return data.decode()
+
+
 def test_sigkill_leaves_every_finished_chunk_and_recover_finalises_it(tmp_path):
     f = tmp_path / 'killed.mcap'
     env = {**os.environ, 'PYTHONPATH': os.pathsep.join(
@@ -541,7 +561,7 @@ def test_sigkill_leaves_every_finished_chunk_and_recover_finalises_it(tmp_path):
     proc = subprocess.Popen([sys.executable, '-c', KILLED_WRITER, str(f)], cwd=ROOT, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        line = proc.stdout.readline()
+        line = _read_line(proc.stdout, timeout=300.0)
     finally:
         proc.send_signal(signal.SIGKILL)
         _, err = proc.communicate()
