@@ -1,8 +1,21 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
+import os
+
+from hypothesis import settings
 import pytest
 
 import ros_harness
+
+# Property tests: no deadline anywhere (a loaded machine is slow, not wrong). In CI (CI set, as
+# CI services do) the examples are derandomized, so a run is repeatable, and a failure prints the
+# blob that reproduces it; HYPOTHESIS_PROFILE chooses one explicitly.
+settings.register_profile('ci', derandomize=True, deadline=None, print_blob=True,
+                          database=None)
+settings.register_profile('dev', deadline=None)
+settings.load_profile(os.environ.get(
+    'HYPOTHESIS_PROFILE',
+    'ci' if os.environ.get('CI', '').lower() not in ('', '0', 'false') else 'dev'))
 
 
 @pytest.fixture(scope='session')

@@ -3,11 +3,15 @@
 """Real processes over DDS for the node tests: an installed simulator and a probe node.
 
 Every test run gets its own ROS_DOMAIN_ID and LOCALHOST discovery, so parallel runs never hear
-each other. Waiting is on conditions (spin until a message arrives), never on sleeps.
+each other: the id is reserved by an exclusive lock on a file in the temporary directory, held
+until the process ends (the kernel releases it even after SIGKILL), so two concurrent runs on one
+machine never share one. Waiting is on conditions (spin until a message arrives), never on
+sleeps.
 """
 
 from __future__ import annotations
 
+import fcntl
 import os
 from pathlib import Path
 import random
@@ -15,6 +19,7 @@ import signal
 import subprocess
 import sys
 import sysconfig
+import tempfile
 import time
 
 import rclpy
@@ -40,9 +45,42 @@ def site_packages(prefix: Path) -> Path:
     return prefix / rel
 
 
+# Fast DDS's default ports stay below the ephemeral range for ids 0..101; 0 is everyone's
+# default, so the tests never take it.
+DOMAIN_IDS = range(1, 102)
+_reserved: tuple[int, object] | None = None
+
+
+def domain_lock_path(domain_id: int) -> Path:
+    return Path(tempfile.gettempdir()) / f'rb_sim_ros_test_domain_{domain_id}.lock'
+
+
+def reserve_domain_id() -> int:
+    """A ROS domain id that no other process using this harness holds, for this process's
+    lifetime: the first id, from a random start, whose lock file this process locks."""
+    global _reserved
+    if _reserved is not None:
+        return _reserved[0]
+    ids = list(DOMAIN_IDS)
+    start = random.Random().randrange(len(ids))
+    for domain_id in ids[start:] + ids[:start]:
+        try:
+            f = open(domain_lock_path(domain_id), 'a')
+        except OSError:  # e.g. another user's file in a sticky /tmp: theirs, then
+            continue
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            f.close()
+            continue
+        _reserved = (domain_id, f)  # the open file holds the lock
+        return domain_id
+    raise RuntimeError(f'every ROS domain id in {DOMAIN_IDS} is held by another test run')
+
+
 def ros_env(prefix: Path) -> dict:
     env = dict(os.environ)
-    env['ROS_DOMAIN_ID'] = str(random.Random().randint(1, 100))
+    env['ROS_DOMAIN_ID'] = str(reserve_domain_id())
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     env['AMENT_PREFIX_PATH'] = os.pathsep.join([str(prefix), sys.prefix])
     env['PYTHONPATH'] = os.pathsep.join(filter(None, [str(site_packages(prefix)),

@@ -3,6 +3,8 @@
 """The installed simulator over DDS against the core's own prediction, and its interface."""
 
 import math
+import os
+from pathlib import Path
 import subprocess
 import sys
 
@@ -17,6 +19,7 @@ from std_srvs.srv import Empty, SetBool, Trigger
 from rb_sim_ros import Wrench as CoreWrench
 from rb_sim_ros.simulation import BodySpec, Config, SetWrench, Simulation
 from rb_sim_ros.simulator_node import APPLIED_QOS
+import ros_harness
 from ros_harness import stamp_ns
 
 DT_NS = 1_000_000
@@ -44,6 +47,37 @@ def test_installed_layout(installed, ros_env):
          'print(get_package_prefix("rb_sim_ros"))'],
         env=ros_env, capture_output=True, text=True, check=True).stdout.strip()
     assert out == str(installed)
+
+
+CLAIM_DOMAIN = """
+import sys
+import ros_harness
+if len(sys.argv) > 1:
+    ros_harness.DOMAIN_IDS = [int(a) for a in sys.argv[1:]]
+try:
+    print(ros_harness.reserve_domain_id())
+except RuntimeError as e:
+    print(e)
+"""
+
+
+def test_concurrent_runs_never_share_a_domain_id(ros_env):
+    """The domain id of this run is held: another process never gets it, even when it is the
+    only id it may take, and the user's own ROS_DOMAIN_ID does not leak into the tests."""
+    mine = int(ros_env['ROS_DOMAIN_ID'])
+    assert mine in ros_harness.DOMAIN_IDS and mine != 0
+    here = str(Path(__file__).parent)
+
+    def other(*ids):
+        env = dict(os.environ, ROS_DOMAIN_ID=str(mine))
+        return subprocess.run([sys.executable, '-c', CLAIM_DOMAIN, *map(str, ids)], cwd=here,
+                              env=env, capture_output=True, text=True, timeout=120,
+                              check=True).stdout.strip()
+
+    assert other(mine) == f'every ROS domain id in {[mine]} is held by another test run'
+    theirs = int(other())
+    assert theirs != mine and theirs in ros_harness.DOMAIN_IDS
+    assert int(other(mine, theirs)) == theirs  # free again once that process ended
 
 
 def test_help_lists_parameters(installed, ros_env):
