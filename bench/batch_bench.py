@@ -26,12 +26,16 @@ of N bodies would. The full run also times one 10,000-body model against its til
 
 Last, memory per body: the batch's arrays (``BatchStepper.nbytes``, allocated once) and the
 peak traced while stepping; MuJoCo's model and data buffers (its arena sized for RK4).
+
+Writes docs/bench/batch_bench.json (or ``--json``; ``--quick`` writes none unless asked).
+Sanity, after the timings (exit 1 if it fails; plausibility, not budgets): every figure finite
+and positive, ns per body-step between 1 and 1e6, the ratios MuJoCo / batch within 0.01-1000,
+bytes per body between 100 B and 100 kB.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
 import platform
@@ -39,6 +43,7 @@ import sys
 import time
 import tracemalloc
 
+import figures  # a bench module
 import mujoco
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -279,7 +284,8 @@ def main() -> int:
     parser.add_argument('--tile', type=int, default=1000, help='bodies per MuJoCo copy')
     parser.add_argument('--single-model-max', type=int,
                         help='largest N given to MuJoCo as one model (default 10,000)')
-    parser.add_argument('--json', type=Path, help='write the figures here too')
+    parser.add_argument('--json', type=Path, help='write the figures here (default: '
+                        'docs/bench/batch_bench.json; --quick: none)')
     opts = parser.parse_args()
     sizes = opts.sizes or ([1, 100, 10_000] if opts.quick else [1, 100, 10_000, 100_000])
     seconds = opts.seconds or (0.1 if opts.quick else 0.3)
@@ -350,9 +356,27 @@ def main() -> int:
         m = row['memory_per_body']
         print(f'{row["n"]:>8} {m["batch_arrays_B"]:10.0f} {m["batch_step_peak_B"]:10.1f} '
               f'{m["mujoco_model_plus_data_B"]:10.0f}')
-    if opts.json:
-        opts.json.write_text(json.dumps(out, indent=1))
-    return 0
+    sane = sanity(rows)
+    path = opts.json or (None if opts.quick else figures.DOCS_BENCH / 'batch_bench.json')
+    if path:
+        figures.write(path, {'quick': opts.quick, **out})
+    return sane.report()
+
+
+def sanity(rows: list[dict]) -> figures.Sanity:
+    s = figures.Sanity()
+    for row in rows:
+        n = row['n']
+        for key in ('batch_free_ns', 'batch_free_one_step_per_call_ns', 'batch_world_wrench_ns',
+                    'mujoco_euler_ns', 'mujoco_rk4_ns'):
+            s.within(f'N = {n}: {key}', row[key], 1.0, 1e6)
+        for key in ('mujoco_euler_ns', 'mujoco_rk4_ns'):
+            s.within(f'N = {n}: {key} / batch_free_ns', row[key] / row['batch_free_ns'],
+                     0.01, 1000.0)
+        for key, value in row['memory_per_body'].items():
+            if key != 'batch_step_peak_B':
+                s.within(f'N = {n}: {key}', value, 100.0, 1e5)
+    return s
 
 
 if __name__ == '__main__':

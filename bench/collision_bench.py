@@ -1,38 +1,46 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""Spheres settling in a box: rb_sim_ros's CollisionWorld next to MuJoCo, same scene, one run.
+"""Spheres settled in a box: rb_sim_ros's CollisionWorld next to MuJoCo, same scene, one run.
 
     python bench/collision_bench.py [--quick] [--spheres 1000] [--json out.json]
 
 The scene: N spheres (radius 5 cm, 0.5 kg) on a cubic lattice with 1 cm gaps, the lowest
 layer 5 mm above the floor, small random velocities (seeded), inside a box of five planes
 (floor and four walls) a little wider than the lattice; gravity 9.81 m/s^2, dt = 1 ms,
-friction 0.5. They fall onto each other and the lattice collapses into a heap. Both engines
-take the same ``--settle`` steps, then the same ``--steps`` are timed one by one.
-MuJoCo gets spheres with free joints and plane geoms (its defaults otherwise: soft contacts,
-pyramidal friction cones; it has no restitution coefficient, ours is 0.2). Its default Newton
-solver takes about a second a step on the 1000-sphere heap here, so MuJoCo settles with its CG
-solver and both solvers are timed from that settled state (Newton on fewer steps).
+friction 0.5. They fall onto each other and the lattice collapses into a heap. Each engine
+steps until its heap is settled (the RMS speed of the spheres below 1 cm/s, checked every 100
+steps; at most ``--max-settle`` steps), and the ``--steps`` after that are timed one by one
+(median); the RMS speed is reported again after them.
 
-First the checks, which stop the run (exit 1) if they fail: after the run both engines keep
-every sphere inside the box and above the floor, and the heaps agree (mean height of the
-centres within a radius of each other). Then the table: cost of a step, contacts per step and
-contacts per second (contacts found per wall second of stepping), pairs tested by the narrow
-phase, and where rb_sim_ros spends a step (integrate: the Steppers; broad: read the poses,
-AABBs, sweep and prune; narrow; solve: impulses and position correction; write: apply_contact of
-every touched body). Last, the same N spheres without colliders: what a world that skips the
-collision pass costs next to the bare Steppers.
+Like for like: rb_sim_ros runs projected Gauss-Seidel, 10 velocity iterations at most (and 4
+position iterations); MuJoCo settles, and is timed, with its PGS solver at the same budget of
+10 iterations. From copies of MuJoCo's settled state its other solvers are timed too: CG at 10
+iterations, and its defaults (Newton, at most 100 iterations, tolerance 1e-8; it takes about a
+second a step on the 1000-sphere heap, so fewer steps) and CG at its default 100. MuJoCo has
+soft contacts, pyramidal friction cones and no restitution coefficient (ours is 0.2).
+Contacts are counted the same way on both sides: those that carried a force in the step
+(rb_sim_ros: normal impulse > 0; MuJoCo: efc_force > 0 on one of the contact's rows);
+rb_sim_ros's count of all its contacts, speculative ones included, is given beside it.
+
+First the checks, which stop the run (exit 1) if they fail: both engines keep every sphere
+inside the box and above the floor, the heaps agree (mean height of the centres within a
+radius of each other), and (but with --quick) both heaps settled. Then the table and the
+sanity checks of its figures (finite, positive, within orders of magnitude; contact counts
+within 5x of each other). Also where rb_sim_ros spends a step (integrate: the Steppers;
+broad: read the poses, AABBs, sweep and prune; narrow; solve: impulses and position
+correction; write: apply_contact of every touched body), and the same N spheres without
+colliders: what a world that skips the collision pass costs next to the bare Steppers.
+Writes docs/bench/collision_bench.json (or ``--json``; --quick: none unless asked).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
-import platform
 import sys
 import time
 
+import figures  # a bench module
 import mujoco
 import numpy as np
 
@@ -48,6 +56,8 @@ GAP = 0.01
 FRICTION = 0.5
 RESTITUTION = 0.2
 GRAVITY = (0.0, 0.0, -9.81)
+SETTLED_RMS = 0.01      # m/s: a heap is settled when the RMS speed of its spheres is below
+ITERATIONS = 10         # velocity iterations (ours: the default) and MuJoCo PGS's budget
 
 
 def scene(count: int, seed: int = 0) -> dict:
@@ -80,11 +90,26 @@ def bodies(s: dict, colliders: bool = True) -> list[BodySpec]:
             for i, (p, v) in enumerate(zip(s['positions'], s['velocities']))]
 
 
+def _rms(v: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.sum(v * v, axis=1))))
+
+
 # -- rb_sim_ros --------------------------------------------------------------------------------
-def run_ours(s: dict, settle: int, steps: int) -> dict:
+def run_ours(s: dict, max_settle: int, steps: int) -> dict:
     world = CollisionWorld(bodies(s), DT, GRAVITY, restitution=RESTITUTION, friction=FRICTION,
                            planes=walls(s['half']))
-    world.step(settle)
+    assert world.settings.velocity_iterations == ITERATIONS
+
+    def rms():
+        return _rms(np.array([world.state(b.name).linear_velocity for b in world.bodies]))
+
+    settle = 0
+    while settle < max_settle:
+        world.step(100)
+        settle += 100
+        if rms() < SETTLED_RMS:
+            break
+    rms_before = rms()
     world.totals.seconds.clear()
     totals = world.totals
     names = ('contacts', 'active', 'candidate_pairs', 'plane_pairs', 'velocity_iterations',
@@ -98,11 +123,12 @@ def run_ours(s: dict, settle: int, steps: int) -> dict:
         colours.append(world.last_stats.colours)
     per = {k: (getattr(totals, k) - v) / steps for k, v in base.items()}
     positions = np.array([world.state(b.name).position for b in world.bodies])
-    return {'seconds_per_step': float(np.median(times)), 'contacts': per['contacts'],
-            'active_contacts': per['active'],
+    return {'seconds_per_step': float(np.median(times)), 'settle_steps': settle,
+            'rms_speed_before': rms_before, 'rms_speed_after': rms(),
+            'contacts': per['contacts'], 'forced_contacts': per['active'],
             'pairs_tested': per['candidate_pairs'] + per['plane_pairs'],
             'touched': per['touched'], 'colours': float(np.mean(colours)),
-            'velocity_iterations': per['velocity_iterations'],
+            'iterations': per['velocity_iterations'],
             'position_iterations': per['position_iterations'],
             'phases': {k: v / steps for k, v in totals.seconds.items()},
             'positions': positions}
@@ -126,33 +152,70 @@ def mujoco_model(s: dict) -> mujoco.MjModel:
     return mujoco.MjModel.from_xml_string(xml)
 
 
-def run_mujoco(s: dict, settle: int, steps: int, newton_steps: int) -> dict:
-    """Settle with the CG solver (the fastest here), then time CG and, from a copy of the same
-    settled state, MuJoCo's default Newton solver (much slower on a heap: fewer steps)."""
+def _forced(model, data) -> int:
+    """Contacts with a force on one of their rows (pyramidal cones: 2 (dim - 1) rows)."""
+    n = 0
+    for c in data.contact[:data.ncon]:
+        if c.efc_address < 0:
+            continue
+        rows = 1 if c.dim == 1 else 2 * (c.dim - 1)
+        if np.any(data.efc_force[c.efc_address:c.efc_address + rows] > 0.0):
+            n += 1
+    return n
+
+
+# (label, solver, iterations or None for MuJoCo's default, steps timed: None = --steps)
+SOLVERS = (('PGS, 10 iterations', mujoco.mjtSolver.mjSOL_PGS, ITERATIONS, None),
+           ('CG, 10 iterations', mujoco.mjtSolver.mjSOL_CG, ITERATIONS, None),
+           ('CG, 100 iterations (default cap)', mujoco.mjtSolver.mjSOL_CG, None, None),
+           ('Newton (default)', mujoco.mjtSolver.mjSOL_NEWTON, None, 'newton'))
+
+
+def run_mujoco(s: dict, max_settle: int, steps: int, newton_steps: int) -> dict:
+    """Settle with PGS at 10 iterations (our budget), then time each of SOLVERS from a copy
+    of that settled state."""
     model = mujoco_model(s)
-    model.opt.solver = mujoco.mjtSolver.mjSOL_CG
+    default_iterations = model.opt.iterations
+    model.opt.solver, model.opt.iterations = mujoco.mjtSolver.mjSOL_PGS, ITERATIONS
     data = mujoco.MjData(model)
     count = len(s['positions'])
     data.qvel.reshape(count, 6)[:, :3] = s['velocities']
     mujoco.mj_forward(model, data)
-    mujoco.mj_step(model, data, nstep=settle)
-    newton = mujoco.MjData(model)
-    mujoco.mj_copyData(newton, model, data)
+
+    def rms(d):
+        return _rms(d.qvel.reshape(count, 6)[:, :3])
+
+    settle = 0
+    while settle < max_settle:
+        mujoco.mj_step(model, data, nstep=100)
+        settle += 100
+        if rms(data) < SETTLED_RMS:
+            break
     out = {}
-    for name, solver, d, n in (('CG', mujoco.mjtSolver.mjSOL_CG, data, steps),
-                               ('Newton', mujoco.mjtSolver.mjSOL_NEWTON, newton, newton_steps)):
+    for name, solver, iterations, n in SOLVERS:
+        d = mujoco.MjData(model)
+        mujoco.mj_copyData(d, model, data)
         model.opt.solver = solver
-        times, contacts, iterations = [], [], []
+        model.opt.iterations = iterations or default_iterations
+        n = newton_steps if n == 'newton' else steps
+        times, contacts, forced, iters = [], [], [], []
+        rms_before = rms(d)
         for _ in range(n):
             t = time.perf_counter()
             mujoco.mj_step(model, d)
             times.append(time.perf_counter() - t)
             contacts.append(d.ncon)
-            iterations.append(int(d.solver_niter[0]))
-        out[name] = {'seconds_per_step': float(np.median(times)),
-                     'contacts': float(np.mean(contacts)), 'steps': n,
-                     'iterations': float(np.mean(iterations))}
-    out['positions'] = data.qpos.reshape(count, 7)[:, :3].copy()
+            forced.append(_forced(model, d))
+            iters.append(int(d.solver_niter[0]))
+        out[name] = {'seconds_per_step': float(np.median(times)), 'steps': n,
+                     'max_iterations': model.opt.iterations,
+                     'contacts': float(np.mean(contacts)),
+                     'forced_contacts': float(np.mean(forced)),
+                     'iterations': float(np.mean(iters)), 'rms_speed_before': rms_before,
+                     'rms_speed_after': rms(d)}
+        if name.startswith('PGS'):
+            out['positions'] = d.qpos.reshape(count, 7)[:, :3].copy()
+    out['settle_steps'] = settle
     return out
 
 
@@ -183,59 +246,89 @@ def check(s: dict, name: str, positions: np.ndarray) -> list[str]:
     return problems
 
 
+def sanity(ours: dict, theirs: dict) -> figures.Sanity:
+    s = figures.Sanity()
+    s.within('rb_sim_ros s per step', ours['seconds_per_step'], 1e-6, 10.0)
+    s.within('rb_sim_ros contacts with a force per step', ours['forced_contacts'], 1.0, 1e5)
+    for name, r in theirs.items():
+        s.within(f'MuJoCo {name}: s per step', r['seconds_per_step'], 1e-6, 10.0)
+        s.within(f'rb_sim_ros / MuJoCo {name}',
+                 ours['seconds_per_step'] / r['seconds_per_step'], 0.01, 1000.0)
+        s.within(f'contacts with a force, rb_sim_ros / MuJoCo {name}',
+                 ours['forced_contacts'] / max(r['forced_contacts'], 1e-9), 0.2, 5.0)
+    s.true(f'rb_sim_ros ran at most {ITERATIONS} velocity iterations',
+           ours['iterations'] <= ITERATIONS)
+    s.true(f'MuJoCo PGS ran at most {ITERATIONS} iterations',
+           theirs['PGS, 10 iterations']['iterations'] <= ITERATIONS)
+    return s
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--quick', action='store_true',
-                        help='125 spheres, 100 settling steps, 30 timed (a few seconds)')
+                        help='125 spheres, at most 300 settling steps (not required to '
+                             'settle), 20 timed (a few seconds)')
     parser.add_argument('--spheres', type=int, help='number of spheres (default 1000)')
-    parser.add_argument('--settle', type=int, help='steps before timing (default 300)')
+    parser.add_argument('--max-settle', type=int,
+                        help='most steps to settle before timing (default 6000)')
     parser.add_argument('--steps', type=int, help='steps timed one by one (default 100)')
     parser.add_argument('--newton-steps', type=int,
-                        help="steps timed with MuJoCo's Newton solver (default 5, quick 10)")
-    parser.add_argument('--json', type=Path, help='write the figures here too')
+                        help="steps timed with MuJoCo's Newton solver (default 5, quick 3)")
+    parser.add_argument('--json', type=Path, help='write the figures here (default: '
+                        'docs/bench/collision_bench.json; --quick: none)')
     opts = parser.parse_args()
     count = opts.spheres or (125 if opts.quick else 1000)
-    settle = opts.settle if opts.settle is not None else (100 if opts.quick else 300)
-    steps = opts.steps or (30 if opts.quick else 100)
+    max_settle = opts.max_settle or (300 if opts.quick else 6000)
+    steps = opts.steps or (20 if opts.quick else 100)
     s = scene(count)
     print(f'{count} spheres r = {RADIUS} m in a box of half width {s["half"]:.3f} m, '
-          f'dt = {DT} s: {settle} steps to settle, then {steps} timed')
+          f'dt = {DT} s: up to {max_settle} steps to settle (RMS speed < {SETTLED_RMS} m/s), '
+          f'then {steps} timed', flush=True)
 
     t = time.perf_counter()
-    ours = run_ours(s, settle, steps)
+    ours = run_ours(s, max_settle, steps)
     ours_wall = time.perf_counter() - t
-    theirs = run_mujoco(s, settle, steps, opts.newton_steps or (10 if opts.quick else 5))
-    problems = (check(s, 'rb_sim_ros', ours['positions'])
-                + check(s, 'MuJoCo', theirs['positions']))
+    print(f'rb_sim_ros: {ours["settle_steps"]} steps to settle, {ours_wall:.0f} s', flush=True)
+    theirs = run_mujoco(s, max_settle, steps, opts.newton_steps or (3 if opts.quick else 5))
+    settle_theirs = theirs.pop('settle_steps')
+    positions = theirs.pop('positions')
+    problems = check(s, 'rb_sim_ros', ours['positions']) + check(s, 'MuJoCo', positions)
     mean_ours = float(ours['positions'][:, 2].mean())
-    mean_theirs = float(theirs['positions'][:, 2].mean())
+    mean_theirs = float(positions[:, 2].mean())
     print(f'mean height of the centres: rb_sim_ros {mean_ours:.4f} m, MuJoCo '
           f'{mean_theirs:.4f} m (must agree within a radius, {RADIUS} m)')
     if abs(mean_ours - mean_theirs) > RADIUS:
         problems.append('the heaps disagree')
+    like = theirs['PGS, 10 iterations']
+    for name, r in (('rb_sim_ros', ours), ('MuJoCo', like)):
+        print(f'{name}: RMS speed {r["rms_speed_before"]:.4f} m/s before timing, '
+              f'{r["rms_speed_after"]:.4f} m/s after')
+        if not opts.quick and max(r['rms_speed_before'], r['rms_speed_after']) >= SETTLED_RMS:
+            problems.append(f'{name} did not settle within {max_settle} steps')
     if problems:
         print('checks failed: ' + '; '.join(problems), file=sys.stderr)
         return 1
 
     free = no_collider_costs(s, 200 if opts.quick else 500)
-    print('\n| engine | ms per step | contacts per step | contacts per s | pairs tested '
-          'per step |\n| --- | ---: | ---: | ---: | ---: |')
-    rows = (('rb_sim_ros CollisionWorld', ours, f'{ours["pairs_tested"]:.0f}'),
-            (f'MuJoCo mj_step, CG ({theirs["CG"]["iterations"]:.0f} iterations)',
-             theirs['CG'], '-'),
-            (f'MuJoCo mj_step, Newton (default; {theirs["Newton"]["steps"]} steps timed)',
-             theirs['Newton'], '-'))
-    for name, r, pairs in rows:
+    print(f'\nsteps to settle: rb_sim_ros {ours["settle_steps"]}, MuJoCo (PGS) {settle_theirs}')
+    print('\n| engine | ms per step | contacts with a force per step | contacts with a force '
+          'per s | iterations per step (cap) |\n| --- | ---: | ---: | ---: | ---: |')
+    rows = [(f'rb_sim_ros CollisionWorld (PGS; {ours["contacts"]:.0f} contacts with the '
+             'speculative ones)', ours, ITERATIONS)]
+    rows += [(f'MuJoCo {name} ({r["steps"]} steps timed)', r, r['max_iterations'])
+             for name, r in theirs.items()]
+    for name, r, cap in rows:
         ms = r['seconds_per_step'] * 1e3
-        print(f'| {name} | {ms:.3f} | {r["contacts"]:.0f} | '
-              f'{r["contacts"] / r["seconds_per_step"]:,.0f} | {pairs} |')
-    ratio = ours['seconds_per_step'] / theirs['CG']['seconds_per_step']
-    print(f'\nrb_sim_ros / MuJoCo CG: {ratio:.1f}x the time per step. rb_sim_ros per step: '
-          f'{ours["active_contacts"]:.0f} contacts with an impulse, {ours["touched"]:.0f} '
+        print(f'| {name} | {ms:.3f} | {r["forced_contacts"]:.0f} | '
+              f'{r["forced_contacts"] / r["seconds_per_step"]:,.0f} | '
+              f'{r["iterations"]:.1f} ({cap}) |')
+    for name, r in theirs.items():
+        print(f'rb_sim_ros / MuJoCo {name}: '
+              f'{ours["seconds_per_step"] / r["seconds_per_step"]:.2f}x the time per step')
+    print(f'rb_sim_ros per step: {ours["pairs_tested"]:.0f} pairs tested, {ours["touched"]:.0f} '
           f'bodies touched (apply_contact), {ours["colours"]:.1f} colours, '
-          f'{ours["velocity_iterations"]:.1f} velocity and {ours["position_iterations"]:.1f} '
-          'position iterations.')
+          f'{ours["position_iterations"]:.1f} position iterations.')
     print('\n| rb_sim_ros phase | ms per step | share |\n| --- | ---: | ---: |')
     total = sum(ours['phases'].values())
     for phase, sec in ours['phases'].items():
@@ -243,18 +336,16 @@ def main() -> int:
     print(f'\n{count} bodies without colliders (collision pass skipped: '
           f'{not free["enabled"]}): CollisionWorld {free["world"] * 1e3:.3f} ms per step, '
           f'bare Steppers {free["steppers"] * 1e3:.3f} ms per step')
-    print(f'(rb_sim_ros run: {ours_wall:.1f} s wall)')
-    if opts.json:
-        out = {'machine': {'python': platform.python_version(), 'numpy': np.__version__,
-                           'mujoco': mujoco.__version__,
-                           'cpu': platform.processor() or platform.machine()},
-               'spheres': count, 'settle': settle, 'steps': steps,
-               'rb_sim_ros': {k: v for k, v in ours.items() if k != 'positions'},
-               'mujoco': {k: v for k, v in theirs.items() if k != 'positions'},
-               'mean_height': {'rb_sim_ros': mean_ours, 'mujoco': mean_theirs},
-               'no_colliders': free}
-        opts.json.write_text(json.dumps(out, indent=2) + '\n')
-    return 0
+    sane = sanity(ours, theirs)
+    path = opts.json or (None if opts.quick else figures.DOCS_BENCH / 'collision_bench.json')
+    if path:
+        figures.write(path, {'quick': opts.quick, 'spheres': count, 'steps': steps,
+                             'settled_rms_speed': SETTLED_RMS,
+                             'rb_sim_ros': {k: v for k, v in ours.items() if k != 'positions'},
+                             'mujoco': theirs, 'mujoco_settle_steps': settle_theirs,
+                             'mean_height': {'rb_sim_ros': mean_ours, 'mujoco': mean_theirs},
+                             'no_colliders': free})
+    return sane.report()
 
 
 if __name__ == '__main__':

@@ -6,32 +6,41 @@
 
 The scene: side x side stacks of two 0.2 m cubes (2 kg each) on the ground, 5 cm apart, at
 rest, gravity 9.81 m/s^2, dt = 1 ms, friction 0.5. Each engine settles it for ``--settle``
-steps, then ``--steps`` are timed one by one (median): rb_sim_ros with sleeping off (every
-contact solved every step, as an engine without sleeping must), rb_sim_ros with sleeping
-(default settings: everything asleep after 0.5 s), and MuJoCo (its default Newton solver, same
-boxes as free bodies on a plane). Then a ball is dropped onto one stack: the steps while it
-falls and lands wake that stack only, and their cost is timed too.
+steps, then ``--steps`` are timed one by one (median). Like for like, twice: solving against
+solving, rb_sim_ros with sleeping off (every contact solved every step) against MuJoCo with
+sleeping off (its default Newton solver, same boxes as free bodies on a plane); and sleeping
+against sleeping, rb_sim_ros with sleeping (default settings: everything asleep after 0.5 s)
+against MuJoCo with its sleeping enabled (``mjENBL_SLEEP``, default tolerance). Then a ball is
+dropped onto one stack in rb_sim_ros: the steps while it falls and lands wake that stack only,
+and their cost is timed too.
+
+Last, the collision demo (scenes/collisions.yaml through ``Simulation``, as the node steps
+it): ms per step over its first second, while things fall and bounce, and over the steps
+from 4 to 5 s, when it has gone to sleep.
 
 Checks, which stop the run (exit 1) if they fail: in every engine every box stays within
-1 mm of where it started (a resting floor must stay put), and the sleeping run is all asleep
-before timing.
+1 mm of where it started (a resting floor must stay put), the sleeping runs are all asleep
+before timing (rb_sim_ros; MuJoCo's awake-tree count is reported), and the figures are sane
+(finite, positive, within orders of magnitude; no timing budgets). Writes
+docs/bench/resting_bench.json (or ``--json``; ``--quick`` writes none unless asked).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 import sys
 import time
 
+import figures  # a bench module
 import mujoco
 import numpy as np
 
 from rb_sim_ros.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.collision_world import CollisionWorld
 from rb_sim_ros.rigid_body import State
-from rb_sim_ros.simulation import BodySpec
+from rb_sim_ros.scene import load_scene
+from rb_sim_ros.simulation import BodySpec, Config, Simulation
 
 DT = 1e-3
 SIZE = 0.2
@@ -87,7 +96,7 @@ def run_ours(side: int, sleep_time: float, settle: int, steps: int) -> dict:
                 w.sleeping), 'contacts': contacts}
 
 
-def run_mujoco(side: int, settle: int, steps: int) -> dict:
+def run_mujoco(side: int, settle: int, steps: int, sleep: bool) -> dict:
     boxes = ''.join(f'<body pos="{p[0]:.17g} {p[1]:.17g} {p[2]:.17g}"><freejoint/>'
                     f'<geom type="box" size="{SIZE / 2} {SIZE / 2} {SIZE / 2}" mass="{MASS}" '
                     f'friction="{FRICTION} 0 0"/></body>' for p in positions(side))
@@ -95,12 +104,54 @@ def run_mujoco(side: int, settle: int, steps: int) -> dict:
            f'{GRAVITY[2]}"/><worldbody><geom type="plane" size="50 50 0.1" '
            f'friction="{FRICTION} 0 0"/>{boxes}</worldbody></mujoco>')
     model = mujoco.MjModel.from_xml_string(xml)
+    if sleep:
+        model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
     data = mujoco.MjData(model)
     mujoco.mj_step(model, data, nstep=settle)
+    awake = int(data.ntree_awake)
     rest = timed(lambda: mujoco.mj_step(model, data), steps)
     start = positions(side)
     drift = float(np.abs(data.qpos.reshape(-1, 7)[:, :3] - start).max())
-    return {'seconds_per_step': rest, 'drift': drift, 'contacts': int(data.ncon)}
+    return {'seconds_per_step': rest, 'drift': drift, 'contacts': int(data.ncon),
+            'awake_trees': awake, 'solver': 'Newton'}
+
+
+def demo_scene(quick: bool) -> dict:
+    """ms per step of scenes/collisions.yaml, as the node steps it (a Simulation, 10 steps a
+    call): over the first second and, once asleep, over 4 to 5 s (quick: the first 0.2 s and
+    2.0-2.1 s, when it may not all sleep yet)."""
+    scene = load_scene(str(figures.ROOT / 'scenes' / 'collisions.yaml'))
+    sim = Simulation(Config(gravity=scene.gravity, bodies=scene.bodies, contact=scene.contact))
+    first, late, end = (200, 2000, 2100) if quick else (1000, 4000, 5000)
+
+    def run(steps):
+        for _ in range(steps // 10):
+            sim.run(10)
+
+    t = time.perf_counter()
+    run(first)
+    moving = (time.perf_counter() - t) / first
+    run(late - first)
+    asleep = len(sim.world.sleeping)
+    t = time.perf_counter()
+    run(end - late)
+    return {'moving_seconds_per_step': moving, 'moving_steps': first,
+            'asleep_seconds_per_step': (time.perf_counter() - t) / (end - late),
+            'asleep_steps': [late, end], 'bodies': len(sim.world.steppers),
+            'asleep_bodies': asleep}
+
+
+def sanity(rows: dict, demo: dict) -> figures.Sanity:
+    s = figures.Sanity()
+    for name, r in rows.items():
+        s.within(f'{name}: s per step at rest', r['seconds_per_step'], 1e-7, 10.0)
+    for a, b in (('awake', 'mujoco'), ('asleep', 'mujoco_sleeping'), ('awake', 'asleep')):
+        s.within(f'{a} / {b}', rows[a]['seconds_per_step'] / rows[b]['seconds_per_step'],
+                 0.01, 1e4)
+    s.within('demo scene, s per step moving', demo['moving_seconds_per_step'], 1e-6, 1.0)
+    s.within('demo scene, s per step asleep', demo['asleep_seconds_per_step'], 1e-7, 1.0)
+    s.true('the drop wakes something', rows['asleep']['awake_after_drop'] > 1)
+    return s
 
 
 def main() -> int:
@@ -108,7 +159,8 @@ def main() -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--quick', action='store_true', help='3 x 3 stacks, fewer steps')
     parser.add_argument('--side', type=int, help='stacks per side (default 10: 200 boxes)')
-    parser.add_argument('--json', type=Path, help='write the figures here too')
+    parser.add_argument('--json', type=Path, help='write the figures here (default: '
+                        'docs/bench/resting_bench.json; --quick: none)')
     opts = parser.parse_args()
     side = opts.side or (3 if opts.quick else 10)
     settle, steps = (700, 50) if opts.quick else (1000, 200)
@@ -116,9 +168,10 @@ def main() -> int:
           f'{settle} steps to settle, then {steps} timed')
     awake = run_ours(side, 0.0, settle, steps)
     asleep = run_ours(side, 0.5, settle, steps)
-    theirs = run_mujoco(side, settle, steps)
-    problems = [f'{name}: a box moved {r["drift"] * 1e3:.2f} mm' for name, r in
-                (('rb_sim_ros awake', awake), ('rb_sim_ros asleep', asleep), ('MuJoCo', theirs))
+    theirs = run_mujoco(side, settle, steps, sleep=False)
+    theirs_asleep = run_mujoco(side, settle, steps, sleep=True)
+    rows = {'awake': awake, 'asleep': asleep, 'mujoco': theirs, 'mujoco_sleeping': theirs_asleep}
+    problems = [f'{name}: a box moved {r["drift"] * 1e3:.2f} mm' for name, r in rows.items()
                 if r['drift'] > 1e-3]
     if asleep['asleep'] != 2 * side * side + 1:
         problems.append(f'only {asleep["asleep"]} bodies asleep before timing')
@@ -128,19 +181,29 @@ def main() -> int:
     print('\n| engine | ms per step at rest | contacts | largest drift (mm) | ms per step, '
           'a ball dropped on one stack |\n| --- | ---: | ---: | ---: | ---: |')
     for name, r in (('rb_sim_ros, sleeping off', awake), ('rb_sim_ros, sleeping', asleep),
-                    ('MuJoCo mj_step (Newton)', theirs)):
+                    ('MuJoCo mj_step (Newton, sleeping off)', theirs),
+                    ('MuJoCo mj_step (Newton, sleeping)', theirs_asleep)):
         drop = f'{r["drop_seconds_per_step"] * 1e3:.3f}' if 'drop_seconds_per_step' in r \
             else '-'
         print(f'| {name} | {r["seconds_per_step"] * 1e3:.3f} | {r["contacts"]} | '
               f'{r["drift"] * 1e3:.4f} | {drop} |')
     print(f'\nsleeping: {awake["seconds_per_step"] / asleep["seconds_per_step"]:.0f}x less per '
-          f'step at rest; rb_sim_ros asleep / MuJoCo: '
-          f'{asleep["seconds_per_step"] / theirs["seconds_per_step"]:.2f}x. After the drop '
-          f'{asleep["awake_after_drop"]} of {2 * side * side + 1} bodies awake.')
-    if opts.json:
-        opts.json.write_text(json.dumps({'side': side, 'awake': awake, 'asleep': asleep,
-                                         'mujoco': theirs}, indent=2) + '\n')
-    return 0
+          f'step at rest. Like for like, rb_sim_ros / MuJoCo: solving every contact '
+          f'{awake["seconds_per_step"] / theirs["seconds_per_step"]:.1f}x, both sleeping '
+          f'{asleep["seconds_per_step"] / theirs_asleep["seconds_per_step"]:.2f}x (MuJoCo '
+          f'trees awake before timing: {theirs_asleep["awake_trees"]} of {2 * side * side}). '
+          f'After the drop {asleep["awake_after_drop"]} of {2 * side * side + 1} bodies awake.')
+    demo = demo_scene(opts.quick)
+    print(f'scenes/collisions.yaml: {demo["moving_seconds_per_step"] * 1e3:.2f} ms per step '
+          f'over the first {demo["moving_steps"]} steps, '
+          f'{demo["asleep_seconds_per_step"] * 1e3:.3f} ms over steps {demo["asleep_steps"]} '
+          f'({demo["asleep_bodies"]} of {demo["bodies"]} moving bodies asleep)')
+    sane = sanity(rows, demo)
+    path = opts.json or (None if opts.quick else figures.DOCS_BENCH / 'resting_bench.json')
+    if path:
+        figures.write(path, {'quick': opts.quick, 'side': side, 'settle': settle,
+                             'steps': steps, **rows, 'demo_scene': demo})
+    return sane.report()
 
 
 if __name__ == '__main__':

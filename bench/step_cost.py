@@ -2,14 +2,18 @@
 # Licensed under the Apache License, Version 2.0
 """The cost of one Stepper step (issue 2: goal <= 3 us on the reference machine).
 
-    python bench/step_cost.py [--steps 100000] [--repeats 5]
+    python bench/step_cost.py [--quick] [--steps 100000] [--repeats 5] [--json out.json]
 
 For each of rb_sim_ros's methods and two bodies (diagonal inertia, torque-free; a full,
 non-diagonal inertia under a body-frame force and torque), first checks that one simulated
 second at dt = 1 ms agrees with DOP853 (rtol 1e-12) to within the method's expected error, then
-times ``stepper.step(steps)``, the minimum of ``repeats`` runs, and prints us per step. MuJoCo's
-mj_step on one free body (same inertia; a world-frame torque, which is what xfrc_applied takes)
-is printed beside it for scale.
+times ``steps`` steps taken three ways, the minimum of ``repeats`` runs, and prints us per step:
+``step(1)`` called ``steps`` times (how the node steps at 1 kHz with a 1 kHz publish rate, and
+what a loop that reads every step pays), ``step(10)`` (the node at 1 kHz physics and 100 Hz
+output), and one ``step(steps)`` (amortised: the per-call cost spread over all the steps).
+MuJoCo's mj_step on one free body (same inertia; a world-frame torque, which is what
+xfrc_applied takes) is printed beside it for scale, one step per call and ``nstep``.
+Writes docs/bench/step_cost.json (or ``--json``); exit 1 if a check or a sanity check fails.
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ import time
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE), str(HERE.parent)]
 
+import figures  # noqa: E402 (a bench module)
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
@@ -74,20 +79,35 @@ def check() -> list[dict]:
     return rows
 
 
-def measure(steps: int = 100_000, repeats: int = 5, progress=None) -> list[dict]:
-    """[{'method', 'body', 'us_per_step'}]: min over ``repeats`` of stepper.step(steps)."""
+CALLS = {'step(1)': 1, 'step(10)': 10, 'amortised': None}
+
+
+def _stepped(step, steps: int, per_call: int | None, repeats: int) -> float:
+    """us per step: the minimum over ``repeats`` of ``steps`` steps, ``per_call`` a call
+    (None: all in one call)."""
+    best = math.inf
+    calls = 1 if per_call is None else steps // per_call
+    n = steps if per_call is None else per_call
+    for _ in range(repeats):
+        t = time.perf_counter()
+        for _ in range(calls):
+            step(n)
+        best = min(best, time.perf_counter() - t)
+    return best / (calls * n) * 1e6
+
+
+def measure(steps: int = 100_000, repeats: int = 5, progress=None,
+            calls=('amortised',)) -> list[dict]:
+    """[{'method', 'body', 'call', 'us_per_step'}]: min over ``repeats`` of ``steps`` steps,
+    for each way of calling of ``calls`` (keys of CALLS)."""
     rows = []
     for method in METHODS:
         for label, mass, inertia, force, torque, frame in CASES:
             s = Stepper(RigidBody(mass, inertia), DT, START, Wrench(force, torque, frame),
                         method=method)
-            best = math.inf
-            for _ in range(repeats):
-                t = time.perf_counter()
-                s.step(steps)
-                best = min(best, time.perf_counter() - t)
-            rows.append({'method': f'rb_sim_ros {method}', 'body': label,
-                         'us_per_step': best / steps * 1e6})
+            for call in calls:
+                rows.append({'method': f'rb_sim_ros {method}', 'body': label, 'call': call,
+                             'us_per_step': _stepped(s.step, steps, CALLS[call], repeats)})
             if progress:
                 progress.update()
     for integrator in ('Euler', 'implicitfast', 'RK4'):
@@ -96,14 +116,14 @@ def measure(steps: int = 100_000, repeats: int = 5, progress=None) -> list[dict]
                              steps * DT, mass=mass)
             m, d = peers.MuJoCo(integrator).model(scene, DT)
             d.xfrc_applied[1] = (*force, *torque)
-            best = math.inf
-            for _ in range(repeats):
-                t = time.perf_counter()
-                mujoco.mj_step(m, d, nstep=steps)
-                best = min(best, time.perf_counter() - t)
             body = label.replace('body-frame', 'world-frame')
-            rows.append({'method': f'MuJoCo {integrator}', 'body': body + ' (mj_step, nstep)',
-                         'us_per_step': best / steps * 1e6})
+            for call in calls:
+                rows.append({'method': f'MuJoCo {integrator}', 'call': call,
+                             'body': body + (' (mj_step, nstep)' if call == 'amortised'
+                                             else ' (mj_step)'),
+                             'us_per_step': _stepped(
+                                 lambda n: mujoco.mj_step(m, d, nstep=n), steps, CALLS[call],
+                                 repeats)})
             if progress:
                 progress.update()
     return rows
@@ -114,27 +134,60 @@ def count() -> int:
 
 
 def table(rows: list[dict]) -> str:
-    lines = ['| method | body | us per step |', '| --- | --- | ---: |']
+    calls = list(dict.fromkeys(r.get('call', 'amortised') for r in rows))
+    cells: dict = {}
     for r in rows:
-        lines.append(f'| {r["method"]} | {r["body"]} | {r["us_per_step"]:.2f} |')
+        cells.setdefault((r['method'], r['body'].replace(' (mj_step, nstep)', '')
+                          .replace(' (mj_step)', '')), {})[r.get('call', 'amortised')] = \
+            r['us_per_step']
+    lines = ['| method | body | ' + ' | '.join(f'us per step, {c}' for c in calls) + ' |',
+             '| --- | --- | ' + ' | '.join('---:' for _ in calls) + ' |']
+    for (method, body), v in cells.items():
+        lines.append(f'| {method} | {body} | ' + ' | '.join(f'{v[c]:.2f}' for c in calls)
+                     + ' |')
     return '\n'.join(lines)
+
+
+def sanity(rows: list[dict]) -> figures.Sanity:
+    """Every figure finite, between 0.1 and 1000 us (a step of one body in Python is a few
+    us, in C about one); step(1) costs at least 0.8x what amortised does, per method."""
+    s = figures.Sanity()
+    for r in rows:
+        s.within(f'{r["method"]}, {r["body"]}, {r["call"]}', r['us_per_step'], 0.1, 1000.0)
+    by = {(r['method'], r['body'], r['call']): r['us_per_step'] for r in rows}
+    for (method, body, call), us in by.items():
+        if call == 'step(1)' and (method, body, 'amortised') in by:
+            ratio = us / by[method, body, 'amortised']
+            s.within(f'{method}, {body}: step(1) / amortised', ratio, 0.8, 100.0)
+    return s
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument('--steps', type=int, default=100_000, help='steps per timed run')
-    parser.add_argument('--repeats', type=int, default=5, help='timed runs (the minimum counts)')
+    parser.add_argument('--quick', action='store_true', help='2,000 steps, 2 repeats')
+    parser.add_argument('--steps', type=int, help='steps per timed run (default 100,000)')
+    parser.add_argument('--repeats', type=int, help='timed runs (the minimum counts; default 5)')
+    parser.add_argument('--json', type=Path, help='write the figures here (default: '
+                        'docs/bench/step_cost.json; --quick: none)')
     opts = parser.parse_args()
-    for row in check():
+    steps = opts.steps or (2000 if opts.quick else 100_000)
+    repeats = opts.repeats or (2 if opts.quick else 5)
+    checked = check()
+    for row in checked:
         print(f'agrees: {row["method"]:14s} {row["body"]:32s} '
               f'{row["angle_error_1s"]:.1e} rad after 1 s')
-    rows = measure(opts.steps, opts.repeats)
+    rows = measure(steps, repeats, calls=tuple(CALLS))
     print(table(rows))
-    ours = [r['us_per_step'] for r in rows if r['method'].startswith('rb_sim_ros')]
-    print(f'rb_sim_ros: {min(ours):.2f}-{max(ours):.2f} us per step '
+    ours = [r['us_per_step'] for r in rows if r['method'].startswith('rb_sim_ros')
+            and r['call'] == 'amortised']
+    print(f'rb_sim_ros amortised: {min(ours):.2f}-{max(ours):.2f} us per step '
           f'(goal <= {GOAL_US:g} us: {"met" if max(ours) <= GOAL_US else "NOT met"})')
-    return 0
+    out = opts.json or (None if opts.quick else figures.DOCS_BENCH / 'step_cost.json')
+    if out:
+        figures.write(out, {'quick': opts.quick, 'steps': steps, 'repeats': repeats,
+                            'check': checked, 'rows': rows})
+    return sanity(rows).report()
 
 
 if __name__ == '__main__':

@@ -1,0 +1,265 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Where the benchmarks' figures go, their sanity checks, and which text quotes them.
+
+Every benchmark writes its figures to ``docs/bench/<name>.json`` (with the command that made
+them, the date and the machine); README.md and docs/*.md quote only those figures, and
+``QUOTES`` below says where, as the exact text each figure is formatted to. ``python
+bench/figures.py`` (and test/test_bench_quick.py) checks that every quoted text is where it
+should be, so a stale figure fails the suite.
+
+Rules for derived figures: a ratio is the quotient of the two JSON values named, rounded to
+the digits shown; ms and us are the JSON's seconds times 1e3 and 1e6, rounded likewise.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+import platform
+import sys
+import time
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS_BENCH = ROOT / 'docs' / 'bench'
+
+
+def command(argv=None) -> str:
+    """The command line that ran this benchmark, as a user would type it."""
+    argv = sys.argv if argv is None else argv
+    script = Path(argv[0])
+    try:
+        script = script.resolve().relative_to(ROOT)
+    except ValueError:
+        pass
+    return ' '.join(['python', str(script), *argv[1:]])
+
+
+def machine() -> dict:
+    import numpy as np
+    out = {'python': platform.python_version(), 'numpy': np.__version__,
+           'cpu': platform.processor() or platform.machine()}
+    try:
+        import mujoco
+        out['mujoco'] = mujoco.__version__
+    except ImportError:
+        pass
+    return out
+
+
+def write(path, data: dict) -> Path:
+    """``data`` with the command, date and machine, as JSON at ``path``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    out = {'command': command(), 'date': time.strftime('%Y-%m-%d'), 'machine': machine(),
+           **data}
+    path.write_text(json.dumps(out, indent=1, default=_plain) + '\n')
+    return path
+
+
+def _plain(x):
+    if hasattr(x, 'item'):
+        return x.item()
+    if hasattr(x, 'tolist'):
+        return x.tolist()
+    return str(x)
+
+
+class Sanity:
+    """Collects what is implausible about a benchmark's figures (not timing budgets: a
+    figure must be finite, positive and within orders of magnitude of what it measures)."""
+
+    def __init__(self) -> None:
+        self.problems: list[str] = []
+
+    def within(self, name: str, value, low: float, high: float) -> None:
+        if value is None or not isinstance(value, (int, float)) or not math.isfinite(value) \
+                or not low <= value <= high:
+            self.problems.append(f'{name} = {value!r}, expected within [{low:g}, {high:g}]')
+
+    def true(self, name: str, ok: bool) -> None:
+        if not ok:
+            self.problems.append(name)
+
+    def report(self) -> int:
+        """Exit status: 0, or 1 after printing the problems."""
+        if self.problems:
+            print('sanity checks failed:\n  ' + '\n  '.join(self.problems), file=sys.stderr)
+            return 1
+        return 0
+
+
+# -- what the documents quote -----------------------------------------------------------------
+def load(name: str, folder: Path = DOCS_BENCH) -> dict:
+    return json.loads((folder / f'{name}.json').read_text())
+
+
+def _ms(seconds: float, digits: int = 1) -> str:
+    return f'{seconds * 1e3:.{digits}f}'
+
+
+def _row(rows, **match):
+    return next(r for r in rows if all(r.get(k) == v for k, v in match.items()))
+
+
+def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
+    """(document, anchor, text): ``text`` must occur in the document in the line that
+    contains ``anchor`` (or, for an anchor starting with '#', in that section)."""
+    q: list[tuple[str, str, str]] = []
+    readme, coll = 'README.md', 'docs/collisions.md'
+
+    step = load('step_cost', folder)
+    cost = {(r['method'], r['body'], r['call']): r['us_per_step'] for r in step['rows']}
+    full = 'full inertia, body-frame wrench'
+    one, ten, amort = (cost[('rb_sim_ros eq27', full, c)]
+                       for c in ('step(1)', 'step(10)', 'amortised'))
+    step_text = f'{one:.1f} / {ten:.1f} / {amort:.1f} us'
+    q.append((readme, 'cost of one step', step_text))
+    q.append((readme, '**Fast**', f'{one:.1f} us'))
+
+    skip = load('skip_bench', folder)
+    general = _row(skip['rows'], key='general')
+    projectile = _row(skip['rows'], key='projectile')
+    q.append((readme, 'a projectile', f'{projectile["specialised_us"]:.2f} us '
+              f'({general["specialised_us"] / projectile["specialised_us"]:.1f}x)'))
+
+    node = load('node_timing', folder)
+    rates = {r['publish_rate_hz']: r for r in node['rates']}
+    r1k, r100 = rates[1000.0], rates[100.0]
+    q.append((readme, 'node at 1 kHz: late ticks',
+              f'{100 * r1k["late_tick_fraction"]:.1f}%, {r1k["tick_lateness_p99_ms"]:.1f} ms, '
+              f'{100 * r1k["cpu_per_core"]:.0f}% of a core'))
+    q.append((readme, 'wrench-to-pose latency',
+              f'{r100["latency_p50_ms"]:.1f} / {r100["latency_p99_ms"]:.1f} ms (1 kHz: '
+              f'{r1k["latency_p50_ms"]:.1f} / {r1k["latency_p99_ms"]:.1f} ms)'))
+    fast = {(f['body'], f['pose_subscriber']): f['real_time_factor'] for f in node['fastest']}
+    moving = 'spinning, full tensor'
+    q.append((readme, 'fastest real-time factor',
+              f'{fast[(moving, False)]:.0f}x / {fast[(moving, True)]:.0f}x '
+              f'(at rest: {fast[("at rest", False)]:.0f}x)'))
+    q.append((readme, '**Fast**', f'{fast[(moving, False)]:.0f}x real time'))
+    q.append((readme, '**Fast**', f'{100 * r1k["late_tick_fraction"]:.1f}% late ticks'))
+    scene = node['scene']['sim_over_wall']
+    q.append((coll, 'as fast as it can go', f'{scene[0]:.2f} sim seconds per wall second'))
+    q.append((coll, 'once all six bodies sleep',
+              f'{min(scene[-3:]):.1f} to {max(scene[-3:]):.1f}'))
+
+    col = load('collision_bench', folder)
+    ours, mj = col['rb_sim_ros'], col['mujoco']
+    like = mj['PGS, 10 iterations']
+    ratio_like = ours['seconds_per_step'] / like['seconds_per_step']
+    ratio_cg = ours['seconds_per_step'] / mj['CG, 10 iterations']['seconds_per_step']
+    ratio_default = ours['seconds_per_step'] / mj['Newton (default)']['seconds_per_step']
+    q.append((readme, '1000 spheres settling',
+              f'{_ms(ours["seconds_per_step"])} ({_ms(like["seconds_per_step"])} / '
+              f'{_ms(mj["CG, 10 iterations"]["seconds_per_step"])} / '
+              f'{_ms(mj["Newton (default)"]["seconds_per_step"], 0)})'))
+    q.append((readme, '#Collisions', f'{_ms(ours["seconds_per_step"])} ms a step'))
+    q.append((readme, '#Collisions', f'{ratio_like:.1f}x MuJoCo'))
+    q.append((readme, '#Collisions', f'{ratio_cg:.1f}x'))
+    q.append((coll, 'rb_sim_ros CollisionWorld', f'{_ms(ours["seconds_per_step"])}'))
+    for name, r in mj.items():
+        q.append((coll, f'MuJoCo {name}', f'{_ms(r["seconds_per_step"])}'))
+        q.append((coll, f'MuJoCo {name}', f'| {r["forced_contacts"]:.0f} |'))
+    q.append((coll, 'rb_sim_ros CollisionWorld', f'| {ours["forced_contacts"]:.0f} |'))
+    q.append((coll, 'rb_sim_ros CollisionWorld', f'{ours["contacts"]:.0f}'))
+    q.append((coll, 'costs the same', f'{ratio_like:.1f}x'))
+    q.append((coll, 'costs the same', f'{ratio_cg:.1f}x'))
+    q.append((coll, 'costs the same', f'{ratio_default:.2f}x'))
+    for phase, sec in ours['phases'].items():
+        q.append((coll, f'| {phase} ', f'{_ms(sec)}'))
+    free = col['no_colliders']
+    q.append((coll, 'The same 1000 bodies without colliders',
+              f'{_ms(free["world"], 3)} ms per step against {_ms(free["steppers"], 3)} ms'))
+    q.append((coll, 'costs what the Steppers cost',
+              f'{_ms(free["world"], 3)} against {_ms(free["steppers"], 3)} ms'))
+
+    rest = load('resting_bench', folder)
+    awake, asleep, mj_awake, mj_asleep = (rest[k] for k in ('awake', 'asleep', 'mujoco',
+                                                            'mujoco_sleeping'))
+    q.append((readme, '200 boxes at rest',
+              f'{_ms(awake["seconds_per_step"])} / {_ms(asleep["seconds_per_step"], 2)} '
+              f'({_ms(mj_awake["seconds_per_step"], 2)} / '
+              f'{_ms(mj_asleep["seconds_per_step"], 2)})'))
+    for anchor, r in (('rb_sim_ros, sleeping off', awake), ('rb_sim_ros, sleeping', asleep),
+                      ('MuJoCo mj_step (Newton, sleeping off)', mj_awake),
+                      ('MuJoCo mj_step (Newton, sleeping)', mj_asleep)):
+        digits = 1 if r['seconds_per_step'] > 5e-3 else 2
+        q.append((coll, f'| {anchor} |', f'| {_ms(r["seconds_per_step"], digits)} |'))
+    q.append((coll, 'Like for like',
+              f'{awake["seconds_per_step"] / mj_awake["seconds_per_step"]:.0f}x'))
+    q.append((coll, 'Like for like',
+              f'{asleep["seconds_per_step"] / mj_asleep["seconds_per_step"]:.1f}x'))
+    demo = rest['demo_scene']
+    q.append((coll, 'scenes/collisions.yaml` costs',
+              f'{_ms(demo["moving_seconds_per_step"])} ms per step'))
+    q.append((coll, 'scenes/collisions.yaml` costs',
+              f'{_ms(demo["asleep_seconds_per_step"], 2)} ms'))
+    q.append((readme, '#Collisions', f'from {_ms(demo["moving_seconds_per_step"])} ms'))
+    q.append((readme, '#Collisions', f'to {_ms(demo["asleep_seconds_per_step"], 2)} ms'))
+
+    batch = load('batch_bench', folder)
+    rows = {r['n']: r for r in batch['rows']}
+    big = rows[100_000]
+    q.append((readme, 'batch path, ns per body-step',
+              f'{rows[10_000]["batch_free_ns"]:.0f} / {big["batch_free_ns"]:.0f} / '
+              f'{big["batch_free_one_step_per_call_ns"]:.0f} '
+              f'({big["mujoco_euler_ns"]:.0f} / {big["mujoco_rk4_ns"]:.0f})'))
+    q.append((readme, 'memory per body',
+              f'{big["memory_per_body"]["batch_arrays_B"] / 1e3:.1f} kB / '
+              f'{big["memory_per_body"]["mujoco_model_plus_data_B"] / 1e3:.1f} kB'))
+    q.append((readme, '#Many bodies', f'{big["batch_free_ns"]:.0f} ns per body-step'))
+    q.append((readme, '#Many bodies', f'{big["batch_free_one_step_per_call_ns"]:.0f} ns'))
+    q.append((readme, '#Many bodies',
+              f'{big["mujoco_euler_ns"] / big["batch_free_ns"]:.1f}x less'))
+    q.append((readme, '#Many bodies',
+              f'{big["mujoco_euler_ns"] / big["batch_free_one_step_per_call_ns"]:.1f}x'))
+    return q
+
+
+def section(text: str, title: str) -> str:
+    """The text of the markdown section whose heading starts with ``title`` (no '#')."""
+    lines, out, inside = text.splitlines(), [], False
+    for line in lines:
+        if line.startswith('#'):
+            inside = line.lstrip('#').strip().startswith(title)
+            continue
+        if inside:
+            out.append(line)
+    return '\n'.join(out)
+
+
+def stale(folder: Path = DOCS_BENCH, root: Path = ROOT) -> list[str]:
+    """Every quote that is not where it should be, as a sentence."""
+    texts: dict[str, str] = {}
+    problems = []
+    for doc, anchor, text in quotes(folder):
+        body = texts.setdefault(doc, (root / doc).read_text())
+        if anchor.startswith('#'):
+            where = section(body, anchor[1:])
+            if not where:
+                problems.append(f'{doc}: no section {anchor!r}')
+                continue
+            places = [where]
+        else:
+            places = [line for line in body.splitlines() if anchor in line]
+            if not places:
+                problems.append(f'{doc}: no line with {anchor!r} (expected {text!r})')
+                continue
+        if not any(text in p for p in places):
+            problems.append(f'{doc}: {text!r} missing from the line with {anchor!r}')
+    return problems
+
+
+def main() -> int:
+    problems = stale()
+    for p in problems:
+        print(p)
+    if not problems:
+        print(f'every quoted figure matches {DOCS_BENCH.relative_to(ROOT)}/*.json')
+    return 1 if problems else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
