@@ -5,8 +5,10 @@
 import math
 import os
 from pathlib import Path
+import signal
 import subprocess
 import sys
+import time
 
 from geometry_msgs.msg import PoseStamped, Twist, Wrench, WrenchStamped
 from nav_msgs.msg import Odometry
@@ -333,25 +335,97 @@ def test_a_scene_gives_each_body_its_topics(start_sim, probe, tmp_path):
     assert all(p.pose.position.x == 5.0 for p in poses['wall'])
 
 
+def _diagnostic_values(msg) -> dict:
+    return {v.key: v.value for v in msg.status[0].values}
+
+
 def test_diagnostics_report_cost_ticks_and_rejections(start_sim, probe):
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     start_sim()
     diags = probe.collect(DiagnosticArray, '/diagnostics')
     pub = probe.publisher(Wrench, 'wrench')
     pub.publish(_wrench_msg((math.nan, 0.0, 0.0), (0.0, 0.0, 0.0)))
-
-    def values():
-        return {v.key: v.value for v in diags[-1].status[0].values} if diags else {}
-    probe.wait_for(lambda: values().get('rejected_inputs_total') == '1',
-                   what='a diagnostics message counting the rejection')
-    kv = values()
+    probe.wait_for(lambda: diags and _diagnostic_values(diags[-1]).get(
+        'rejected_inputs_total') == '1', what='a diagnostics message counting the rejection')
+    kv = _diagnostic_values(diags[-1])
     status = diags[-1].status[0]
-    assert status.level == DiagnosticStatus.OK and status.name == 'rb_sim: simulator'
-    assert float(kv['step_cost_us']) > 0 and int(kv['steps']) > 0
-    assert int(kv['ticks']) > 0 and int(kv['late_ticks_total']) >= 0
-    assert float(kv['sim_over_wall']) > 0
-    for key in ('tick_lateness_p50_ms', 'tick_lateness_p99_ms', 'dropped_periods_total'):
-        assert key in kv
+    assert status.name == 'rb_sim: simulator' and status.hardware_id == 'rb_sim_ros'
+    assert status.level != DiagnosticStatus.ERROR  # a rejection is not a failure of the node
+    assert float(kv['step_cost_us']) > 0 and float(kv['sim_over_wall']) > 0
+    steps = int(kv['steps'])  # of the last window, in whole publish periods of 10 steps
+    assert steps > 0 and steps % (PERIOD_NS // DT_NS) == 0
+    assert 0 < int(kv['ticks']) and int(kv['late_ticks_total']) <= int(kv['ticks'])
+    assert float(kv['real_time_factor_requested']) == 1.0
+
+
+STALL_S = 0.5
+CATCHUP = 10
+
+
+def test_diagnostics_count_an_induced_stall(start_sim, probe):
+    """SIGSTOP the node for STALL_S of wall time at 100 Hz: its step loop then sees one tick
+    late by about the stall, catches up CATCHUP periods and drops the rest. /diagnostics must
+    show that tick (late_ticks_total, tick_lateness_p99_ms but not p50), the dropped periods
+    and the simulated time lost, all beyond what the window just before the stall shows."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    period_s, dt_s = PERIOD_NS * 1e-9, DT_NS * 1e-9
+    sim = start_sim('-p', 'publish_rate:=100.0', '-p', f'max_catchup:={CATCHUP}',
+                    '-p', 'real_time_factor:=1.0')
+    diags = probe.collect(DiagnosticArray, '/diagnostics')
+    poses = probe.collect(PoseStamped, 'pose')
+
+    def message(i):
+        probe.wait_for(lambda: len(diags) > i, what=f'diagnostics message {i}')
+        return _diagnostic_values(diags[i])
+
+    def delta(key, i):
+        return int(message(i)[key]) - int(message(i - 1)[key])
+
+    def window(i):
+        """(simulated, wall) seconds of window i, from its steps and sim/wall ratio."""
+        kv = message(i)
+        simulated = int(kv['steps']) * dt_s
+        return simulated, simulated / float(kv['sim_over_wall'])
+
+    message(2)  # window 1 starts with a message; window 2, the control, ends here
+    # Stop some 20 periods into window 3, so that it has on-time ticks before the stalled one
+    # and, since it lasts a wall second, after it: its p99 is the stalled tick, its p50 not.
+    n = len(poses)
+    probe.wait_for(lambda: len(poses) >= n + 20, what='20 poses into window 3')
+    t0 = time.monotonic()
+    sim.proc.send_signal(signal.SIGSTOP)
+    try:
+        time.sleep(STALL_S)  # the stall itself, not a wait for something
+    finally:
+        stall = time.monotonic() - t0
+        sim.proc.send_signal(signal.SIGCONT)
+    assert stall >= STALL_S
+    # The first tick after the stall was due at most one period after the node stopped.
+    min_lateness_ms = (stall - 3 * period_s) * 1e3
+    # It runs CATCHUP periods of the (lateness / period + 1) due and drops the rest.
+    min_dropped = stall / period_s - CATCHUP - 1
+    lost = stall - (CATCHUP + 1) * period_s  # simulated time that must go missing
+
+    # Window 3 holds the stalled tick among at most 100: its p99 is the largest lateness.
+    assert delta('late_ticks_total', 3) >= 1
+    assert float(message(3)['tick_lateness_p99_ms']) >= min_lateness_ms, message(3)
+    assert float(message(3)['tick_lateness_p50_ms']) < min_lateness_ms, message(3)
+    assert delta('dropped_periods_total', 3) >= min_dropped, message(3)
+    assert diags[3].status[0].level == DiagnosticStatus.WARN
+    assert diags[3].status[0].message == 'falling behind real time'
+    # Over windows 3 and 4 (the catch-up may straddle them) at most half the lost time is
+    # made up: the node skips the dropped periods, it does not simulate them late.
+    simulated, wall = (sum(x) for x in zip(window(3), window(4)))
+    assert simulated <= wall - lost / 2, (simulated, wall, message(3), message(4))
+    assert float(message(4)['tick_lateness_p99_ms']) < min_lateness_ms, message(4)  # once
+    # The control, window 2, had no stall: none of it happens there.
+    assert float(message(2)['tick_lateness_p99_ms']) < min_lateness_ms, message(2)
+    assert delta('dropped_periods_total', 2) < min_dropped, message(2)
+    simulated, wall = window(2)
+    assert simulated > wall - lost / 2, (simulated, wall, message(2))
+    for i in range(5):
+        assert int(message(i)['late_ticks_total']) <= int(message(i)['ticks'])
+    assert delta('ticks', 4) >= 1  # and it goes on ticking
 
 
 def test_malformed_ros_arguments_exit_with_a_message(start_sim):
