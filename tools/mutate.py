@@ -1,0 +1,271 @@
+#!/usr/bin/env python3
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Mutation check: each mutant below is a small edit of the source that must make the named
+tests fail. A mutant the tests survive is a behaviour nothing pins (issue 12).
+
+    .venv/bin/python tools/mutate.py                 # all mutants, in a throw-away copy
+    .venv/bin/python tools/mutate.py --each          # every named test must fail on its own
+    .venv/bin/python tools/mutate.py -k speculative  # the mutants whose name has this text
+
+Never touches the repository's files: it copies the repository (``git archive HEAD``, then the
+working-tree versions of the test files the mutants name, so that new tests can be checked
+before they are committed; ``--worktree`` copies the whole working tree instead) into
+``--workdir`` (default: a new temporary directory, removed at the end) and mutates there.
+Each mutant is applied as exact search/replace edits (an edit whose search text is not found
+exactly once is an error, not a pass), the tests run there (``python -m pytest -q -x``, with
+the copy first on the path and no bytecode written, so nothing stale is imported), and the
+file is restored in ``finally``, Ctrl-C included. First the named tests run on the
+unmutated copy: they must pass, or a kill would mean nothing.
+
+Prints a table (mutant, file, expected tests, killed); exit status 0 if every mutant is
+killed, 1 if one survives or an edit does not apply, 2 if the baseline fails.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = Path(__file__).resolve().parents[1]
+
+CONTACTS = 'test/test_mutants_contacts.py::'
+STEPPER = 'test/test_mutants_stepper.py::'
+COLLISIONS = 'test/test_collisions.py::'
+CONVERGENCE = 'test/test_convergence.py::'
+
+# Eq. (14) of the report as printed: R_{n+1} = (exp([w + (4 b - b_prev)/6 dt] dt)
+# - ([b][w] + [w][b]) dt^3 / 12) R_n, i.e. no (b x w) term in the rotation vector and the
+# symmetric matrix b w^T + w b^T - 2 (b . w) I subtracted (rc = rotation_cross dt^3).
+_EQ14 = """\
+        bw14 = bx * wx + by * wy + bz * wz
+        e00 -= rc * (2.0 * bx * wx - 2.0 * bw14)
+        e11 -= rc * (2.0 * by * wy - 2.0 * bw14)
+        e22 -= rc * (2.0 * bz * wz - 2.0 * bw14)
+        e01 -= rc * (bx * wy + wx * by)
+        e10 -= rc * (bx * wy + wx * by)
+        e02 -= rc * (bx * wz + wx * bz)
+        e20 -= rc * (bx * wz + wx * bz)
+        e12 -= rc * (by * wz + wy * bz)
+        e21 -= rc * (by * wz + wy * bz)
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = r
+"""
+
+# name, file, [(search, replace), ...], tests that must fail, what the edit breaks.
+MUTANTS = [
+    # -- issue 12: survived the whole suite before test_mutants_*.py ---------------------
+    ('touched-needs-impulse', 'rb_sim_ros/contact_solver.py',
+     [('touched = np.any(u != u0, axis=1) | np.any(q != 0.0, axis=1)',
+       'touched = np.any(u != u0, axis=1)')],
+     [CONTACTS + 'test_a_ball_inside_the_ground_with_no_impulse_is_pushed_out'],
+     'position corrections dropped for bodies that get no impulse'),
+    ('bounce-without-closing', 'rb_sim_ros/contact_solver.py',
+     [('bounce = (vn0 < -settings.bounce_threshold) & (vn0 < plastic)',
+       'bounce = vn0 < -settings.bounce_threshold')],
+     [CONTACTS + 'test_a_ball_skimming_the_ground_flies_until_it_reaches_it'],
+     'a speculative contact the body cannot close in the step bounces it'),
+    ('speculative-half-gap', 'rb_sim_ros/contact_solver.py',
+     [('np.where(depth < 0.0, depth / dt, 0.0)', 'np.where(depth < 0.0, 0.5 * depth / dt, 0.0)')],
+     [CONTACTS + 'test_a_slow_ball_closes_its_gap_in_one_step_and_stops_on_the_ground'],
+     'a speculative contact closes half its gap in a step'),
+    ('no-orthonormalisation', 'rb_sim_ros/stepper.py',
+     [('                r1 = so3.orthonormalize_components(*r1)\n', '                pass\n')],
+     [STEPPER + 'test_a_rotation_written_off_so3_is_pulled_back_within_orthonormalize_every_'
+      'steps'],
+     'R never pulled back to SO(3)'),
+    ('start-up-no-extrapolation', 'rb_sim_ros/stepper.py',
+     [('            self._pa = (2.0 * a[0] - a1[0], 2.0 * a[1] - a1[1], 2.0 * a[2] - a1[2])\n'
+       '            self._pb = (2.0 * b[0] - b1[0], 2.0 * b[1] - b1[1], 2.0 * b[2] - b1[2])\n',
+       '            self._pa, self._pb = a, b\n')],
+     [STEPPER + 'test_first_step_from_rest_with_gravity_and_damping_has_local_order_3_and_4',
+      STEPPER + 'test_first_step_of_a_damped_spinning_body_has_local_order_3_and_4'],
+     'start-up takes a_{-1} = a_0 (an Euler first step)'),
+    ('history-without-velocity', 'rb_sim_ros/stepper.py',
+     [('self._pa, self._pb = self._accelerations(rp, wp, vp)',
+       'self._pa, self._pb = self._accelerations(rp, wp)')],
+     [STEPPER + 'test_damped_translation_under_force_changes_is_second_order_against_the_'
+      'closed_form',
+      STEPPER + 'test_damped_asymmetric_body_under_wrench_changes_is_second_order_against_dop853'],
+     'history re-evaluated on a wrench change without linear damping'),
+    # -- caught before ---------------------------------------------------------------------
+    ('eq14-rotation', 'rb_sim_ros/multistep.py',
+     [('        px = wx * dt + rn * bx + rp * bpx + rc * (by * wz - bz * wy)\n'
+       '        py = wy * dt + rn * by + rp * bpy + rc * (bz * wx - bx * wz)\n'
+       '        pz = wz * dt + rn * bz + rp * bpz + rc * (bx * wy - by * wx)\n',
+       '        px = wx * dt + rn * bx + rp * bpx\n'
+       '        py = wy * dt + rn * by + rp * bpy\n'
+       '        pz = wz * dt + rn * bz + rp * bpz\n'),
+      ('        r00, r01, r02, r10, r11, r12, r20, r21, r22 = r\n', _EQ14)],
+     [CONVERGENCE + 'test_local_orders_from_exact_history'],
+     'eq. (14) as printed instead of the last line of eq. (27)'),
+    ('cross-term-sign', 'rb_sim_ros/multistep.py',
+     [('rotation_cross=1.0 / 12.0,', 'rotation_cross=-1.0 / 12.0,')],
+     [CONVERGENCE + 'test_local_orders_from_exact_history'],
+     '(omega x beta) instead of (beta x omega) in eq. (27)'),
+    ('stale-history', 'rb_sim_ros/stepper.py',
+     [('self._history_stale = self._prev is not None\n', 'self._history_stale = False\n')],
+     [CONVERGENCE + 'test_global_order_two_with_a_wrench_change_every_few_steps'],
+     'history of the old wrench kept across a change (NOTES.md 2)'),
+    ('jacobian-sign', 'rb_sim_ros/contact_solver.py',
+     [('ang_a, ang_b = -cross(ra, d), cross(rb, d)', 'ang_a, ang_b = cross(ra, d), cross(rb, d)')],
+     [COLLISIONS + 'test_frictionless_impact_conserves_momenta_and_obeys_restitution'],
+     'the angular Jacobian of body a with the wrong sign'),
+    ('no-warm-start', 'rb_sim_ros/collision_world.py',
+     [('warm_n, warm_t = self._match(keys)', 'warm_n, warm_t = None, None')],
+     [COLLISIONS + 'test_box_stack_of_three_stands_for_10_s',
+      COLLISIONS + 'test_resting_box_stays_still_for_10_s'],
+     'the impulses of the step before not carried over (resting boxes drift)'),
+    ('friction-ignores-mu', 'rb_sim_ros/contact_solver.py',
+     [('                limit = m * lk[0]\n', '                limit = lk[0]\n')],
+     [COLLISIONS + 'test_impact_on_a_static_body_and_coulomb_friction',
+      COLLISIONS + 'test_sliding_box_stops_where_coulomb_says'],
+     'the Coulomb disc of radius lambda_n, not mu lambda_n'),
+    ('no-slop', 'rb_sim_ros/contact_solver.py',
+     [('p_target = settings.position_fraction * (depth - settings.slop)',
+       'p_target = settings.position_fraction * depth')],
+     [CONTACTS + 'test_a_ball_inside_the_ground_with_no_impulse_is_pushed_out',
+      COLLISIONS + 'test_box_stack_of_three_stands_for_10_s'],
+     'penetration corrected to 0, not to the slop'),
+]
+
+
+def _git(*args, **kwargs):
+    return subprocess.run(['git', '-C', str(ROOT), *args], check=True, **kwargs)
+
+
+def copy_repo(dest: Path, worktree: bool, extra: list[str]) -> None:
+    """HEAD (or the whole working tree) into ``dest``, then the working-tree files ``extra``."""
+    dest.mkdir(parents=True, exist_ok=True)
+    if any(dest.iterdir()):
+        raise SystemExit(f'mutate: --workdir {dest} is not empty')
+    if worktree:
+        listed = _git('ls-files', '-z', '--cached', '--others', '--exclude-standard',
+                      capture_output=True).stdout.decode().split('\0')
+        extra = [p for p in listed if p] + extra
+    else:
+        archive = _git('archive', '--format=tar', 'HEAD', capture_output=True).stdout
+        subprocess.run(['tar', '-x', '-C', str(dest)], input=archive, check=True)
+    for rel in extra:
+        src = ROOT / rel
+        if src.is_file():
+            (dest / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(src, dest / rel)
+
+
+def _env(workdir: Path) -> dict:
+    env = dict(os.environ)
+    env['PYTHONPATH'] = str(workdir) + os.pathsep + env.get('PYTHONPATH', '')
+    env['PYTHONDONTWRITEBYTECODE'] = '1'     # no stale .pyc of a mutated file, ever
+    return env
+
+
+def run_tests(python: str, workdir: Path, tests: list[str]) -> tuple[int, str]:
+    cmd = [python, '-m', 'pytest', '-q', '-x', '-p', 'no:cacheprovider', *tests]
+    proc = subprocess.run(cmd, cwd=workdir, env=_env(workdir), capture_output=True, text=True)
+    lines = (proc.stdout + proc.stderr).strip().splitlines()
+    return proc.returncode, lines[-1] if lines else ''
+
+
+def mutated(text: str, edits) -> str:
+    """``text`` with the edits applied; ValueError if a search text is not found exactly
+    once (in the text as the edits before left it)."""
+    for search, replace in edits:
+        count = text.count(search)
+        if count != 1:
+            raise ValueError(f'search text found {count} times: {search!r}')
+        text = text.replace(search, replace)
+    return text
+
+
+def short(test: str) -> str:
+    file, _, name = test.partition('::')
+    return f'{Path(file).stem}::{name}' if name else Path(file).stem
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--workdir', type=Path, help='an empty or new directory to copy the '
+                        'repository into and mutate there (default: a temporary one)')
+    parser.add_argument('--keep', action='store_true', help='keep the copy')
+    parser.add_argument('--worktree', action='store_true', help='copy the working tree '
+                        '(uncommitted edits included) rather than HEAD')
+    parser.add_argument('--each', action='store_true', help='run each expected test alone: '
+                        'every one must fail')
+    parser.add_argument('-k', dest='match', default='', help='only mutants whose name has this')
+    parser.add_argument('--python', default=sys.executable, help='the interpreter for pytest')
+    args = parser.parse_args(argv)
+
+    mutants = [m for m in MUTANTS if args.match in m[0]]
+    if not mutants:
+        print(f'mutate: no mutant matches {args.match!r}', file=sys.stderr)
+        return 2
+    tests = sorted({t for m in mutants for t in m[3]})
+    workdir = args.workdir or Path(tempfile.mkdtemp(prefix='rb_sim_mutate_'))
+    workdir = workdir.resolve()
+    if workdir == ROOT or ROOT in workdir.parents:
+        print('mutate: --workdir must be outside the repository', file=sys.stderr)
+        return 2
+    remove = args.workdir is None and not args.keep
+    rows, status = [], 0
+    try:
+        copy_repo(workdir, args.worktree, sorted({t.split('::')[0] for t in tests}))
+        probe = 'import rb_sim_ros; print(rb_sim_ros.__file__)'
+        where = subprocess.run([args.python, '-c', probe], cwd=workdir, env=_env(workdir),
+                               capture_output=True, text=True)
+        if workdir not in Path(where.stdout.strip()).resolve().parents:
+            print(f'mutate: rb_sim_ros imports from {where.stdout.strip() or where.stderr}, not '
+                  f'from the copy {workdir}', file=sys.stderr)
+            return 2
+        print(f'mutate: copy in {workdir}; baseline: {len(tests)} tests', flush=True)
+        code, last = run_tests(args.python, workdir, tests)
+        if code != 0:
+            print(f'mutate: the tests fail without any mutant ({last}); fix that first',
+                  file=sys.stderr)
+            return 2
+        for name, rel, edits, expected, what in mutants:
+            path = workdir / rel
+            start = time.monotonic()
+            original = path.read_text()
+            try:
+                text = mutated(original, edits)
+            except ValueError as e:
+                rows.append((name, rel, expected, f'EDIT FAILED: {e}', ''))
+                status = 1
+                continue
+            try:
+                path.write_text(text)
+                groups = [[t] for t in expected] if args.each else [expected]
+                results = [run_tests(args.python, workdir, g) for g in groups]
+            finally:
+                path.write_text(original)
+            # pytest exits 1 when tests fail; 2-5 (collection error, usage...) is no kill.
+            killed = all(code == 1 for code, _ in results)
+            if not killed:
+                status = 1
+            detail = '; '.join(last for _, last in results)
+            rows.append((name, rel, expected, 'yes' if killed else 'NO',
+                         f'{time.monotonic() - start:.1f} s: {detail}'))
+            print(f'  {name}: {"killed" if killed else "SURVIVED"} ({detail})', flush=True)
+    finally:
+        if remove:
+            shutil.rmtree(workdir, ignore_errors=True)
+    print()
+    print('| mutant | file | expected to fail | killed |')
+    print('| --- | --- | --- | --- |')
+    for name, rel, expected, killed, _ in rows:
+        print(f'| {name} | {Path(rel).name} | {"<br>".join(short(t) for t in expected)} | '
+              f'{killed} |')
+    survivors = [r[0] for r in rows if r[3] != 'yes']
+    print(f'\n{len(rows) - len(survivors)} of {len(rows)} mutants killed'
+          + (f'; not killed: {", ".join(survivors)}' if survivors else ''))
+    return status
+
+
+if __name__ == '__main__':
+    sys.exit(main())
