@@ -121,8 +121,10 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     skip = load('skip_bench', folder)
     general = _row(skip['rows'], key='general')
     projectile = _row(skip['rows'], key='projectile')
+    parked = _row(skip['rows'], key='parked')
     q.append((readme, 'a projectile', f'{projectile["specialised_us"]:.2f} us '
-              f'({general["specialised_us"] / projectile["specialised_us"]:.1f}x)'))
+              f'({general["specialised_us"] / projectile["specialised_us"]:.1f}x) / '
+              f'{parked["specialised_us"]:.2f}'))
 
     node = load('node_timing', folder)
     rates = {r['publish_rate_hz']: r for r in node['rates']}
@@ -141,9 +143,11 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((readme, '**Fast**', f'{fast[(moving, False)]:.0f}x real time'))
     q.append((readme, '**Fast**', f'{100 * r1k["late_tick_fraction"]:.1f}% late ticks'))
     scene = node['scene']['sim_over_wall']
-    q.append((coll, 'as fast as it can go', f'{scene[0]:.2f} sim seconds per wall second'))
-    q.append((coll, 'once all six bodies sleep',
-              f'{min(scene[-3:]):.1f} to {max(scene[-3:]):.1f}'))
+    sleeping = '#Sleeping'
+    q.append((coll, sleeping, f'{scene[0]:.2f} sim seconds per wall second in the first'))
+    q.append((coll, sleeping, f'then {min(scene[-3:]):.1f} to {max(scene[-3:]):.1f} in the last '
+              'three seconds'))
+    q.append((coll, '#Benchmark: 1000 spheres', f'{scene[0]:.2f} sim seconds per wall'))
 
     col = load('collision_bench', folder)
     ours, mj = col['rb_sim_ros'], col['mujoco']
@@ -151,53 +155,75 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     ratio_like = ours['seconds_per_step'] / like['seconds_per_step']
     ratio_cg = ours['seconds_per_step'] / mj['CG, 10 iterations']['seconds_per_step']
     ratio_default = ours['seconds_per_step'] / mj['Newton (default)']['seconds_per_step']
-    q.append((readme, '1000 spheres settling',
+    q.append((readme, '1000 spheres settled',
               f'{_ms(ours["seconds_per_step"])} ({_ms(like["seconds_per_step"])} / '
               f'{_ms(mj["CG, 10 iterations"]["seconds_per_step"])} / '
               f'{_ms(mj["Newton (default)"]["seconds_per_step"], 0)})'))
     q.append((readme, '#Collisions', f'{_ms(ours["seconds_per_step"])} ms a step'))
     q.append((readme, '#Collisions', f'{ratio_like:.1f}x MuJoCo'))
-    q.append((readme, '#Collisions', f'{ratio_cg:.1f}x'))
-    q.append((coll, 'rb_sim_ros CollisionWorld', f'{_ms(ours["seconds_per_step"])}'))
-    for name, r in mj.items():
-        q.append((coll, f'MuJoCo {name}', f'{_ms(r["seconds_per_step"])}'))
-        q.append((coll, f'MuJoCo {name}', f'| {r["forced_contacts"]:.0f} |'))
-    q.append((coll, 'rb_sim_ros CollisionWorld', f'| {ours["forced_contacts"]:.0f} |'))
-    q.append((coll, 'rb_sim_ros CollisionWorld', f'{ours["contacts"]:.0f}'))
-    q.append((coll, 'costs the same', f'{ratio_like:.1f}x'))
-    q.append((coll, 'costs the same', f'{ratio_cg:.1f}x'))
-    q.append((coll, 'costs the same', f'{ratio_default:.2f}x'))
+    q.append((readme, '#Collisions', f'{ratio_cg:.1f}x its CG'))
+    bench = '#Benchmark: 1000 spheres'
+    for anchor, r, cap in [('| rb_sim_ros CollisionWorld', ours, 10)] + [
+            (f'| MuJoCo {name} |', r, r['max_iterations']) for name, r in mj.items()]:
+        q.append((coll, anchor, f'| {_ms(r["seconds_per_step"])} | {r["forced_contacts"]:.0f} '
+                  f'| {r["forced_contacts"] / r["seconds_per_step"]:,.0f} | '
+                  f'{r["iterations"]:.1f} ({cap}) |'))
+    q.append((coll, '| rb_sim_ros CollisionWorld', f'PGS; {ours["contacts"]:.0f} contacts'))
+    q.append((coll, bench, f'{ratio_like:.1f}x the time of MuJoCo'))
+    q.append((coll, bench, f'{ratio_cg:.1f}x that of its CG'))
+    q.append((coll, bench, f'{ratio_default:.2f}x that of its default'))
+    total = sum(ours['phases'].values())
     for phase, sec in ours['phases'].items():
-        q.append((coll, f'| {phase} ', f'{_ms(sec)}'))
+        q.append((coll, f'| {phase} ', f'| {_ms(sec)} | {sec / total:.0%} |'))
     free = col['no_colliders']
-    q.append((coll, 'The same 1000 bodies without colliders',
-              f'{_ms(free["world"], 3)} ms per step against {_ms(free["steppers"], 3)} ms'))
-    q.append((coll, 'costs what the Steppers cost',
+    q.append((coll, bench, f'{_ms(free["world"], 3)} ms per step against '
+              f'{_ms(free["steppers"], 3)} ms'))
+    q.append((coll, '#Order of a step',
               f'{_ms(free["world"], 3)} against {_ms(free["steppers"], 3)} ms'))
 
     rest = load('resting_bench', folder)
     awake, asleep, mj_awake, mj_asleep = (rest[k] for k in ('awake', 'asleep', 'mujoco',
                                                             'mujoco_sleeping'))
     q.append((readme, '200 boxes at rest',
-              f'{_ms(awake["seconds_per_step"])} / {_ms(asleep["seconds_per_step"], 2)} '
-              f'({_ms(mj_awake["seconds_per_step"], 2)} / '
-              f'{_ms(mj_asleep["seconds_per_step"], 2)})'))
-    for anchor, r in (('rb_sim_ros, sleeping off', awake), ('rb_sim_ros, sleeping', asleep),
-                      ('MuJoCo mj_step (Newton, sleeping off)', mj_awake),
-                      ('MuJoCo mj_step (Newton, sleeping)', mj_asleep)):
-        digits = 1 if r['seconds_per_step'] > 5e-3 else 2
-        q.append((coll, f'| {anchor} |', f'| {_ms(r["seconds_per_step"], digits)} |'))
-    q.append((coll, 'Like for like',
-              f'{awake["seconds_per_step"] / mj_awake["seconds_per_step"]:.0f}x'))
-    q.append((coll, 'Like for like',
-              f'{asleep["seconds_per_step"] / mj_asleep["seconds_per_step"]:.1f}x'))
+              f'{_ms(awake["seconds_per_step"])} / {_ms(asleep["seconds_per_step"], 3)} '
+              f'({_ms(mj_awake["seconds_per_step"], 3)} / '
+              f'{_ms(mj_asleep["seconds_per_step"], 3)})'))
+    for anchor, r in (('| rb_sim_ros, sleeping off |', awake),
+                      ('| rb_sim_ros, sleeping (default) |', asleep),
+                      ('| MuJoCo mj_step (Newton, sleeping off) |', mj_awake),
+                      ('| MuJoCo mj_step (Newton, sleeping) |', mj_asleep)):
+        digits = 1 if r['seconds_per_step'] > 5e-3 else 3
+        drop = (f'{_ms(r["drop_seconds_per_step"], 1)} |' if 'drop_seconds_per_step' in r
+                else '- |')
+        q.append((coll, anchor, f'| {_ms(r["seconds_per_step"], digits)} | {r["contacts"]} | '
+                  f'{r["drift"] * 1e3:.2f} | {drop}'))
+    q.append((coll, '#Sleeping', f'{awake["seconds_per_step"] / asleep["seconds_per_step"]:.0f}x '
+              'cheaper'))
+    q.append((coll, '#Sleeping',
+              f'{awake["seconds_per_step"] / mj_awake["seconds_per_step"]:.0f}x MuJoCo'))
+    q.append((coll, '#Sleeping',
+              f'{asleep["seconds_per_step"] / mj_asleep["seconds_per_step"]:.1f}x it with both'))
+    q.append((coll, '#Sleeping', f'wakes {asleep["awake_after_drop"]} of '
+              f'{2 * rest["side"] ** 2 + 1} bodies'))
     demo = rest['demo_scene']
-    q.append((coll, 'scenes/collisions.yaml` costs',
-              f'{_ms(demo["moving_seconds_per_step"])} ms per step'))
-    q.append((coll, 'scenes/collisions.yaml` costs',
-              f'{_ms(demo["asleep_seconds_per_step"], 2)} ms'))
+    q.append((coll, '#Sleeping', f'costs {_ms(demo["moving_seconds_per_step"])} ms per step in '
+              'its first'))
+    q.append((coll, '#Sleeping', f'{_ms(demo["asleep_seconds_per_step"], 3)} ms from 4 to 5 s'))
+    q.append((coll, bench, f'costs {_ms(demo["moving_seconds_per_step"])} ms per step'))
     q.append((readme, '#Collisions', f'from {_ms(demo["moving_seconds_per_step"])} ms'))
-    q.append((readme, '#Collisions', f'to {_ms(demo["asleep_seconds_per_step"], 2)} ms'))
+    q.append((readme, '#Collisions', f'to {_ms(demo["asleep_seconds_per_step"], 3)} ms'))
+
+    cases = load('collision_cases', folder)
+    for test, cell in cases['cells'].items():
+        q.append((coll, f'`{test}', f'| {cell} |'))
+    wall = cases['thin_wall']
+    q.append((coll, '#Speculative contacts',
+              f'up to {wall["speculative_held_up_to"] / 1e3:,.0f} km/s at dt = 1 ms'))
+    q.append((coll, '#Speculative contacts',
+              f'{wall["phases"]} phases): every phase held at {wall["discrete_held_up_to"]} m/s, '
+              f'some tunnelled at {wall["discrete_first_failure"]} m/s'))
+    q.append((readme, '#Collisions',
+              f'held to {wall["speculative_held_up_to"] / 1e3:,.0f} km/s'))
 
     batch = load('batch_bench', folder)
     rows = {r['n']: r for r in batch['rows']}
@@ -241,7 +267,7 @@ def stale(folder: Path = DOCS_BENCH, root: Path = ROOT) -> list[str]:
             if not where:
                 problems.append(f'{doc}: no section {anchor!r}')
                 continue
-            places = [where]
+            places = [' '.join(where.split())]
         else:
             places = [line for line in body.splitlines() if anchor in line]
             if not places:

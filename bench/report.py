@@ -280,9 +280,11 @@ def findings(s: dict) -> list[str]:
     """The key figures of this run, in words (computed from the summary)."""
     out = ['## Findings', '']
     ours = [r['us_per_step'] for r in s['step_cost'] if r['method'].startswith('rb_sim_ros')]
-    out.append(f'- One step of rb_sim_ros costs {min(ours):.2f}-{max(ours):.2f} us '
-               f'(goal <= {step_cost.GOAL_US:g} us), pure Python; MuJoCo’s mj_step on one free '
-               'body costs about half of that with Euler or implicitfast, twice with RK4.')
+    out.append(f'- One step of rb_sim_ros costs {min(ours):.2f}-{max(ours):.2f} us amortised '
+               f'over step({s["step_cost_steps"]}) (goal <= {step_cost.GOAL_US:g} us), pure '
+               'Python; a call per step costs more (step(1) and step(10), as the node steps: '
+               '`python bench/step_cost.py`, docs/bench/step_cost.json). MuJoCo’s mj_step on '
+               'one free body, for scale, is in the table below.')
     # At dt = 1 ms: eq27 against MuJoCo's first-order integrators.
     better, cost_ratio, best, cross = {}, [], {}, []
     for name, scene in s['work_precision'].items():
