@@ -10,9 +10,10 @@ import ros_harness
 # Property tests: no deadline anywhere (a loaded machine is slow, not wrong). In CI (CI set, as
 # CI services do) the examples are derandomized, so a run is repeatable, and a failure prints the
 # blob that reproduces it; HYPOTHESIS_PROFILE chooses one explicitly.
-settings.register_profile('ci', derandomize=True, deadline=None, print_blob=True,
-                          database=None)
-settings.register_profile('dev', deadline=None)
+# Both from Hypothesis's own defaults, not from the profile it picks itself when CI is set.
+settings.register_profile('ci', settings.get_profile('default'), derandomize=True,
+                          deadline=None, print_blob=True, database=None)
+settings.register_profile('dev', settings.get_profile('default'), deadline=None)
 settings.load_profile(os.environ.get(
     'HYPOTHESIS_PROFILE',
     'ci' if os.environ.get('CI', '').lower() not in ('', '0', 'false') else 'dev'))
