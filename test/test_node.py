@@ -392,10 +392,10 @@ def test_diagnostics_count_an_induced_stall(start_sim, probe):
         return simulated, simulated / float(kv['sim_over_wall'])
 
     message(2)  # window 1 starts with a message; window 2, the control, ends here
-    # Stop some 20 periods into window 3, so that it has on-time ticks before the stalled one
+    # Stop some 10 periods into window 3, so that it has on-time ticks before the stalled one
     # and, since it lasts a wall second, after it: its p99 is the stalled tick, its p50 not.
     n = len(poses)
-    probe.wait_for(lambda: len(poses) >= n + 20, what='20 poses into window 3')
+    probe.wait_for(lambda: len(poses) >= n + 10, what='10 poses into window 3')
     t0 = time.monotonic()
     sim.proc.send_signal(signal.SIGSTOP)
     try:
