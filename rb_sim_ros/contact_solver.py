@@ -18,7 +18,7 @@ step along -v_t scaled by the largest eigenvalue of the 2x2 tangent effective ma
 sliding contact's impulse converges to the direction opposite its slip) projected onto the
 Coulomb disc |lambda_t| <= mu lambda_n. Targets of
 the normal velocity: -e (v_rel . n before) for an impact (approach faster than the bounce
-threshold), 0 for a resting or sliding contact, and -gap/dt for a speculative one (a gap that
+threshold, e > 0), 0 for a resting or sliding contact, and -gap/dt for a speculative one (a gap that
 the bodies may close in one step, but not more: no tunnelling); never above -(v_rel . n before),
 so a contact that was separating does no positive work.
 
@@ -272,8 +272,11 @@ def solve(contacts: ContactArrays, bodies: Bodies, settings: SolverSettings,
     # A contact that was separating (vn0 > 0) may be pressed back at most at -vn0: its impulse
     # then does no positive work (docs/collisions.md, "Energy").
     plastic = np.minimum(np.where(depth < 0.0, depth / dt, 0.0), -vn0)
-    bounce = (vn0 < -settings.bounce_threshold) & (vn0 < plastic)
     e = settings.restitution if restitution is None else restitution
+    # Without restitution there is nothing to bounce: the target stays the plastic one, so a
+    # fast body closes a speculative gap and stops on the surface, not where the gap began (a
+    # ball at 20 m/s with no gravity used to hover 13 mm off the ground for ever).
+    bounce = (vn0 < -settings.bounce_threshold) & (vn0 < plastic) & (np.asarray(e) > 0.0)
     target = np.where(bounce, -e * vn0, plastic)
     mu = np.full(count, float(settings.friction)) if friction is None else friction
     with_friction = bool(np.any(mu > 0.0))

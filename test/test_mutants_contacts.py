@@ -98,3 +98,18 @@ def test_a_slow_ball_closes_its_gap_in_one_step_and_stops_on_the_ground(gap, spe
         st = world.state('ball')
         assert abs(float(st.position[2]) - R) < 1e-15
         assert np.abs(st.linear_velocity).max() < 1e-12
+
+
+@pytest.mark.parametrize('speed, gap', [(20.0, 0.013), (5.0, 0.004), (100.0, 0.09)])
+def test_a_fast_ball_without_restitution_stops_on_the_ground_not_short_of_it(speed, gap):
+    """No gravity, e = 0, approach faster than the bounce threshold and than the gap closes
+    in one step: the ball must end the step touching the plane and stay there (plastic
+    impact), not stop dead where the speculative contact began (mutation-run finding)."""
+    r = 0.1
+    world = CollisionWorld([ball(position=(0.0, 0.0, r + gap), velocity=(0.0, 0.0, -speed))],
+                           1e-3, planes=GROUND, restitution=0.0)
+    for _ in range(5):
+        world.step(1)
+    z = world.state('ball').position[2]
+    assert abs(z - r) < 1e-12, z - r
+    assert np.all(np.abs(world.state('ball').linear_velocity) < 1e-9)

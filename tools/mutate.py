@@ -74,6 +74,10 @@ MUTANTS = [
      [('np.where(depth < 0.0, depth / dt, 0.0)', 'np.where(depth < 0.0, 0.5 * depth / dt, 0.0)')],
      [CONTACTS + 'test_a_slow_ball_closes_its_gap_in_one_step_and_stops_on_the_ground'],
      'a speculative contact closes half its gap in a step'),
+    ('plastic-impact-stops-short', 'rb_sim_ros/contact_solver.py',
+     [(' & (np.asarray(e) > 0.0)', '')],
+     [CONTACTS + 'test_a_fast_ball_without_restitution_stops_on_the_ground_not_short_of_it'],
+     'a fast body with e = 0 stops where its speculative contact began'),
     ('no-orthonormalisation', 'rb_sim_ros/stepper.py',
      [('                r1 = so3.orthonormalize_components(*r1)\n', '                pass\n')],
      [STEPPER + 'test_a_rotation_written_off_so3_is_pulled_back_within_orthonormalize_every_'
