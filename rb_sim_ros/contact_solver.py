@@ -18,8 +18,9 @@ step along -v_t scaled by the largest eigenvalue of the 2x2 tangent effective ma
 sliding contact's impulse converges to the direction opposite its slip) projected onto the
 Coulomb disc |lambda_t| <= mu lambda_n. Targets of
 the normal velocity: -e (v_rel . n before) for an impact (approach faster than the bounce
-threshold, e > 0), 0 for a resting or sliding contact, and -gap/dt for a speculative one (a gap that
-the bodies may close in one step, but not more: no tunnelling); never above -(v_rel . n before),
+threshold, e > 0), 0 for a resting or sliding contact, and -gap/dt for a speculative one (a
+gap that the bodies may close in one step, but not more: no tunnelling); never above
+-(v_rel . n before),
 so a contact that was separating does no positive work.
 
 Energy: the velocity pass never adds kinetic energy. Where Newton's law with friction (Kane's
