@@ -218,6 +218,9 @@ def cells(m: dict) -> dict:
     i, f, b = m['impacts'], m['friction'], m['bounces']
     r, s, w = m['resting_box'], m['stack'], m['thin_wall']
 
+    low, high = r['iterations']
+    iterations = f'{low}' if low == high else f'{low}-{high}'
+
     def um(values):
         return ', '.join(f'{v * 1e6:.1f}' for v in values)
 
@@ -238,8 +241,8 @@ def cells(m: dict) -> dict:
         'test_resting_box_stays_still_for_10_s': (
             f'over {r["seconds"]:g} s: penetration {r["depth"] * 1e3:.4f} mm; centre sank '
             f'{r["sank"] * 1e3:.4f} mm; horizontal drift {r["drift"]:.1e} m; largest speed '
-            f'{r["speed"]:.1e} m/s, spin {r["spin"]:.1e} rad/s; {r["iterations"][0]}-'
-            f'{r["iterations"][1]} velocity iterations a step after the first 0.1 s'),
+            f'{r["speed"]:.1e} m/s, spin {r["spin"]:.1e} rad/s; {iterations} velocity '
+            'iteration(s) a step after the first 0.1 s'),
         'test_box_stack_of_three_stands_for_10_s': (
             f'over {s["seconds"]:g} s: drift {um(s["drift_x"])} um (x) and {um(s["drift_y"])} '
             f'um (y); sank {", ".join(f"{v * 1e3:.2f}" for v in s["sank"])} mm; tilt '
@@ -257,7 +260,7 @@ def cells(m: dict) -> dict:
             f'speculative: all held at every speed tried, up to '
             f'{w["speculative_held_up_to"]:,.0f} m/s'),
         'test_mixed_scene_': (
-            ('mechanical energy never rose (largest change over 0.1 s '
+            ('mechanical energy never rose (largest change over 0.1 s: '
              if m['mixed']['largest_rise_J'] <= 0.0 else 'mechanical energy rose by at most ('
              ) + f'{m["mixed"]["largest_rise_J"]:.1e} J; {m["mixed"]["energy_start_J"]:.2f} J '
             f'to {m["mixed"]["energy_end_J"]:.2f} J); three runs '

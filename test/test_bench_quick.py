@@ -7,6 +7,7 @@ import importlib
 import json
 import math
 from pathlib import Path
+import re
 import subprocess
 import sys
 
@@ -87,16 +88,77 @@ def test_order_check_fails_loudly_on_a_method_off_its_order():
                                      ['points'], 'angle_final')['order'], 2.0)
 
 
+def _quick(name: str, tmp_path: Path) -> dict:
+    """Run bench/<name>.py --quick (its checks and sanity checks must pass) and return the
+    figures it wrote."""
+    out = tmp_path / f'{name}.json'
+    result = subprocess.run([sys.executable, str(ROOT / 'bench' / f'{name}.py'), '--quick',
+                             '--json', str(out)], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    figures = json.loads(out.read_text())
+    assert figures['quick'] and figures['command'].startswith(f'python bench/{name}.py')
+    return figures
+
+
 def test_collision_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
-    """Their checks: both engines' heaps stay in the box and agree; a resting floor of boxes
-    stays put in every engine and all of it falls asleep; a drop wakes only what it hits."""
-    for name in ('collision_bench', 'resting_bench'):
-        out = tmp_path / f'{name}.json'
-        result = subprocess.run([sys.executable, str(ROOT / 'bench' / f'{name}.py'), '--quick',
-                                 '--json', str(out)], capture_output=True, text=True,
-                                timeout=300)
-        assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
-        assert json.loads(out.read_text())
-    resting = json.loads((tmp_path / 'resting_bench.json').read_text())
+    """Their checks: both engines' heaps stay in the box and agree; the collision tests'
+    scenarios stay within the bounds their tests assert; a resting floor of boxes stays put in
+    every engine and all of it falls asleep; a drop wakes only what it hits."""
+    collision = _quick('collision_bench', tmp_path)
+    like = collision['mujoco']['PGS, 10 iterations']
+    assert like['max_iterations'] == 10 and collision['rb_sim_ros']['iterations'] <= 10
+    cases = _quick('collision_cases', tmp_path)
+    assert cases['mixed']['bit_identical'] and len(cases['cells']) == 9
+    resting = _quick('resting_bench', tmp_path)
     assert resting['asleep']['contacts'] == 0 and resting['awake']['contacts'] > 0
     assert 1 < resting['asleep']['awake_after_drop'] < 2 * resting['side'] ** 2
+    assert resting['mujoco_sleeping']['awake_trees'] < 2 * resting['side'] ** 2
+
+
+def test_step_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
+    """Every path agrees with its reference before it is timed, and every figure is sane."""
+    step = _quick('step_cost', tmp_path)
+    assert {r['call'] for r in step['rows']} == {'step(1)', 'step(10)', 'amortised'}
+    skip = _quick('skip_bench', tmp_path)
+    assert all(r['agreement'] <= 1e-12 for r in skip['rows'])
+    batch = _quick('batch_bench', tmp_path)
+    assert batch['batch_vs_steppers'] < 1e-12
+
+
+def test_node_timing_passes_its_checks_in_quick_mode(tmp_path):
+    """The moving body's last pose matches an offline Stepper; the figures are plausible."""
+    node = _quick('node_timing', tmp_path)
+    fastest = node['fastest'][0]
+    assert fastest['body'] == 'spinning, full tensor' and fastest['pose_error'] <= 1e-9
+
+
+def test_every_quoted_figure_is_in_the_committed_benchmark_output():
+    """README.md and docs quote only what docs/bench/*.json holds (bench/figures.py says
+    where and how each figure is formatted): a stale figure fails here."""
+    figures = _bench('figures')
+    assert figures.stale() == []
+
+
+def test_every_number_of_the_accuracy_and_speed_table_is_accounted_for():
+    """Each number in a row of README's "Accuracy and speed" table that cites a benchmark is
+    one of the texts bench/figures.py derives for that row from the committed JSON."""
+    figures = _bench('figures')
+    readme = (ROOT / 'README.md').read_text()
+    table = [line for line in figures.section(readme, 'Accuracy and speed').splitlines()
+             if line.startswith('| ') and '`python bench/' in line]
+    assert len(table) >= 8
+    quotes = figures.quotes()
+    for line in table:
+        what, value = line.split(' | ')[0:2]
+        expected = ' '.join(text for doc, anchor, text in quotes
+                            if doc == 'README.md' and anchor in what)
+        for number in re.findall(r'\d+(?:\.\d+)?', value):
+            assert number in re.findall(r'\d+(?:\.\d+)?', expected) or number in \
+                re.findall(r'\d+(?:\.\d+)?', what), (line, number, expected)
+
+
+def test_every_benchmark_json_names_its_command():
+    for path in sorted((ROOT / 'docs' / 'bench').glob('*.json')):
+        data = json.loads(path.read_text())
+        assert data['command'].startswith(f'python bench/{path.stem}.py'), path
+        assert not data['quick'], path
