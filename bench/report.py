@@ -41,7 +41,11 @@ def header(s: dict) -> list[str]:
         '', '    ./tools/bench.sh                       # full, under 10 minutes on 2 cores',
         '    ./tools/bench.sh --quick --out /tmp/b  # a few seconds; what the tests run', '',
         '`tools/bench.sh` sets up `.venv` with `requirements-bench.txt` and runs '
-        '`bench/run.py`. The cost of one step alone: `python bench/step_cost.py`.', '',
+        '`bench/run.py`, which also writes these figures to `docs/bench/run.json`. The cost '
+        'of one step alone: `python bench/step_cost.py`. The other benchmarks (skips, the '
+        'batch path, collisions, sleeping, the node) each write `docs/bench/<name>.json` with '
+        'the command that ran them; README.md and docs/collisions.md quote only those files, '
+        'and `python bench/figures.py` checks that they do.', '',
         'Order of work: the references are checked against each other, then every '
         'integrator’s error is checked to fall at its order, and only then is anything '
         'timed. A method off its order by more than '

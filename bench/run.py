@@ -26,6 +26,7 @@ import time
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE), str(HERE.parent)]
 
+import figures  # noqa: E402 (a bench module)
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 import scipy  # noqa: E402
@@ -74,17 +75,20 @@ def main(argv=None) -> int:
     parser.add_argument('--out', default=None,
                         help='folder for benchmarks.md and img/*.png (default: docs/)')
     parser.add_argument('--json', default=None,
-                        help='where to write the summary (default: bench/out/summary.json, '
-                             'or OUT/summary.json when --out is given)')
+                        help='where to write the summary (default: docs/bench/run.json, the '
+                             'figures docs/benchmarks.md shows, or OUT/summary.json when --out '
+                             'is given)')
     opts = parser.parse_args(argv)
     out = HERE.parent / 'docs' if opts.out is None else Path(opts.out)
     json_path = Path(opts.json) if opts.json else (
-        HERE / 'out' / 'summary.json' if opts.out is None else out / 'summary.json')
+        HERE.parent / 'docs' / 'bench' / 'run.json' if opts.out is None
+        else out / 'summary.json')
     (out / 'img').mkdir(parents=True, exist_ok=True)
     json_path.parent.mkdir(parents=True, exist_ok=True)
     quick = opts.quick
     t0 = time.monotonic()
-    summary = {'date': time.strftime('%Y-%m-%d'), 'machine': machine(), 'quick': quick,
+    summary = {'command': figures.command(), 'date': time.strftime('%Y-%m-%d'),
+               'machine': machine(), 'quick': quick,
                'steps_n': list(wp.QUICK_STEPS if quick else wp.FULL_STEPS),
                'rtols': list(wp.rtols(quick)), 'repeats': 2 if quick else 5,
                'orders_checked': False}
