@@ -237,6 +237,14 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((readme, 'memory per body',
               f'{big["memory_per_body"]["batch_arrays_B"] / 1e3:.1f} kB / '
               f'{big["memory_per_body"]["mujoco_model_plus_data_B"] / 1e3:.1f} kB'))
+    life = load('node_lifecycle', folder)
+    big_start = max(life['startup'], key=lambda r: r['bodies'])
+    q.append((readme, '#Scenes', f'A {big_start["bodies"]:,}-body scene publishes its first '
+              f'`poses` {big_start["first_poses_s"]:.1f} s after the process starts, with '
+              f'{big_start["peak_memory_mb"]:.0f} MB'))
+    q.append((readme, '#What bad input gets', f'{life["stop_clean"]} of {life["stop_runs"]} '
+              f'runs at `real_time_factor:=0` within {max(life["stop_exit_s"]):.2f} s'))
+
     q.append((readme, '#Many bodies', f'{big["batch_free_ns"]:.0f} ns per body-step'))
     q.append((readme, '#Many bodies', f'{big["batch_free_one_step_per_call_ns"]:.0f} ns'))
     q.append((readme, '#Many bodies',

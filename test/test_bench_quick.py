@@ -6,6 +6,7 @@
 import importlib
 import json
 import math
+import os
 from pathlib import Path
 import re
 import subprocess
@@ -130,6 +131,17 @@ def test_node_timing_passes_its_checks_in_quick_mode(tmp_path):
     node = _quick('node_timing', tmp_path)
     fastest = node['fastest'][0]
     assert fastest['body'] == 'spinning, full tensor' and fastest['pose_error'] <= 1e-9
+
+
+def test_node_lifecycle_passes_its_checks_in_quick_mode():
+    """A 200-body scene starts and publishes all its poses; two stops by signal at full
+    speed exit 0 without a traceback and leave recordings that verify."""
+    env = dict(os.environ)
+    env.setdefault('AMENT_PREFIX_PATH', sys.prefix)
+    result = subprocess.run([sys.executable, str(ROOT / 'bench' / 'node_lifecycle.py'),
+                             '--quick'], capture_output=True, text=True, timeout=600, env=env)
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    assert 'start-up, 200 bodies' in result.stdout and '2 of 2 clean' in result.stdout
 
 
 def test_every_quoted_figure_is_in_the_committed_benchmark_output():

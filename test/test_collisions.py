@@ -2,8 +2,9 @@
 # Licensed under the Apache License, Version 2.0
 """Collision response: the solver on single impacts, then whole worlds (docs/collisions.md).
 
-Figures measured when these tests were written (dt = 1 ms, gravity 9.81 m/s^2) are in
-docs/collisions.md ("Measured"); the bounds asserted here are the documented ones.
+The figures of these scenarios (dt = 1 ms, gravity 9.81 m/s^2) in docs/collisions.md
+("Measured") come from `python bench/collision_cases.py`, which runs them with this module's
+helpers; the bounds asserted here are the documented ones.
 """
 
 import math
@@ -332,9 +333,8 @@ def thin_wall_run(speed, speculative, phase, r=0.05, width=0.01, dt=1e-3):
 
 def test_no_tunnelling_through_a_thin_wall():
     """A ball of radius r = 5 cm at a wall w = 1 cm thick, dt = 1 ms. Discrete contacts hold
-    up to (r + w/2) / dt = 55 m/s (measured: every phase held at 54 m/s, some tunnelled at
-    56 m/s; docs/collisions.md) and fail past (2 r + w) / dt; speculative contacts held at
-    every speed tried, up to 10 km/s."""
+    up to (r + w/2) / dt = 55 m/s and fail past (2 r + w) / dt (bench/collision_cases.py
+    measures where); speculative contacts hold at every speed tried here, up to 10 km/s."""
     phases = np.linspace(0.0, 1.0, 7)[:-1]
     for speed in (1.0, 20.0, 54.0):
         assert all(thin_wall_run(speed, False, p) < 0.0 for p in phases)
