@@ -39,6 +39,8 @@ CONTACTS = 'test/test_mutants_contacts.py::'
 STEPPER = 'test/test_mutants_stepper.py::'
 COLLISIONS = 'test/test_collisions.py::'
 CONVERGENCE = 'test/test_convergence.py::'
+NODE = 'test/test_node.py::'
+HARDENING = 'test/test_node_hardening.py::'
 
 # Eq. (14) of the report as printed: R_{n+1} = (exp([w + (4 b - b_prev)/6 dt] dt)
 # - ([b][w] + [w][b]) dt^3 / 12) R_n, i.e. no (b x w) term in the rotation vector and the
@@ -78,6 +80,19 @@ MUTANTS = [
      [(' & (np.asarray(e) > 0.0)', '')],
      [CONTACTS + 'test_a_fast_ball_without_restitution_stops_on_the_ground_not_short_of_it'],
      'a fast body with e = 0 stops where its speculative contact began'),
+    ('late-ticks-uncounted', 'rb_sim_ros/diagnostics.py',
+     [('        self.late_ticks += late\n', '        pass\n')],
+     [NODE + 'test_diagnostics_count_an_induced_stall'],
+     '/diagnostics never counts a late tick'),
+    ('p99-is-p50', 'rb_sim_ros/diagnostics.py',
+     [("'tick_lateness_p99_ms': pct(0.99)", "'tick_lateness_p99_ms': pct(0.5)")],
+     [NODE + 'test_diagnostics_count_an_induced_stall'],
+     'the p99 lateness is the median'),
+    ('timeout-below-a-step-disables', 'rb_sim_ros/simulator_node.py',
+     [('max(1, math.ceil(timeout / self.config.dt - 1e-9))',
+       'math.ceil(timeout / self.config.dt - 1e-9)')],
+     [HARDENING + 'test_a_timeout_shorter_than_a_step_still_times_out'],
+     'a command_timeout shorter than a step never times out'),
     ('no-orthonormalisation', 'rb_sim_ros/stepper.py',
      [('                r1 = so3.orthonormalize_components(*r1)\n', '                pass\n')],
      [STEPPER + 'test_a_rotation_written_off_so3_is_pulled_back_within_orthonormalize_every_'
