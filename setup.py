@@ -22,9 +22,9 @@ setup(
     tests_require=['pytest'],
     entry_points={
         'console_scripts': [
-            'simulator = rb_sim_ros.simulator_node:main',
-            'send_wrench = rb_sim_ros.send_wrench:main',
-            'replay = rb_sim_ros.replay:main',
+            'simulator = rb_sim_ros.ros.simulator_node:main',
+            'send_wrench = rb_sim_ros.ros.send_wrench:main',
+            'replay = rb_sim_ros.ros.replay:main',
         ],
     },
 )

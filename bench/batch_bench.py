@@ -48,8 +48,9 @@ import mujoco
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from rb_sim_ros import RigidBody, so3, State, Stepper, Wrench
-from rb_sim_ros.batch import BatchStepper
+from rb_sim_ros import RigidBody, State, Stepper, Wrench
+from rb_sim_ros.core import so3
+from rb_sim_ros.core.batch import BatchStepper
 
 DT = 1e-3
 

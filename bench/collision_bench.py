@@ -45,10 +45,10 @@ import figures  # a bench module
 import mujoco
 import numpy as np
 
-from rb_sim_ros.collision_shapes import Plane, Sphere
-from rb_sim_ros.collision_world import CollisionWorld
-from rb_sim_ros.simulation import BodySpec
-from rb_sim_ros.stepper import Stepper
+from rb_sim_ros.contact.collision_shapes import Plane, Sphere
+from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.core.stepper import Stepper
+from rb_sim_ros.sim.simulation import BodySpec
 
 DT = 1e-3
 RADIUS = 0.05

@@ -22,8 +22,8 @@ import sys
 import figures  # a bench module
 import numpy as np
 
-from rb_sim_ros import contact_solver as cs  # noqa: I100
-from rb_sim_ros.collision_world import CollisionWorld
+from rb_sim_ros.contact import contact_solver as cs  # noqa: I100
+from rb_sim_ros.contact.collision_world import CollisionWorld
 
 sys.path.insert(0, str(figures.ROOT / 'test'))
 import test_collisions as tc  # noqa: E402, I100, I202 (the test module, for its scenarios)

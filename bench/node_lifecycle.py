@@ -58,7 +58,7 @@ def startup(n: int, tmp: Path) -> tuple[float, float]:
     got: list = []
     probe.node.create_subscription(PoseArray, 'poses', got.append, 10)
     t0 = time.monotonic()
-    proc = subprocess.Popen([sys.executable, '-m', 'rb_sim_ros.simulator_node', '--ros-args',
+    proc = subprocess.Popen([sys.executable, '-m', 'rb_sim_ros.ros.simulator_node', '--ros-args',
                              '-p', f'scene_file:={scene}'], env=_env(domain),
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
@@ -83,12 +83,12 @@ def stop_loop(runs: int, tmp: Path, timed: bool = True) -> tuple[list[str], list
         probe = Probe(domain)
         poses: list = []
         probe.node.create_subscription(PoseStamped, 'pose', poses.append, 10)
-        proc = subprocess.Popen([sys.executable, '-m', 'rb_sim_ros.simulator_node',
+        proc = subprocess.Popen([sys.executable, '-m', 'rb_sim_ros.ros.simulator_node',
                                  '--ros-args', '-p', 'real_time_factor:=0.0',
                                  '-p', f'record:={out}'], env=_env(domain),
                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         probe.spin_until(lambda: len(poses) > 20, 120.0)
-        subprocess.run([sys.executable, '-m', 'rb_sim_ros.send_wrench', '--force', '1', '0',
+        subprocess.run([sys.executable, '-m', 'rb_sim_ros.ros.send_wrench', '--force', '1', '0',
                         '0', '--torque', '0', '0', '0.1', '--duration', '0.3'],
                        env=_env(domain), capture_output=True, timeout=120)
         probe.close()
@@ -103,7 +103,7 @@ def stop_loop(runs: int, tmp: Path, timed: bool = True) -> tuple[list[str], list
         seconds = time.monotonic() - t0
         exit_times.append(seconds)
         log = proc.stdout.read()
-        verify = subprocess.run([sys.executable, '-m', 'rb_sim_ros.replay', '--verify',
+        verify = subprocess.run([sys.executable, '-m', 'rb_sim_ros.ros.replay', '--verify',
                                  str(out)], env=_env(domain), capture_output=True, text=True)
         bad = [what for what, ok in (('exit code', code == 0),
                                      ('time', seconds <= 2.0 or not timed),

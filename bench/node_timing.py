@@ -42,7 +42,7 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 
 from rb_sim_ros import RigidBody, State, Stepper
-from rb_sim_ros.simulator_node import APPLIED_QOS
+from rb_sim_ros.ros.simulator_node import APPLIED_QOS
 
 CLK_TCK = os.sysconf('SC_CLK_TCK')
 
@@ -80,7 +80,7 @@ class Probe:
 
 
 def _start(env, *params):
-    args = [sys.executable, '-m', 'rb_sim_ros.simulator_node', '--ros-args']
+    args = [sys.executable, '-m', 'rb_sim_ros.ros.simulator_node', '--ros-args']
     for p in params:
         args += ['-p', p]
     return subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

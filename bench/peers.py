@@ -25,7 +25,8 @@ import time
 import mujoco
 import numpy as np
 
-from rb_sim_ros import IntegrationError, METHODS, RigidBody, so3, State, Stepper, Wrench
+from rb_sim_ros import IntegrationError, METHODS, RigidBody, State, Stepper, Wrench
+from rb_sim_ros.core import so3
 import references  # noqa: I100, I201
 from scenes import Scene  # noqa: I201
 

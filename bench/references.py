@@ -23,7 +23,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.special import ellipj, ellipk
 
-from rb_sim_ros import so3
+from rb_sim_ros.core import so3
 from scenes import Scene
 
 RTOL, ATOL = 1e-13, 1e-14

@@ -36,11 +36,11 @@ import figures  # a bench module
 import mujoco
 import numpy as np
 
-from rb_sim_ros.collision_shapes import Box, Plane, Sphere
-from rb_sim_ros.collision_world import CollisionWorld
-from rb_sim_ros.rigid_body import State
-from rb_sim_ros.scene import load_scene
-from rb_sim_ros.simulation import BodySpec, Config, Simulation
+from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
+from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.core.rigid_body import State
+from rb_sim_ros.sim.scene import load_scene
+from rb_sim_ros.sim.simulation import BodySpec, Config, Simulation
 
 DT = 1e-3
 SIZE = 0.2

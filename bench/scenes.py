@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from rb_sim_ros import so3
+from rb_sim_ros.core import so3
 
 # Sample times (s) of every scene are multiples of this; every dt of a sweep divides it.
 SAMPLE_SPACING = 0.05

@@ -23,7 +23,8 @@ import time
 import figures  # a bench module
 import numpy as np
 
-from rb_sim_ros import RigidBody, so3, State, Stepper, Wrench
+from rb_sim_ros import RigidBody, State, Stepper, Wrench
+from rb_sim_ros.core import so3
 
 ASYMMETRIC = RigidBody(2.0, [[0.2, 0.01, 0.0], [0.01, 0.3, 0.02], [0.0, 0.02, 0.4]])
 SPHERE = RigidBody(1.0, [0.4, 0.4, 0.4])

@@ -33,7 +33,8 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 import peers  # noqa: E402
-from rb_sim_ros import METHODS, RigidBody, so3, State, Stepper, Wrench  # noqa: E402
+from rb_sim_ros import METHODS, RigidBody, State, Stepper, Wrench  # noqa: E402
+from rb_sim_ros.core import so3  # noqa: E402
 import references  # noqa: E402, I100, I201
 import scenes as sc  # noqa: E402, I201
 

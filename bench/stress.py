@@ -15,7 +15,8 @@ import mujoco
 import numpy as np
 
 import peers
-from rb_sim_ros import IntegrationError, METHODS, RigidBody, so3, State, Stepper
+from rb_sim_ros import IntegrationError, METHODS, RigidBody, State, Stepper
+from rb_sim_ros.core import so3
 import references  # noqa: I100, I201
 import scenes as sc  # noqa: I201
 

@@ -2,9 +2,9 @@
 # Licensed under the Apache License, Version 2.0
 """rb_sim_ros: a deterministic rigid-body simulator; this package's core imports numpy only."""
 
-from rb_sim_ros.multistep import EQ27, METHODS, Multistep
-from rb_sim_ros.rigid_body import Frame, RigidBody, State, Wrench, ZERO_WRENCH
-from rb_sim_ros.stepper import IntegrationError, Stepper
+from rb_sim_ros.core.multistep import EQ27, METHODS, Multistep
+from rb_sim_ros.core.rigid_body import Frame, RigidBody, State, Wrench, ZERO_WRENCH
+from rb_sim_ros.core.stepper import IntegrationError, Stepper
 
 __version__ = '0.1.0'
 

@@ -9,10 +9,9 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from rb_sim_ros import batch as batch_module
-from rb_sim_ros import (euler_dynamics, IntegrationError, multistep, RigidBody, so3, State,
-                        Stepper, Wrench)
-from rb_sim_ros.batch import BatchIntegrationError, BatchStepper
+from rb_sim_ros import IntegrationError, RigidBody, State, Stepper, Wrench
+from rb_sim_ros.core import batch as batch_module, euler_dynamics, multistep, so3
+from rb_sim_ros.core.batch import BatchIntegrationError, BatchStepper
 
 DT = 1e-3
 TOL = 1e-12

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from visualization_msgs.msg import Marker
 
-from rb_sim_ros import so3
-from rb_sim_ros.collision_markers import CollisionMarkers, PLANE_THICKNESS
-from rb_sim_ros.collision_shapes import Box, Capsule, Plane, Sphere
-from rb_sim_ros.collision_world import WorldContact
-from rb_sim_ros.simulation import BodySpec, Config
+from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
+from rb_sim_ros.contact.collision_world import WorldContact
+from rb_sim_ros.core import so3
+from rb_sim_ros.ros.collision_markers import CollisionMarkers, PLANE_THICKNESS
+from rb_sim_ros.sim.simulation import BodySpec, Config
 
 S = math.sqrt(0.5)
 Z90 = (0.0, 0.0, S, S)   # 90 degrees about z: x -> y, y -> -x

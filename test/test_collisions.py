@@ -12,12 +12,13 @@ import math
 import numpy as np
 import pytest
 
-from rb_sim_ros import contact_solver as cs, so3
-from rb_sim_ros.collision_shapes import Box, Capsule, Plane, Sphere
-from rb_sim_ros.collision_world import CollisionWorld
-from rb_sim_ros.rigid_body import State
-from rb_sim_ros.simulation import BodySpec, Config, Simulation
-from rb_sim_ros.stepper import Stepper
+from rb_sim_ros.contact import contact_solver as cs
+from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
+from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.core import so3
+from rb_sim_ros.core.rigid_body import State
+from rb_sim_ros.core.stepper import Stepper
+from rb_sim_ros.sim.simulation import BodySpec, Config, Simulation
 
 G = (0.0, 0.0, -9.81)
 GROUND = (Plane(),)

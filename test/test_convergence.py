@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from rb_sim_ros import multistep, RigidBody, so3, State, Stepper, Wrench
+from rb_sim_ros import RigidBody, State, Stepper, Wrench
+from rb_sim_ros.core import multistep, so3
 import reference
 
 BODY = RigidBody(1.3, [[1.2, 0.1, 0.05], [0.1, 2.0, -0.1], [0.05, -0.1, 2.6]])

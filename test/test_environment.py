@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from rb_sim_ros import RigidBody, so3, State, Stepper, Wrench
+from rb_sim_ros import RigidBody, State, Stepper, Wrench
+from rb_sim_ros.core import so3
 
 G = np.array([0.0, 0.0, -9.81])
 

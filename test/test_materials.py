@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from rb_sim_ros.collision_shapes import Box, Plane, shape_from_dict, shape_to_dict, Sphere
-from rb_sim_ros.collision_world import CollisionWorld
-from rb_sim_ros.simulation import BodySpec, Config
+from rb_sim_ros.contact.collision_shapes import Box, Plane, shape_from_dict, shape_to_dict, Sphere
+from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.sim.simulation import BodySpec, Config
 
 G = (0.0, 0.0, -9.81)
 DT = 1e-3

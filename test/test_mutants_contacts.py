@@ -7,7 +7,7 @@ form of the flight: a ball and the ground plane z = 0, so its depth is r - z exa
 import numpy as np
 import pytest
 
-from rb_sim_ros.collision_world import CollisionWorld
+from rb_sim_ros.contact.collision_world import CollisionWorld
 from test_collisions import ball, G, GROUND
 
 R, DT = 0.1, 1e-3

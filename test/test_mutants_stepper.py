@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from rb_sim_ros import RigidBody, so3, State, Stepper, Wrench
+from rb_sim_ros import RigidBody, State, Stepper, Wrench
+from rb_sim_ros.core import so3
 import reference
 
 BODY = RigidBody(1.3, [[1.2, 0.1, 0.05], [0.1, 2.0, -0.1], [0.05, -0.1, 2.6]])

@@ -11,9 +11,10 @@ import math
 import numpy as np
 import pytest
 
-from rb_sim_ros import broad_phase, narrow_phase as nph, so3
-from rb_sim_ros.collision_shapes import (Box, Capsule, Plane, shape_from_dict, shape_to_dict,
-                                         Sphere, world_pose)
+from rb_sim_ros.contact import broad_phase, narrow_phase as nph
+from rb_sim_ros.contact.collision_shapes import (Box, Capsule, Plane, shape_from_dict,
+                                                 shape_to_dict, Sphere, world_pose)
+from rb_sim_ros.core import so3
 
 I3 = np.eye(3)
 ORIGIN = np.zeros(3)

@@ -19,8 +19,8 @@ from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Empty, SetBool, Trigger
 
 from rb_sim_ros import Wrench as CoreWrench
-from rb_sim_ros.simulation import BodySpec, Config, SetWrench, Simulation
-from rb_sim_ros.simulator_node import APPLIED_QOS
+from rb_sim_ros.ros.simulator_node import APPLIED_QOS
+from rb_sim_ros.sim.simulation import BodySpec, Config, SetWrench, Simulation
 import ros_harness
 from ros_harness import stamp_ns
 
@@ -314,7 +314,7 @@ def test_a_scene_gives_each_body_its_topics(start_sim, probe, tmp_path):
     probe.wait_for(lambda: len(poses['a']) > n + 10, what='poses after it')
     assert poses['a'][0].header.frame_id == 'odom'
 
-    from rb_sim_ros.scene import load_scene
+    from rb_sim_ros.sim.scene import load_scene
     gravity, bodies, contact = load_scene(str(scene))
     sim = Simulation(Config(gravity=gravity, bodies=bodies, contact=contact))
     events = [(stamp_ns(applied[0].header.stamp) // DT_NS,

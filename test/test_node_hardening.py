@@ -16,7 +16,7 @@ from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
 from std_srvs.srv import Empty, SetBool, Trigger
 
-from rb_sim_ros.simulator_node import APPLIED_QOS
+from rb_sim_ros.ros.simulator_node import APPLIED_QOS
 from ros_harness import stamp_ns
 
 

@@ -15,9 +15,9 @@ import pytest
 from rosbags.highlevel import AnyReader
 from std_srvs.srv import Empty, SetBool, Trigger
 
-from rb_sim_ros import replay
 from rb_sim_ros.recording import RecordingReader
-from rb_sim_ros.simulator_node import APPLIED_QOS
+from rb_sim_ros.ros import replay
+from rb_sim_ros.ros.simulator_node import APPLIED_QOS
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
 FIXTURES = FIXTURE.parent

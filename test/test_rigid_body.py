@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from rb_sim_ros import Frame, RigidBody, State, Stepper, Wrench
-from rb_sim_ros import so3
-from rb_sim_ros.rigid_body import finite_floats, non_negative, rate
+from rb_sim_ros.core import so3
+from rb_sim_ros.core.rigid_body import finite_floats, non_negative, rate
 
 NAN = math.nan
 

@@ -8,10 +8,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rb_sim_ros import contact_solver as cs, so3
-from rb_sim_ros.collision_shapes import Plane, Sphere
-from rb_sim_ros.collision_world import CollisionWorld
-from rb_sim_ros.simulation import BodySpec, ContactSettings
+from rb_sim_ros.contact import contact_solver as cs
+from rb_sim_ros.contact.collision_shapes import Plane, Sphere
+from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.core import so3
+from rb_sim_ros.sim.simulation import BodySpec, ContactSettings
 from test_collisions import impact, momenta, random_contact_set
 
 

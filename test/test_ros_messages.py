@@ -9,8 +9,8 @@ from geometry_msgs.msg import Wrench as WrenchMsg
 from hypothesis import given, settings, strategies as st
 import pytest
 
-from rb_sim_ros import ros_messages
-from rb_sim_ros.rigid_body import Frame
+from rb_sim_ros.core.rigid_body import Frame
+from rb_sim_ros.ros import ros_messages
 
 FLOATS = st.one_of(st.floats(allow_nan=True, allow_infinity=True),
                    st.sampled_from([1.4e154, -1.5e154, 1e200, 1.7976931348623157e308, 5e-324]))

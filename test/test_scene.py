@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rb_sim_ros.collision_shapes import Box, Capsule, Plane, Sphere
-from rb_sim_ros.scene import load_scene, mass_and_inertia, SceneError
-from rb_sim_ros.simulation import ContactSettings
+from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
+from rb_sim_ros.sim.scene import load_scene, mass_and_inertia, SceneError
+from rb_sim_ros.sim.simulation import ContactSettings
 
 SCENES = Path(__file__).resolve().parents[1] / 'scenes'
 EXAMPLE = SCENES / 'example.yaml'

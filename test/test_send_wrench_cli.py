@@ -11,8 +11,8 @@ from geometry_msgs.msg import Wrench, WrenchStamped
 from hypothesis import given, settings, strategies as st
 import pytest
 
-from rb_sim_ros import send_wrench
-from rb_sim_ros.body_ports import APPLIED_QOS
+from rb_sim_ros.ros import send_wrench
+from rb_sim_ros.ros.body_ports import APPLIED_QOS
 
 
 def _main(*args):

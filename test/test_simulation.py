@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from rb_sim_ros import State, Stepper, Wrench
-from rb_sim_ros.simulation import (BodySpec, Config, Reset, SetPose, SetTwist, SetWrench,
-                                   Simulation)
+from rb_sim_ros.sim.simulation import (BodySpec, Config, Reset, SetPose, SetTwist, SetWrench,
+                                       Simulation)
 
 BODY = BodySpec(name='b', mass=1.5, inertia=(0.2, 0.01, 0.0, 0.01, 0.3, 0.0, 0.0, 0.0, 0.4),
                 initial_position=(1.0, 2.0, 3.0), initial_angular_velocity=(0.3, -0.2, 1.0))

@@ -5,11 +5,11 @@
 import numpy as np
 import pytest
 
-from rb_sim_ros.collision_shapes import Box, Plane, Sphere
-from rb_sim_ros.collision_world import CollisionWorld
-from rb_sim_ros.rigid_body import State, Wrench
-from rb_sim_ros.simulation import (BodySpec, Config, ContactSettings, SetPose, SetWrench,
-                                   Simulation)
+from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
+from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.core.rigid_body import State, Wrench
+from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, SetPose, SetWrench,
+                                       Simulation)
 
 G = (0.0, 0.0, -9.81)
 GROUND = (Plane(),)
@@ -212,8 +212,8 @@ def test_a_non_finite_contact_result_spares_the_other_bodies(monkeypatch):
     """If the solver hands one body a non-finite velocity, that body keeps its state, every
     other body gets its contacts as usual, and the error names the step."""
     import dataclasses
-    from rb_sim_ros import collision_world
-    from rb_sim_ros.stepper import IntegrationError
+    from rb_sim_ros.contact import collision_world
+    from rb_sim_ros.core.stepper import IntegrationError
     solve, poison = collision_world.contact_solver.solve, []
 
     def poisoned(*args, **kwargs):

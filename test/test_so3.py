@@ -8,7 +8,7 @@ from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 
-from rb_sim_ros import multistep, so3
+from rb_sim_ros.core import multistep, so3
 
 finite = st.floats(-10.0, 10.0, allow_nan=False)
 vectors = st.tuples(finite, finite, finite).map(np.array)
@@ -132,7 +132,7 @@ def test_orthonormalize_components_squares_the_error(phi, eps):
 @given(st.lists(st.floats(-1.0, 1.0), min_size=9, max_size=9),
        st.floats(1e-3, 1e3), st.sampled_from([0, 1, 2]))
 def test_symmetric_eigen_diagonalises(entries, scale, degenerate):
-    from rb_sim_ros.euler_dynamics import symmetric_eigen
+    from rb_sim_ros.core.euler_dynamics import symmetric_eigen
     a = np.array(entries).reshape(3, 3)
     inertia = scale * (a @ a.T + 0.1 * np.eye(3))
     if degenerate:  # two equal moments (a symmetric top), turned

@@ -13,11 +13,12 @@ from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 
-from rb_sim_ros import contact_solver as cs, so3
-from rb_sim_ros.collision_shapes import Box, Plane, Sphere
-from rb_sim_ros.collision_world import CollisionWorld
-from rb_sim_ros.simulation import BodySpec, Config, SetTwist, Simulation
-from rb_sim_ros.stepper import IntegrationError
+from rb_sim_ros.contact import contact_solver as cs
+from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
+from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.core import so3
+from rb_sim_ros.core.stepper import IntegrationError
+from rb_sim_ros.sim.simulation import BodySpec, Config, SetTwist, Simulation
 
 
 def _energy(velocity, angular_velocity, masses, inertias_world):

@@ -13,10 +13,10 @@ from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 
-from rb_sim_ros import so3
-from rb_sim_ros.rigid_body import RigidBody, State, Wrench
-from rb_sim_ros.simulation import BodySpec, Config, SetTwist, SetWrench, Simulation
-from rb_sim_ros.stepper import IntegrationError, Stepper
+from rb_sim_ros.core import so3
+from rb_sim_ros.core.rigid_body import RigidBody, State, Wrench
+from rb_sim_ros.core.stepper import IntegrationError, Stepper
+from rb_sim_ros.sim.simulation import BodySpec, Config, SetTwist, SetWrench, Simulation
 
 
 def _log_uniform(low, high):

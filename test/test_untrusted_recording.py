@@ -20,12 +20,12 @@ from mcap.writer import Writer
 import pytest
 from rosbags.highlevel import AnyReader
 
-from rb_sim_ros import node_params, replay
-from rb_sim_ros.node_recorder import NodeRecorder
-from rb_sim_ros.rigid_body import Wrench
-from rb_sim_ros.ros_messages import OutputMessages
-from rb_sim_ros.simulation import BodySpec, Config, SetWrench, Simulation
-from rb_sim_ros.stepper import IntegrationError
+from rb_sim_ros.core.rigid_body import Wrench
+from rb_sim_ros.core.stepper import IntegrationError
+from rb_sim_ros.ros import node_params, replay
+from rb_sim_ros.ros.node_recorder import NodeRecorder
+from rb_sim_ros.ros.ros_messages import OutputMessages
+from rb_sim_ros.sim.simulation import BodySpec, Config, SetWrench, Simulation
 from test_recording import disk_full_after
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'

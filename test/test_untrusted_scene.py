@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 import yaml
 
-from rb_sim_ros import safe_yaml, scene
-from rb_sim_ros.collision_shapes import Plane
-from rb_sim_ros.scene import load_scene, Scene, SceneError
-from rb_sim_ros.simulation import BodySpec, ContactSettings
+from rb_sim_ros.contact.collision_shapes import Plane
+from rb_sim_ros.sim import safe_yaml, scene
+from rb_sim_ros.sim.scene import load_scene, Scene, SceneError
+from rb_sim_ros.sim.simulation import BodySpec, ContactSettings
 
 SCENES = Path(__file__).resolve().parents[1] / 'scenes'
 BODY = '{name: a, mass: 1, inertia: [1, 1, 1]}'

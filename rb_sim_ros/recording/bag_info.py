@@ -18,6 +18,7 @@ from pathlib import Path
 import yaml
 
 from rb_sim_ros.recording.errors import WriterError
+from rb_sim_ros.recording.reader import RecordingReader
 
 VERSION = 9
 METADATA_NAME = 'rosbag2'
@@ -99,8 +100,6 @@ def write_rosbag2_metadata(mcap_path: str | os.PathLike, overwrite: bool = False
     unless ``overwrite``, and to describe a truncated recording (``recover`` it first); raises
     ReaderError if ``mcap_path`` is not a readable recording.
     """
-    from rb_sim_ros.recording.reader import RecordingReader  # reader imports this module
-
     reader = RecordingReader(mcap_path)
     if reader.truncated:
         raise WriterError(f'{reader.path}: truncated ({reader.truncation}); recover() it into a '

@@ -31,7 +31,6 @@ import weakref
 from mcap.writer import CompressionType, LIBRARY_IDENTIFIER, Writer
 from rclpy.serialization import serialize_message
 
-from rb_sim_ros import __version__
 from rb_sim_ros.recording.bag_info import (bag_information, dump, METADATA_KEY, METADATA_NAME,
                                            TopicSummary)
 from rb_sim_ros.recording.errors import WriterError
@@ -42,7 +41,9 @@ PROFILE = 'ros2'
 MESSAGE_ENCODING = 'cdr'
 SCHEMA_ENCODING = 'ros2msg'
 CHUNK_SIZE = 64 * 1024
-LIBRARY = f'rb_sim_ros/{__version__} {LIBRARY_IDENTIFIER}'
+# The writer's name in the file's header: the caller hands its own (the node recorder says
+# rb_sim_ros and its version); this package's layers below ros import nothing above them.
+LIBRARY = LIBRARY_IDENTIFIER
 COMPRESSION = {'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4,
                'none': CompressionType.NONE}
 _U64 = 2**64

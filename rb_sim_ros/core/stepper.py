@@ -32,9 +32,9 @@ from typing import Any
 
 import numpy as np
 
-from rb_sim_ros import euler_dynamics, multistep, so3
-from rb_sim_ros.rigid_body import (finite_floats, Frame, rate, RigidBody, State, Wrench,
-                                   ZERO_WRENCH)
+from rb_sim_ros.core import euler_dynamics, multistep, so3
+from rb_sim_ros.core.rigid_body import (finite_floats, Frame, rate, RigidBody, State, Wrench,
+                                        ZERO_WRENCH)
 
 
 class IntegrationError(RuntimeError):

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import math
 from typing import Any, Callable
 
-from rb_sim_ros import multistep
-from rb_sim_ros.rigid_body import Frame
+from rb_sim_ros.core import multistep
+from rb_sim_ros.core.rigid_body import Frame
 
 
 # The work of one publish period is bounded: at most this many physics steps (a period of
@@ -171,7 +171,7 @@ PARAMS = (
     Param('publish_clock', True, 'Publish /clock (rosgraph_msgs/Clock, best-effort) with sim '
           'time.', True, _bool),
     Param('scene_file', '', 'A YAML scene (several bodies, gravity, damping; see '
-          'rb_sim_ros/scene.py). Empty: one body from the parameters above. Each scene body '
+          'rb_sim_ros/sim/scene.py). Empty: one body from the parameters above. Each scene body '
           'has its own topics <name>/wrench, <name>/pose, ...', True, _string),
     Param('max_body_topics', 100, 'How many bodies of a scene (in file order) get their own '
           'topics <name>/wrench, <name>/pose, ... (0 to 100000). Each topic is a DDS endpoint, '

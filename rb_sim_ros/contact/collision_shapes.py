@@ -28,8 +28,8 @@ from typing import Any, Union
 
 import numpy as np
 
-from rb_sim_ros import so3
-from rb_sim_ros.rigid_body import finite_floats, is_number, scaled_to_one, short
+from rb_sim_ros.core import so3
+from rb_sim_ros.core.rigid_body import finite_floats, is_number, scaled_to_one, short
 
 IDENTITY_XYZW = (0.0, 0.0, 0.0, 1.0)
 ORIGIN = (0.0, 0.0, 0.0)

@@ -41,15 +41,15 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from std_srvs.srv import Empty, SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
-from rb_sim_ros import node_params, ros_arguments, ros_messages
-from rb_sim_ros.body_ports import APPLIED_QOS, BodyPorts, TwistInput
-from rb_sim_ros.collision_markers import CollisionMarkers
-from rb_sim_ros.diagnostics import Diagnostics
-from rb_sim_ros.rigid_body import ZERO_WRENCH
-from rb_sim_ros.scene import load_scene
-from rb_sim_ros.simulation import (BodySpec, Config, ContactSettings, Reset, SetTwist,
-                                   SetWrench, Simulation)
-from rb_sim_ros.stepper import IntegrationError
+from rb_sim_ros.core.rigid_body import ZERO_WRENCH
+from rb_sim_ros.core.stepper import IntegrationError
+from rb_sim_ros.ros import node_params, ros_arguments, ros_messages
+from rb_sim_ros.ros.body_ports import APPLIED_QOS, BodyPorts, TwistInput
+from rb_sim_ros.ros.collision_markers import CollisionMarkers
+from rb_sim_ros.ros.diagnostics import Diagnostics
+from rb_sim_ros.sim.scene import load_scene
+from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Reset, SetTwist,
+                                       SetWrench, Simulation)
 
 __all__ = ['APPLIED_QOS', 'SimulatorNode', 'main']
 
@@ -436,7 +436,7 @@ def _config(v: dict, scene=None) -> Config:
 def _open_recorder(node: SimulatorNode, values: dict):
     if not values['record']:
         return None
-    from rb_sim_ros.node_recorder import NodeRecorder
+    from rb_sim_ros.ros.node_recorder import NodeRecorder
     topics = {name: {'pose': p.pub_pose.topic_name, 'twist': p.pub_twist.topic_name,
                      'odom': p.pub_odom.topic_name} for name, p in node.ports.items()
               if name in node.sim.steppers}  # a static body never moves: nothing to record

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from rb_sim_ros import so3
+from rb_sim_ros.core import so3
 
 # Tolerances of validation, relative to the largest principal moment.
 SYMMETRY_TOLERANCE = 1e-9

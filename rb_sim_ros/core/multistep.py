@@ -24,7 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 import math
 
-from rb_sim_ros import so3
+from rb_sim_ros.core import so3
 
 
 @dataclass(frozen=True)

@@ -56,11 +56,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from rb_sim_ros import broad_phase, contact_solver, narrow_phase, so3
-from rb_sim_ros.collision_shapes import combined_material, Plane, Shape
-from rb_sim_ros.rigid_body import finite_floats, non_negative, State
-from rb_sim_ros.simulation import BodySpec, Config, make_steppers
-from rb_sim_ros.stepper import IntegrationError, step_all
+from rb_sim_ros.contact import broad_phase, contact_solver, narrow_phase
+from rb_sim_ros.contact.bodies import BodySpec, make_steppers
+from rb_sim_ros.contact.collision_shapes import combined_material, Plane, Shape
+from rb_sim_ros.core import so3
+from rb_sim_ros.core.rigid_body import finite_floats, non_negative, State
+from rb_sim_ros.core.stepper import IntegrationError, step_all
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
 FEATURE_BITS = 12
@@ -185,8 +186,9 @@ class CollisionWorld:
         self._build(planes)
 
     @classmethod
-    def from_config(cls, config: Config, **kwargs) -> 'CollisionWorld':
-        """The bodies, dt, gravity and integrator of a ``simulation.Config``."""
+    def from_config(cls, config, **kwargs) -> 'CollisionWorld':
+        """The bodies, dt, gravity and integrator of a ``sim.simulation.Config`` (read by
+        attribute: this layer does not import the one above it)."""
         return cls(config.bodies, config.dt, config.gravity, integrator=config.integrator,
                    **kwargs)
 

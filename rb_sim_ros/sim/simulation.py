@@ -11,134 +11,18 @@ events at the same steps reproduce a run bit for bit, whatever the scheduling wa
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
-import re
+from dataclasses import dataclass
 from typing import Any, Union
 
-import numpy as np
+from rb_sim_ros.contact.bodies import BodySpec, ContactSettings, make_steppers
+from rb_sim_ros.contact.collision_shapes import shape_from_dict, shape_to_dict
+from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.core import multistep
+from rb_sim_ros.core.rigid_body import finite_floats, State, Wrench, ZERO_WRENCH
+from rb_sim_ros.core.stepper import step_all, Stepper
 
-from rb_sim_ros import contact_solver, multistep
-from rb_sim_ros.collision_shapes import is_shape, Plane, shape_from_dict, shape_to_dict
-from rb_sim_ros.rigid_body import (finite_floats, non_negative, rate, RigidBody, State, Wrench,
-                                   ZERO_WRENCH)
-from rb_sim_ros.stepper import step_all, Stepper
-
-
-# What a body's name may be: it becomes a topic namespace and a frame id (scene.NAME too).
-_NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]{0,63}\Z')
-
-
-@dataclass(frozen=True)
-class BodySpec:
-    """One body of a scene. SI units; vectors in the world frame.
-
-    inertia: 3 principal moments or 9 row-major components of the body-frame tensor (kg m^2).
-    initial_*: the state at step 0 and after a reset. linear/angular_damping: rates (1/s).
-    static: never moves and costs nothing (infinite mass in contacts). colliders: shapes of
-    ``collision_shapes`` in the body frame (a Plane only on a static body); a scene in which no
-    moving body has one skips collision detection entirely.
-    """
-
-    name: str = 'body'
-    mass: float = 1.0
-    inertia: tuple[float, ...] = (0.1, 0.1, 0.1)
-    initial_position: tuple[float, ...] = (0.0, 0.0, 0.0)
-    initial_orientation_xyzw: tuple[float, ...] = (0.0, 0.0, 0.0, 1.0)
-    initial_linear_velocity: tuple[float, ...] = (0.0, 0.0, 0.0)
-    initial_angular_velocity: tuple[float, ...] = (0.0, 0.0, 0.0)
-    linear_damping: float = 0.0
-    angular_damping: float = 0.0
-    static: bool = False
-    colliders: tuple = ()
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not _NAME.match(self.name):
-            raise ValueError(f'name must be an ASCII letter, then ASCII letters, digits and '
-                             f'underscores, at most 64 in all (it names topics and a frame), '
-                             f'got {self.name!r}')
-        inertia = finite_floats('inertia', self.inertia, len(tuple(self.inertia)))
-        if len(inertia) not in (3, 9):
-            raise ValueError(f'inertia must be 3 principal moments or 9 components, '
-                             f'got {len(inertia)} numbers')
-        object.__setattr__(self, 'inertia', inertia)
-        for name, size in (('initial_position', 3), ('initial_orientation_xyzw', 4),
-                           ('initial_linear_velocity', 3), ('initial_angular_velocity', 3)):
-            object.__setattr__(self, name, finite_floats(name, getattr(self, name), size))
-        for name in ('linear_damping', 'angular_damping'):
-            object.__setattr__(self, name, rate(name, getattr(self, name)))
-        if not isinstance(self.static, bool):
-            raise ValueError(f'static must be true or false, got {self.static!r}')
-        object.__setattr__(self, 'colliders', tuple(self.colliders))
-        for i, c in enumerate(self.colliders):
-            if not is_shape(c):
-                raise ValueError(f'colliders[{i}] must be a Sphere, Box, Capsule or Plane, '
-                                 f'got {c!r}')
-            if isinstance(c, Plane) and not self.static:
-                raise ValueError(f'colliders[{i}] is a Plane, which only a static body may '
-                                 'have')
-        self.body()  # validates mass and inertia
-        self.initial_state()  # validates the orientation
-
-    def body(self) -> RigidBody:
-        inertia = (np.array(self.inertia) if len(self.inertia) == 3
-                   else np.array(self.inertia).reshape(3, 3))
-        return RigidBody(self.mass, inertia)
-
-    def initial_state(self) -> State:
-        return State.from_quaternion_xyzw(self.initial_position, self.initial_orientation_xyzw,
-                                          self.initial_linear_velocity,
-                                          self.initial_angular_velocity)
-
-
-@dataclass(frozen=True)
-class ContactSettings:
-    """How bodies with colliders respond when they touch (docs/collisions.md): restitution e
-    in [0, 1], Coulomb friction mu >= 0, of every collider without a material of its own;
-    Gauss-Seidel iterations of the velocity and the position pass; slop (m) of penetration
-    left uncorrected; position_fraction of the rest corrected per step; rolling_resistance
-    (m): the lever arm of the moment that resists rolling (0: balls roll for ever);
-    torsional_friction (m): that of the moment resisting spin about the contact normal;
-    approaches slower than bounce_threshold (m/s) do not bounce (keep it above |g| dt);
-    speculative contacts keep fast bodies from tunnelling. A body pressed by a contact whose
-    points all move slower than sleep_speed (m/s) for sleep_time (s) sleeps, at rest and at
-    no cost, until an awake body comes near, its wrench changes or it is teleported
-    (sleep_time 0: never). Unused by a scene without colliders."""
-
-    restitution: float = 0.0
-    friction: float = 0.5
-    velocity_iterations: int = 10
-    position_iterations: int = 4
-    slop: float = 1e-4
-    position_fraction: float = 0.8
-    bounce_threshold: float = 0.1
-    speculative: bool = True
-    sleep_time: float = 0.5
-    sleep_speed: float = 1e-3
-    rolling_resistance: float = 0.0
-    torsional_friction: float = 0.0
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.speculative, bool):
-            raise ValueError(f'speculative must be true or false, got {self.speculative!r}')
-        for name in ('sleep_time', 'sleep_speed'):
-            non_negative(name, getattr(self, name))
-        contact_solver.SolverSettings(**{  # validates the rest
-            f.name: getattr(self, f.name) for f in fields(self)
-            if f.name in contact_solver.SolverSettings.__dataclass_fields__})
-
-    def world_arguments(self) -> dict[str, Any]:
-        """Keyword arguments of ``collision_world.CollisionWorld``."""
-        return {f.name: getattr(self, f.name) for f in fields(self)}
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> 'ContactSettings':
-        if not isinstance(data, dict):
-            raise ValueError(f'contact must be a mapping, got {data!r}')
-        unknown = sorted(set(data) - set(cls.__dataclass_fields__))
-        if unknown:
-            raise ValueError(f'unknown contact keys {unknown} (known: '
-                             f'{sorted(cls.__dataclass_fields__)})')
-        return cls(**data)
+__all__ = ['BodySpec', 'Config', 'ContactSettings', 'Event', 'make_steppers', 'Reset',
+           'SetPose', 'SetTwist', 'SetWrench', 'Simulation']
 
 
 @dataclass(frozen=True)
@@ -274,22 +158,6 @@ class Reset:
 Event = Union[SetWrench, SetPose, SetTwist, Reset]
 
 
-def make_steppers(bodies, dt: float, integrator: str,
-                  gravity) -> tuple[dict[str, Stepper], dict[str, State]]:
-    """A Stepper (at its initial state, with its damping) for each moving body of ``bodies``,
-    and the initial state of each static one, by name."""
-    steppers: dict[str, Stepper] = {}
-    static: dict[str, State] = {}
-    for spec in bodies:
-        if spec.static:
-            static[spec.name] = spec.initial_state()
-        else:
-            steppers[spec.name] = Stepper(
-                spec.body(), dt, spec.initial_state(), method=integrator, gravity=gravity,
-                linear_damping=spec.linear_damping, angular_damping=spec.angular_damping)
-    return steppers, static
-
-
 class Simulation:
     """A run of ``config``: apply events at step boundaries, advance all bodies, read them.
 
@@ -305,8 +173,6 @@ class Simulation:
         self._step_count = 0
         self.world = None
         if config.collides:
-            # Imported here: collision_world builds on this module's BodySpec and Config.
-            from rb_sim_ros.collision_world import CollisionWorld
             self.world = CollisionWorld.from_config(config, **config.contact.world_arguments())
             self.steppers = self.world.steppers
             self.static = self.world.static

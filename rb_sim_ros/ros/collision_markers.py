@@ -18,9 +18,9 @@ import numpy as np
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from rb_sim_ros import so3
-from rb_sim_ros.collision_shapes import Plane
-from rb_sim_ros.ros_messages import time_msg
+from rb_sim_ros.contact.collision_shapes import Plane
+from rb_sim_ros.core import so3
+from rb_sim_ros.ros.ros_messages import time_msg
 
 PLANE_SIZE = 20.0       # m, edge of the square drawn for an infinite plane
 PLANE_THICKNESS = 1e-3  # m

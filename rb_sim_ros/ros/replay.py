@@ -23,12 +23,12 @@ import struct
 import sys
 import time
 
-from rb_sim_ros import node_params, node_recorder, ros_arguments
+from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.recording import ReaderError, RecordingReader, recover, WriterError
 from rb_sim_ros.recording.schemas import type_name_of
-from rb_sim_ros.ros_messages import OutputMessages, time_msg
-from rb_sim_ros.simulation import Config, Simulation
-from rb_sim_ros.stepper import IntegrationError
+from rb_sim_ros.ros import node_params, node_recorder, ros_arguments
+from rb_sim_ros.ros.ros_messages import OutputMessages, time_msg
+from rb_sim_ros.sim.simulation import Config, Simulation
 
 QUANTITIES = ('position', 'orientation', 'linear_velocity', 'angular_velocity')
 # Everything in a file is untrusted; these bound the work a file can ask for.

@@ -15,9 +15,9 @@ from geometry_msgs.msg import PoseStamped, Twist, Wrench as WrenchMsg, WrenchSta
 from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, QoSProfile
 
-from rb_sim_ros import ros_messages
-from rb_sim_ros.rigid_body import Frame
-from rb_sim_ros.simulation import SetPose, SetWrench
+from rb_sim_ros.core.rigid_body import Frame
+from rb_sim_ros.ros import ros_messages
+from rb_sim_ros.sim.simulation import SetPose, SetWrench
 
 # Latched (transient local) like a state: a late subscriber still gets the recent ones.
 APPLIED_QOS = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)

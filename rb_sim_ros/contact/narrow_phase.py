@@ -31,7 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rb_sim_ros.collision_shapes import RANK, Shape
+from rb_sim_ros.contact.collision_shapes import RANK, Shape
 
 # Two directions whose cross product is shorter than this are parallel (no edge-edge axis).
 PARALLEL_EPS = 1e-6

@@ -24,15 +24,18 @@ import json
 import os
 
 from geometry_msgs.msg import PoseStamped, Twist, TwistStamped, WrenchStamped
+from mcap.writer import LIBRARY_IDENTIFIER
 from nav_msgs.msg import Odometry
 
 from rb_sim_ros import __version__
+from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.recording import RecordingWriter, WriterError
-from rb_sim_ros.rigid_body import Wrench
-from rb_sim_ros.ros_messages import time_msg
-from rb_sim_ros.simulation import Config, Reset, SetPose, SetTwist, SetWrench
+from rb_sim_ros.ros.ros_messages import time_msg
+from rb_sim_ros.sim.simulation import Config, Reset, SetPose, SetTwist, SetWrench
 
 METADATA = 'rb_sim_ros'
+# The writer named in the file's header (as rosbag2 names itself there).
+LIBRARY = f'rb_sim_ros/{__version__} {LIBRARY_IDENTIFIER}'
 FORMAT = 1
 INPUT_PREFIX = '/rb_sim/input/'
 INPUTS = {'wrench': WrenchStamped, 'set_pose': PoseStamped, 'set_twist': TwistStamped,
@@ -127,7 +130,7 @@ class NodeRecorder:
     def __init__(self, path: str, config: Config, parameters: dict,
                  output_topics: dict[str, dict[str, str]], overwrite: bool = False) -> None:
         try:
-            self._writer = RecordingWriter(path, overwrite=overwrite)
+            self._writer = RecordingWriter(path, overwrite=overwrite, library=LIBRARY)
         except WriterError as e:
             hint = ('; set record_overwrite:=true to replace it'
                     if not overwrite and os.path.isfile(path) else '')

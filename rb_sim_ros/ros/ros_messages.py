@@ -17,7 +17,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped, Twist, Wrench as WrenchMsg
 from nav_msgs.msg import Odometry
 
-from rb_sim_ros.rigid_body import Frame, Wrench
+from rb_sim_ros.core.rigid_body import Frame, Wrench
 
 
 def time_msg(time_ns: int) -> Time:

@@ -55,10 +55,10 @@ from typing import Any
 
 import numpy as np
 
-from rb_sim_ros import multistep, so3
-from rb_sim_ros.rigid_body import (finite_floats, Frame, RigidBody, ROTATION_TOLERANCE, short,
-                                   State, SYMMETRY_TOLERANCE, TRIANGLE_TOLERANCE)
-from rb_sim_ros.stepper import check_dt, FixedStep, IntegrationError, Stepper
+from rb_sim_ros.core import multistep, so3
+from rb_sim_ros.core.rigid_body import (finite_floats, Frame, RigidBody, ROTATION_TOLERANCE, short,
+                                        State, SYMMETRY_TOLERANCE, TRIANGLE_TOLERANCE)
+from rb_sim_ros.core.stepper import check_dt, FixedStep, IntegrationError, Stepper
 
 CHUNK_SIZE = 8192
 # Rows of one level (one step's state of every body): x, v, R (row-major), omega, beta, a.

@@ -54,10 +54,10 @@ import reprlib
 import sys
 from typing import Any, NamedTuple, NoReturn
 
-from rb_sim_ros import safe_yaml
-from rb_sim_ros.collision_shapes import Box, Plane, shape_from_dict, Sphere
-from rb_sim_ros.rigid_body import RigidBody
-from rb_sim_ros.simulation import BodySpec, ContactSettings
+from rb_sim_ros.contact.collision_shapes import Box, Plane, shape_from_dict, Sphere
+from rb_sim_ros.core.rigid_body import RigidBody
+from rb_sim_ros.sim import safe_yaml
+from rb_sim_ros.sim.simulation import BodySpec, ContactSettings
 
 TOP_KEYS = {'gravity', 'contact', 'bodies'}
 BODY_KEYS = {'name', 'mass', 'inertia', 'shape', 'size', 'radius', 'length', 'density',

@@ -31,7 +31,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.qos import QoSProfile
 from rclpy.signals import SignalHandlerOptions
 
-from rb_sim_ros import ros_arguments
+from rb_sim_ros.ros import ros_arguments
 
 FIELDS = ('t', 'fx', 'fy', 'fz', 'tx', 'ty', 'tz')
 MAX_WRENCH = 1.0e6  # the simulator's max_wrench parameter's default (N, N m)

@@ -1,0 +1,93 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The layers import downward only: ros -> sim -> contact -> core, and ros -> recording.
+
+Every import of this package's modules, at any depth of a module (a function's too), is read
+from the source with ast; an import of a layer above, or beside, fails here, and so does an
+import deferred into a function (the way to dodge a circle) unless it is listed below with its
+reason.
+"""
+
+import ast
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parents[1] / 'rb_sim_ros'
+ALLOWED = {
+    'core': {'core'},
+    'contact': {'contact', 'core'},
+    'sim': {'sim', 'contact', 'core'},
+    'ros': {'ros', 'sim', 'contact', 'core', 'recording', ''},  # '': __version__
+    'recording': {'recording'},
+    '': {'core'},  # rb_sim_ros/__init__.py re-exports the core's public names
+}
+# (module, imported module): why it is imported in a function and not at the top.
+DEFERRED = {
+    ('ros/simulator_node.py', 'rb_sim_ros.ros.node_recorder'):
+        'recording needs mcap, a PyPI package a ROS install may not have; a node that does not '
+        'record must start without it',
+}
+
+
+def _layer(dotted: str) -> str | None:
+    parts = dotted.split('.')
+    if parts[0] != 'rb_sim_ros':
+        return None
+    if len(parts) == 1:
+        return ''
+    return parts[1] if parts[1] in ALLOWED else ''
+
+
+def _imports(path: Path):
+    """(imported module, line, at module level, the statement's own module) of every
+    rb_sim_ros import; 'from a.b import c' gives a.b and a.b.c (c may be a module)."""
+    tree = ast.parse(path.read_text(), str(path))
+    top = {id(node) for node in tree.body}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names = [(a.name, True) for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names = [(node.module, True)] + [(f'{node.module}.{a.name}', False)
+                                             for a in node.names]
+        else:
+            continue
+        for name, own in names:
+            if name.split('.')[0] == 'rb_sim_ros':
+                yield name, node.lineno, id(node) in top, own
+
+
+def violations(package: Path) -> list[str]:
+    problems = []
+    for path in sorted(package.rglob('*.py')):
+        rel = path.relative_to(package)
+        here = rel.parts[0] if len(rel.parts) > 1 else ''
+        for name, line, at_top, own in _imports(path):
+            target = _layer(name)
+            if target not in ALLOWED[here] and (own or target != ''):
+                problems.append(f'{rel}:{line} ({here or "package"}) imports {name} '
+                                f'({target or "package"})')
+            if own and not at_top and (rel.as_posix(), name) not in DEFERRED:
+                problems.append(f'{rel}:{line} defers the import of {name} into a function')
+    return problems
+
+
+def test_every_module_is_in_a_layer():
+    for path in PACKAGE.rglob('*.py'):
+        rel = path.relative_to(PACKAGE)
+        assert len(rel.parts) == 1 and rel.name == '__init__.py' or rel.parts[0] in ALLOWED, rel
+
+
+def test_imports_go_downward_only():
+    assert violations(PACKAGE) == []
+
+
+def test_a_violation_is_caught(tmp_path):
+    """The check itself: a core module that imports the sim layer, and a deferred import."""
+    fake = tmp_path / 'rb_sim_ros'
+    (fake / 'core').mkdir(parents=True)
+    (fake / 'core' / 'bad.py').write_text(
+        'from rb_sim_ros.sim.simulation import Config\n\n\ndef f():\n'
+        '    from rb_sim_ros.core import so3\n')
+    found = violations(fake)
+    assert 'core/bad.py:1 (core) imports rb_sim_ros.sim.simulation (sim)' in found
+    assert 'core/bad.py:5 defers the import of rb_sim_ros.core into a function' in found
+    assert len(found) == 3  # and rb_sim_ros.sim.simulation.Config, a name of the sim layer
