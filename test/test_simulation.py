@@ -114,3 +114,26 @@ def test_a_body_name_must_be_a_ros_name_token():
     for bad in ('ä', 'bäll', '2ball', '_ball', 'a/b', 'a b', 'B' * 65, '', 5):
         with pytest.raises(ValueError, match='ASCII letter'):
             BodySpec(name=bad)
+
+
+def test_the_read_api_answers_without_reaching_into_steppers():
+    """is_moving, wrench, contact_stats and last_contacts answer for moving and static bodies;
+    set_initial_states takes new initial states only, and a reset goes to them."""
+    bodies = (BodySpec('a', initial_position=(1.0, 0.0, 0.0)), BodySpec('g', static=True))
+    sim = Simulation(Config(bodies=bodies))
+    assert sim.is_moving('a') and not sim.is_moving('g')
+    w = Wrench(force=(0.0, 2.0, 0.0))
+    sim.apply(SetWrench(w, 'a'))
+    assert sim.wrench('a') == w
+    with pytest.raises(ValueError, match="no moving body named 'g'"):
+        sim.wrench('g')
+    assert sim.contact_stats() is None and sim.last_contacts() == []
+    moved = (BodySpec('a', initial_position=(5.0, 0.0, 0.0)), bodies[1])
+    sim.set_initial_states(Config(bodies=moved))
+    sim.apply(Reset(body='a'))
+    assert sim.pose_twist('a')[0] == (5.0, 0.0, 0.0) and sim.wrench('a') == Wrench()
+    heavier = (BodySpec('a', mass=2.0), bodies[1])
+    with pytest.raises(ValueError, match="not body 'a' mass"):
+        sim.set_initial_states(Config(bodies=heavier))
+    with pytest.raises(ValueError, match='not dt'):
+        sim.set_initial_states(Config(dt=0.002, bodies=moved))

@@ -96,7 +96,7 @@ class SimulatorNode(Node):
                 self, spec.name, '' if single else spec.name + '/', values['world_frame'],
                 values['body_frame'] if single else spec.name, values['twist_frame'],
                 _Settings(self), self._queue, self._reject)
-        self._moving = [p for p in self.ports.values() if p.name in self.sim.steppers]
+        self._moving = [p for p in self.ports.values() if self.sim.is_moving(p.name)]
         self._apply_settings()
         self._recorder = _open_recorder(self, values)
         self._pub_clock = (self.create_publisher(ClockMsg, '/clock', QoSProfile(
@@ -262,7 +262,7 @@ class SimulatorNode(Node):
         if self._timeout_steps:
             for port in self._moving:
                 if (sim.step_count - port.last_command_step >= self._timeout_steps
-                        and sim.steppers[port.name].wrench != ZERO_WRENCH):
+                        and sim.wrench(port.name) != ZERO_WRENCH):
                     self._apply(SetWrench(ZERO_WRENCH, port.name), command=False)
         t0 = time.perf_counter_ns()
         start = sim.step_count
@@ -276,8 +276,7 @@ class SimulatorNode(Node):
             self._fail(str(e))
         self.diagnostics.stepped(sim.step_count - start, time.perf_counter_ns() - t0,
                                  sim.time_ns)
-        if sim.world is not None:
-            self.diagnostics.contacts = sim.world.last_stats
+        self.diagnostics.contacts = sim.contact_stats()
         self._periods += 1
         if self._recorder is not None and self._recorder.failed:
             recorder, self._recorder = self._recorder, None
@@ -299,8 +298,8 @@ class SimulatorNode(Node):
             # Spelled out, so that the recording holds the state reset to.
             event = Reset.to_initial(self.config.body(event.body))
         name = event.body or self.config.bodies[0].name
-        stepper = self.sim.steppers.get(name)
-        held = stepper.wrench if stepper else None
+        moving = self.sim.is_moving(name)
+        held = self.sim.wrench(name) if moving else None
         try:
             self.sim.apply(event)
         except (ValueError, IntegrationError) as e:
@@ -309,8 +308,9 @@ class SimulatorNode(Node):
         port = self.ports.get(name)  # None for a body of a large scene without topics
         if port is not None and isinstance(event, SetWrench) and command:
             port.last_command_step = self.sim.step_count
-        if port is not None and stepper.wrench != held:
-            port.applied(stepper.wrench, self.sim.time_ns)
+        now = self.sim.wrench(name) if moving else None
+        if port is not None and now != held:
+            port.applied(now, self.sim.time_ns)
         if self._recorder is not None:
             self._recorder.event(self.sim.step_count, self.sim.time_ns, event)
 
@@ -318,7 +318,7 @@ class SimulatorNode(Node):
         sim = self.sim
         t_ns = sim.time_ns
         for port in self.ports.values():
-            moving = port.name in sim.steppers  # a static body is not recorded: it never moves
+            moving = sim.is_moving(port.name)  # a static body is not recorded: it never moves
             if not port.publish(t_ns, sim.pose_twist(port.name),
                                 self._recorder if moving else None, sim.step_count):
                 self._fail(f"body '{port.name}' has a non-finite state at step "
@@ -327,7 +327,7 @@ class SimulatorNode(Node):
             self._fill_poses(t_ns)
         if self._pub_markers is not None and self._pub_markers.get_subscription_count():
             poses = {b.name: sim.pose_twist(b.name)[:2] for b in self.config.bodies}
-            self._pub_markers.publish(self._markers.fill(t_ns, poses, sim.world.last_contacts()))
+            self._pub_markers.publish(self._markers.fill(t_ns, poses, sim.last_contacts()))
         if self._pub_clock is not None:
             self._clock_msg.clock = ros_messages.time_msg(t_ns)
             self._pub_clock.publish(self._clock_msg)
@@ -368,10 +368,13 @@ class SimulatorNode(Node):
         except Exception as e:  # noqa: B902 - a bug must refuse the value, not kill the node
             return SetParametersResult(successful=False, reason=f'{type(e).__name__}: {e}')
         with self._lock:
+            try:
+                self.sim.set_initial_states(config)  # used by the next reset
+            except ValueError as e:
+                return SetParametersResult(successful=False, reason=str(e))
             rtf_changed = new['real_time_factor'] != self._v['real_time_factor']
             self._v = new
             self.config = config
-            self.sim.config = config  # initial states, used by the next reset
             self._apply_settings()
             if rtf_changed:
                 self._set_rate()
@@ -439,7 +442,7 @@ def _open_recorder(node: SimulatorNode, values: dict):
     from rb_sim_ros.ros.node_recorder import NodeRecorder
     topics = {name: {'pose': p.pub_pose.topic_name, 'twist': p.pub_twist.topic_name,
                      'odom': p.pub_odom.topic_name} for name, p in node.ports.items()
-              if name in node.sim.steppers}  # a static body never moves: nothing to record
+              if node.sim.is_moving(name)}  # a static body never moves: nothing to record
     return NodeRecorder(values['record'], node.config, values, topics,
                         overwrite=bool(values['record_overwrite']))
 

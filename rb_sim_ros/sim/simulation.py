@@ -11,7 +11,7 @@ events at the same steps reproduce a run bit for bit, whatever the scheduling wa
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any, Union
 
 from rb_sim_ros.contact.bodies import BodySpec, ContactSettings, make_steppers
@@ -193,6 +193,48 @@ class Simulation:
     def time_ns(self) -> int:
         """Simulated time in integer nanoseconds: step_count * dt, rounded."""
         return round(self._step_count * self.config.dt * 1e9)
+
+    # -- the read API (what the node publishes; it does not reach into steppers or world) --
+    def is_moving(self, name: str) -> bool:
+        """Whether body ``name`` can move (it has a stepper; a static body never does)."""
+        return name in self.steppers
+
+    def wrench(self, name: str = '') -> Wrench:
+        """The wrench held on moving body ``name`` ('' = the first)."""
+        name = name or self.config.bodies[0].name
+        if name not in self.steppers:
+            raise ValueError(f"no moving body named '{name}'")
+        return self.steppers[name].wrench
+
+    def contact_stats(self):
+        """The collision world's counts of the last step (contacts, active, sleeping), or None
+        when no body collides."""
+        return None if self.world is None else self.world.last_stats
+
+    def last_contacts(self) -> list:
+        """The contacts that carried an impulse in the last step (collision_world
+        WorldContact), empty when no body collides."""
+        return [] if self.world is None else self.world.last_contacts()
+
+    def set_initial_states(self, config: Config) -> None:
+        """Take the initial states (what a reset goes back to) from ``config``, which must
+        describe the same run otherwise: the same clock, method, gravity, contact settings
+        and bodies but for their initial_* fields. ValueError naming what differs."""
+        if not isinstance(config, Config):
+            raise ValueError(f'config must be a Config, got {config!r}')
+        old = self.config
+        for name in ('dt', 'steps_per_publish', 'integrator', 'gravity', 'contact'):
+            if getattr(config, name) != getattr(old, name):
+                raise ValueError(f'only initial states may change in a run, not {name}')
+        if len(config.bodies) != len(old.bodies):
+            raise ValueError('only initial states may change in a run, not the bodies')
+        for new, was in zip(config.bodies, old.bodies):
+            for f in fields(BodySpec):
+                if not f.name.startswith('initial_') and getattr(new, f.name) != \
+                        getattr(was, f.name):
+                    raise ValueError('only initial states may change in a run, not body '
+                                     f"'{was.name}' {f.name}")
+        self.config = config
 
     def pose_twist(self, name: str = ''):
         """(position, quaternion x-y-z-w, linear velocity, angular velocity) of a body, world."""
