@@ -325,3 +325,19 @@ def test_a_full_disk_stops_the_recording_not_the_simulation(installed, ros_env, 
     result = subprocess.run([replay, '--verify', str(fixed)], env=ros_env,
                             capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_a_users_pause_survives_reset_and_a_failed_step_says_so(start_sim, probe):
+    """After an overflow the node is paused by the error; once the user pauses it, reset must
+    not run it on, and a step that fails answers success false with the reason."""
+    start_sim('-p', 'mass:=1e-10', '-p', 'max_wrench:=1e301', '-p', 'command_timeout:=0.0',
+              '-p', 'start_paused:=true')
+    probe.publisher(Wrench, 'wrench').publish(_wrench((1e300, 0.0, 0.0)))
+    applied = probe.collect(WrenchStamped, 'applied_wrench', APPLIED_QOS)
+    probe.wait_for(lambda: applied, what='the huge wrench applied')
+    answer = probe.call(Trigger, 'step', Trigger.Request())
+    assert not answer.success and 'non-finite' in answer.message, answer.message
+    assert probe.call(SetBool, 'pause', SetBool.Request(data=True)).success
+    probe.call(Empty, 'reset', Empty.Request())
+    answer = probe.call(Trigger, 'step', Trigger.Request())
+    assert answer.success, answer.message  # still paused (else: 'not paused'), and it steps

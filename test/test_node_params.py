@@ -49,6 +49,7 @@ def test_a_value_is_refused_with_its_name_or_accepted_and_usable(name, value):
     ('inertia', [True, True, True]), ('initial_position', [1.0, 2.0]),
     ('start_paused', 1), ('publish_clock', 0.0), ('record_overwrite', 'yes'),
     ('integrator', 3), ('wrench_frame', 1), ('world_frame', 7), ('dt', 10**400),
+    ('command_timeout', 1e306),
 ])
 def test_the_values_that_killed_the_node_are_refused(name, value):
     with pytest.raises(ValueError, match=name):

@@ -178,3 +178,21 @@ def test_mul9_matches_matrix_products():
     np.testing.assert_allclose(so3.mul9_vec(a.reshape(9), v), a @ v, rtol=1e-15, atol=1e-15)
     np.testing.assert_allclose(so3.mul9_vec(a.reshape(9), v, True), a.T @ v, rtol=1e-15,
                                atol=1e-15)
+
+
+@pytest.mark.parametrize('scale', [1e-50, 1e-3, 7.0, 1e100, 1e200])
+def test_orthonormalize_of_a_scaled_rotation_is_the_rotation(scale):
+    """The polar factor of s R is R for any s > 0 (the iteration is scaled first; without it
+    1e-50 R or 1e200 R came back far off SO(3) or NaN)."""
+    rot = so3.exp(np.array([0.3, -1.2, 2.0]))
+    np.testing.assert_allclose(so3.orthonormalize(scale * rot), rot, atol=1e-15)
+
+
+@pytest.mark.parametrize('scale', [1e-300, 1.0, 4e306])
+def test_symmetric_eigen_at_any_scale(scale):
+    """Eigenvalues of s A are s times those of A, up to 1e307 (a sum of entries overflowed
+    there and the iteration stopped before any rotation) and down to 1e-300."""
+    from rb_sim_ros.core.euler_dynamics import symmetric_eigen
+    a = np.array([[2.0, 0.5, -0.3], [0.5, 1.0, 0.2], [-0.3, 0.2, 3.0]])
+    values, _vec = symmetric_eigen((scale * a).tolist())
+    np.testing.assert_allclose(np.array(values) / scale, np.linalg.eigvalsh(a), rtol=1e-14)

@@ -45,8 +45,17 @@ def symmetric_eigen(a: list[list[float]]) -> tuple[tuple[float, float, float],
     convergence is quadratic, so a few sweeps reach round-off. Only + - * / and sqrt, which
     IEEE 754 rounds exactly, so the result is the same on every machine.
     """
-    a = [[a[0][0], a[0][1], a[0][2]], [a[0][1], a[1][1], a[1][2]],
-         [a[0][2], a[1][2], a[2][2]]]
+    # Scaled by a power of two to a largest entry in [0.5, 1): exact (and undone exactly at
+    # the end), and every ratio the rotations use is unchanged, so the bits are those of the
+    # unscaled iteration; but no sum of entries near 1e308 overflows, nor does one near 1e-310
+    # lose digits as a subnormal.
+    big = max(abs(a[i][j]) for i in range(3) for j in range(i, 3))
+    if not math.isfinite(big):
+        raise ValueError(f'symmetric_eigen needs finite entries, got {a}')
+    e2 = math.frexp(big)[1] if big > 0.0 else 0
+    a = [[math.ldexp(a[0][0], -e2), math.ldexp(a[0][1], -e2), math.ldexp(a[0][2], -e2)],
+         [math.ldexp(a[0][1], -e2), math.ldexp(a[1][1], -e2), math.ldexp(a[1][2], -e2)],
+         [math.ldexp(a[0][2], -e2), math.ldexp(a[1][2], -e2), math.ldexp(a[2][2], -e2)]]
     v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
     for _ in range(64):
         scale = abs(a[0][0]) + abs(a[1][1]) + abs(a[2][2])
@@ -79,7 +88,7 @@ def symmetric_eigen(a: list[list[float]]) -> tuple[tuple[float, float, float],
                 v[k][p] = c * vkp - s * vkq
                 v[k][q] = s * vkp + c * vkq
     order = sorted(range(3), key=lambda i: a[i][i])
-    values = (a[order[0]][order[0]], a[order[1]][order[1]], a[order[2]][order[2]])
+    values = tuple(math.ldexp(a[i][i], e2) for i in order)
     vec = [[v[r][order[0]], v[r][order[1]], v[r][order[2]]] for r in range(3)]
     det = (vec[0][0] * (vec[1][1] * vec[2][2] - vec[1][2] * vec[2][1])
            - vec[0][1] * (vec[1][0] * vec[2][2] - vec[1][2] * vec[2][0])

@@ -153,19 +153,34 @@ def orthonormalize(rot: np.ndarray) -> np.ndarray:
     Newton's iteration for the polar factor, X <- (X + X^-T) / 2, in plain float arithmetic
     until it stops changing: no LAPACK, so the bits do not depend on the machine's BLAS kernel
     (a recording replays bit for bit on another machine). Quadratic convergence: from a
-    nearly orthonormal R, two or three iterations.
+    nearly orthonormal R, two or three iterations. A matrix far from orthonormal is first
+    scaled towards det 1 (by |det|^(-1/3) while |det - 1| > 1e-3, the usual acceleration);
+    ValueError if it does not converge (a nearly singular matrix).
     """
     x = [float(c) for c in np.asarray(rot, dtype=float).reshape(9)]
-    if not all(math.isfinite(c) for c in x) or _det(x) <= 0.0:
+    big = max(abs(c) for c in x) if all(math.isfinite(c) for c in x) else math.inf
+    if not math.isfinite(big) or big == 0.0:
+        raise ValueError(f'orthonormalize needs a finite matrix with det > 0, got {x}')
+    if not 0.5 <= big < 2.0:  # a power of two first: exact, and the determinant stays finite
+        x = [math.ldexp(c, -math.frexp(big)[1]) for c in x]
+    if not _det(x) > 0.0:
         raise ValueError(f'orthonormalize needs a finite matrix with det > 0, got {x}')
     for _ in range(100):
+        d = _det(x)
+        if abs(d - 1.0) > 1e-3:
+            g = abs(d) ** (-1.0 / 3.0)
+            x = [g * c for c in x]
         inv_t = _inverse_transpose(x)
         new = [0.5 * (a + b) for a, b in zip(x, inv_t)]
         change = max(abs(a - b) for a, b in zip(new, x))
         x = new
         if change <= 4e-16:
             break
-    return np.array(x).reshape(3, 3)
+    out = np.array(x).reshape(3, 3)
+    if not orthonormality_error(out) < 1e-12:
+        raise ValueError(f'orthonormalize did not converge (a nearly singular matrix?), got '
+                         f'{rot!r}')
+    return out
 
 
 def _det(r) -> float:

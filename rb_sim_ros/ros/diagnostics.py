@@ -18,7 +18,8 @@ class Diagnostics:
     def __init__(self) -> None:
         self.rejected = 0
         self.dropped_periods = 0
-        self.error = ''
+        self.error = ''            # why the physics stopped; reset or unpause clear it
+        self.recording_error = ''  # why the recording stopped; stays
         self.contacts = None  # collision_world.StepStats of the last step, when bodies collide
         self.ticks = 0
         self.late_ticks = 0
@@ -73,8 +74,9 @@ class Diagnostics:
             values['active_contacts'] = self.contacts.active
             values['sleeping_bodies'] = self.contacts.sleeping
         status = DiagnosticStatus(name='rb_sim: simulator', hardware_id='rb_sim_ros')
-        if self.error:
-            status.level, status.message = DiagnosticStatus.ERROR, self.error
+        error = '; '.join(e for e in (self.error, self.recording_error) if e)
+        if error:
+            status.level, status.message = DiagnosticStatus.ERROR, error
         elif self.dropped_periods:
             status.level, status.message = DiagnosticStatus.WARN, 'falling behind real time'
         else:

@@ -44,9 +44,9 @@ def _positive(name: str, v: Any) -> None:
         raise ValueError(f'{name} must be a finite number > 0, got {v!r}')
 
 
-def _non_negative(name: str, v: Any) -> None:
-    if _number(name, v) < 0.0:
-        raise ValueError(f'{name} must be a finite number >= 0, got {v!r}')
+def _timeout(name: str, v: Any) -> None:
+    if not 0.0 <= _number(name, v) <= 1e9:
+        raise ValueError(f'{name} must be between 0 and 1e9 s, got {v!r}')
 
 
 def _dt(name: str, v: Any) -> None:
@@ -155,8 +155,9 @@ PARAMS = (
           "or 'body' (turns with the body).", False, _frame),
     Param('twist_frame', 'body', "Frame of the 'twist' topic and of 'set_twist': 'body' (as "
           "in odom) or 'world'.", True, _frame),
-    Param('command_timeout', 1.0, 'Sim-time seconds after the last wrench command at which '
-          'the wrench is set to zero; 0 holds the last command forever.', False, _non_negative),
+    Param('command_timeout', 1.0, 'Sim-time seconds (0 to 1e9) after the last wrench command '
+          'at which the wrench is set to zero; 0 holds the last command forever.', False,
+          _timeout),
     Param('max_wrench', 1.0e6, 'Largest accepted force norm (N) and torque norm (N m); '
           'larger or non-finite commands are rejected.', False, _positive),
     Param('real_time_factor', 1.0, 'Sim time per wall time: 1.0 follows the wall clock, 2.0 '

@@ -163,6 +163,11 @@ class NodeRecorder:
         """The same as ``failed``."""
         return self.failed
 
+    @property
+    def pending(self) -> int:
+        """Messages handed over and not yet written (the writer's queue)."""
+        return self._writer.pending
+
     def event(self, step: int, time_ns: int, event) -> None:
         if self._writer.error is not None:
             return

@@ -55,6 +55,8 @@ __all__ = ['APPLIED_QOS', 'SimulatorNode', 'main']
 
 # Most steps run between two looks at the stop flag: shutdown never waits for a long period.
 _CHUNK_STEPS = 1000
+# Messages the recording's writer may have queued before the step loop waits for it.
+MAX_BACKLOG = 10_000
 
 
 class SimulatorNode(Node):
@@ -85,6 +87,7 @@ class SimulatorNode(Node):
         self._lock = threading.Lock()  # the step loop against service and parameter callbacks
         self._wake = threading.Event()
         self._error_paused = False  # paused by an error (not by a user): reset resumes
+        self._failures = 0
         self._periods = 0
         self._paused = bool(values['start_paused'])
         self._timeout_steps = 0
@@ -136,27 +139,40 @@ class SimulatorNode(Node):
         self._pending.append(event)
         if self._paused:
             with self._lock:
-                while self._pending:
-                    self._apply(self._pending.popleft())
+                self._guarded(self._drain)
+
+    def _drain(self) -> None:
+        while self._pending:
+            self._apply(self._pending.popleft())
+
+    def _guarded(self, work) -> bool:
+        """Run ``work`` (the lock held); an unexpected error pauses the node with ERROR, as in
+        the step loop, instead of escaping a callback. False if it failed."""
+        try:
+            work()
+            return True
+        except Exception as e:  # noqa: B902 - a bug must not leave a client unanswered
+            self._fail(f'{type(e).__name__}: {e}')
+            return False
 
     def _reject(self, what: str, error: Exception) -> None:
         self.diagnostics.rejected += 1
         self.get_logger().warning(f'rejected {what}: {error}', throttle_duration_sec=1.0)
 
     def _on_reset(self, request, response):
-        for spec in self.config.bodies:
-            if not spec.static:
-                self._queue(Reset(body=spec.name))
-        with self._lock:
-            if self._error_paused:  # the state that failed is gone: run again
-                self._resume()
-            self.diagnostics.error = ''
+        resets = [Reset(body=spec.name) for spec in self.config.bodies if not spec.static]
+        with self._lock:  # all together: every body is reset at the same step
+            self._pending.extend(resets)
+            ok = self._guarded(self._drain) if self._paused else True
+            if ok:
+                self.diagnostics.error = ''
+                if self._error_paused:  # the state that failed is gone: run again
+                    self._guarded(self._resume)
         return response
 
     def _resume(self) -> None:
         """Run (again) from the current step; clears an error that had paused the node."""
-        while self._pending:  # inputs queued while paused take effect at this step
-            self._apply(self._pending.popleft())
+        self._drain()  # inputs queued while paused take effect at this step
         self._paused = self._error_paused = False
         self.diagnostics.error = ''
         self._anchor()
@@ -166,6 +182,7 @@ class SimulatorNode(Node):
         """Stop stepping on an error: logged once, /diagnostics ERROR, services still answer;
         reset or unpause clear it."""
         self._paused = self._error_paused = True
+        self._failures += 1
         self.diagnostics.error = reason
         self.get_logger().error(f'{reason}; paused at the last finite state (reset or unpause '
                                 'to go on)')
@@ -173,11 +190,14 @@ class SimulatorNode(Node):
     def _on_pause(self, request, response):
         with self._lock:
             if request.data:
-                self._paused = True
+                # The user's pause: a later reset must not run on by itself.
+                self._paused, self._error_paused = True, False
+                ok = True
             else:
-                self._resume()
-        response.success = True
-        response.message = 'paused' if self._paused else 'running'
+                ok = self._guarded(self._resume)
+        response.success = ok
+        response.message = ('paused' if self._paused else 'running') if ok else \
+            self.diagnostics.error
         return response
 
     def _on_step(self, request, response):
@@ -186,9 +206,13 @@ class SimulatorNode(Node):
             response.message = 'not paused: call pause with data: true first'
             return response
         with self._lock:
-            self._period()
-        response.success = True
-        response.message = f'stepped to t = {self.sim.time_ns * 1e-9:.9f} s'
+            failures = self._failures
+            self._guarded(self._period)
+            self._error_paused = False  # stepping by hand: the user's pause goes on
+            ok = self._failures == failures
+        response.success = ok
+        response.message = (f'stepped to t = {self.sim.time_ns * 1e-9:.9f} s' if ok else
+                            f'step failed: {self.diagnostics.error}')
         return response
 
     # -- the step loop ---------------------------------------------------------------------
@@ -222,9 +246,10 @@ class SimulatorNode(Node):
             with self._lock:  # /diagnostics goes on while paused (it may say why)
                 self.diagnostics.maybe_publish(self, self._v['real_time_factor'])
         elif self._period_wall_ns == 0.0:  # as fast as possible
-            with self._lock:
-                for _ in range(10):
-                    if self._paused or self._stop.is_set():
+            self._wait_for_recorder()
+            for _ in range(10):  # the lock is taken per period: services wait one at most
+                with self._lock:
+                    if self._paused or self._stop.is_set() or self._period_wall_ns != 0.0:
                         break
                     self._period()
             time.sleep(0)  # let the executor thread take the GIL for inputs
@@ -235,12 +260,28 @@ class SimulatorNode(Node):
             if now < due_at:
                 self._stop.wait(min((due_at - now) * 1e-9, 1.0))
                 return
+            self._wait_for_recorder()
             with self._lock:
-                self._tick(now, now - due_at)
+                due = self._tick(now, now - due_at)
+            for _ in range(due):
+                with self._lock:
+                    if self._paused or self._stop.is_set() or self._period_wall_ns == 0.0:
+                        break
+                    self._period()
 
-    def _tick(self, now: int, lateness_ns: float) -> None:
+    def _wait_for_recorder(self) -> None:
+        """Back-pressure: while the recording's writer has more than MAX_BACKLOG messages to
+        write, wait (the lock free) rather than keep the run in memory. Time is steps, so
+        waiting changes nothing of the run; a killed node then loses only the backlog."""
+        recorder = self._recorder
+        while (recorder is not None and recorder is self._recorder and not recorder.failed
+               and recorder.pending > MAX_BACKLOG and not self._stop.is_set()):
+            time.sleep(0.002)
+
+    def _tick(self, now: int, lateness_ns: float) -> int:
+        """How many periods are due now (at most max_catchup; the rest is dropped, counted)."""
         if self._paused or self._period_wall_ns == 0.0:
-            return
+            return 0
         due = self._anchor_period + int((now - self._anchor_wall) / self._period_wall_ns) \
             - self._periods
         self.diagnostics.tick(lateness_ns, due > 1)
@@ -249,10 +290,7 @@ class SimulatorNode(Node):
             due = self._v['max_catchup']
             self._anchor_wall = now
             self._anchor_period = self._periods + due
-        for _ in range(due):
-            if self._paused or self._stop.is_set():
-                break
-            self._period()
+        return due
 
     def _period(self) -> None:
         """One publish period: apply inputs, step, publish."""
@@ -280,8 +318,9 @@ class SimulatorNode(Node):
         self._periods += 1
         if self._recorder is not None and self._recorder.failed:
             recorder, self._recorder = self._recorder, None
-            self.diagnostics.error = recorder.failed  # says what, where and what to do
-            self.get_logger().error(f'{self.diagnostics.error}; simulating on without it')
+            # Kept apart from the physics' error: reset and unpause do not clear it.
+            self.diagnostics.recording_error = recorder.failed  # what, where, what to do
+            self.get_logger().error(f'{recorder.failed}; simulating on without it')
             recorder.close()
         if not self._stop.is_set():
             self._publish()
@@ -349,10 +388,7 @@ class SimulatorNode(Node):
 
     # -- parameters ------------------------------------------------------------------------
     def _apply_settings(self) -> None:
-        timeout = self._v['command_timeout']
-        # A timeout shorter than a step still times out (at the next step), never disables.
-        self._timeout_steps = max(1, math.ceil(timeout / self.config.dt - 1e-9)) if timeout \
-            else 0
+        self._timeout_steps = _timeout_steps(self._v, self.config)
 
     def _on_set_parameters(self, params) -> SetParametersResult:
         new = dict(self._v)
@@ -363,6 +399,7 @@ class SimulatorNode(Node):
                 node_params.check(p.name, p.value)
                 new[p.name] = p.value
             config = _config(new, self._scene)
+            _timeout_steps(new, config)
         except ValueError as e:
             return SetParametersResult(successful=False, reason=str(e))
         except Exception as e:  # noqa: B902 - a bug must refuse the value, not kill the node
@@ -394,6 +431,13 @@ class SimulatorNode(Node):
         recorder, self._recorder = self._recorder, None
         if recorder is not None:
             recorder.close()
+
+
+def _timeout_steps(v: dict, config: Config) -> int:
+    """command_timeout in steps: 0 disables; a timeout shorter than a step still times out
+    (at the next step), never disables."""
+    timeout = v['command_timeout']
+    return max(1, math.ceil(timeout / config.dt - 1e-9)) if timeout else 0
 
 
 class _Settings:
@@ -466,9 +510,15 @@ def main(args=None) -> int:
     parser.parse_args(ros_arguments.non_ros_args(argv, 'simulator'))
     stop = threading.Event()
     starting = [True]
+    running: list[SimulatorNode] = []
 
     def on_signal(signum, frame):
         stop.set()
+        for n in running:  # the step loop ends its chunk, frees the lock and returns
+            n._stop.set()
+            n._wake.set()
+        # A second signal is not waited for: it ends the process as it would by default.
+        signal.signal(signum, signal.SIG_DFL)
         if starting[0]:
             raise KeyboardInterrupt
     previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
@@ -482,6 +532,7 @@ def main(args=None) -> int:
             return 2
         executor = SingleThreadedExecutor()
         executor.add_node(node)
+        running.append(node)
         starting[0] = False
         while not stop.is_set():
             try:
