@@ -67,11 +67,7 @@ def friction() -> dict:
             bodies, contacts, masses, inertias, rots, settings = tc.impact(rng, 0.5, mu)
             result = cs.solve(contacts, bodies, settings)
             v1, w1 = result.velocity, result.angular_velocity
-            n, p = contacts.normal[0], contacts.point[0]
-            ra, rb = p - bodies.position[0], p - bodies.position[1]
-            rel = v1[1] + np.cross(w1[1], rb) - v1[0] - np.cross(w1[0], ra)
-            slip = rel - (rel @ n) * n
-            jt = result.tangent_impulse[0]
+            _n, slip, jt = tc.contact_slip(bodies, contacts, result)
             out['cases'] += 1
             out['cone'] = max(out['cone'], np.linalg.norm(jt) / (mu * result.normal_impulse[0]))
             if np.linalg.norm(slip) > 1e-9:

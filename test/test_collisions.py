@@ -113,6 +113,16 @@ def test_frictionless_impact_conserves_momenta_and_obeys_restitution(restitution
     assert worst['vn'] < 1e-12               # e = 0: no normal separation velocity left
 
 
+def contact_slip(bodies, contacts, result):
+    """(normal, tangential slip velocity after the solve, tangent impulse) of contact 0
+    between bodies 0 and 1."""
+    v1, w1 = result.velocity, result.angular_velocity
+    n, p = contacts.normal[0], contacts.point[0]
+    ra, rb = p - bodies.position[0], p - bodies.position[1]
+    rel = v1[1] + np.cross(w1[1], rb) - v1[0] - np.cross(w1[0], ra)
+    return n, rel - (rel @ n) * n, result.tangent_impulse[0]
+
+
 def test_impact_on_a_static_body_and_coulomb_friction():
     rng = np.random.default_rng(4)
     for friction in (0.05, 5.0):
@@ -121,11 +131,7 @@ def test_impact_on_a_static_body_and_coulomb_friction():
             bodies, contacts, masses, inertias, rots, settings = impact(rng, 0.5, friction)
             result = cs.solve(contacts, bodies, settings)
             v1, w1 = result.velocity, result.angular_velocity
-            n, p = contacts.normal[0], contacts.point[0]
-            ra, rb = p - bodies.position[0], p - bodies.position[1]
-            rel = v1[1] + np.cross(w1[1], rb) - v1[0] - np.cross(w1[0], ra)
-            slip = rel - (rel @ n) * n
-            jt = result.tangent_impulse[0]
+            n, slip, jt = contact_slip(bodies, contacts, result)
             assert abs(jt @ n) < 1e-12
             # Inside the cone always; on its edge, opposite the slip (maximal dissipation).
             assert np.linalg.norm(jt) <= friction * result.normal_impulse[0] * (1 + 1e-12)
