@@ -19,6 +19,8 @@ import math
 
 import numpy as np
 
+from rb_sim_ros.core import so3
+
 
 def principal_axes(inertia: np.ndarray) -> tuple[tuple[float, float, float], np.ndarray]:
     """Principal moments (kg m^2) and Q, a proper rotation with I_body = Q diag(moments) Q^T.
@@ -90,10 +92,7 @@ def symmetric_eigen(a: list[list[float]]) -> tuple[tuple[float, float, float],
     order = sorted(range(3), key=lambda i: a[i][i])
     values = tuple(math.ldexp(a[i][i], e2) for i in order)
     vec = [[v[r][order[0]], v[r][order[1]], v[r][order[2]]] for r in range(3)]
-    det = (vec[0][0] * (vec[1][1] * vec[2][2] - vec[1][2] * vec[2][1])
-           - vec[0][1] * (vec[1][0] * vec[2][2] - vec[1][2] * vec[2][0])
-           + vec[0][2] * (vec[1][0] * vec[2][1] - vec[1][1] * vec[2][0]))
-    if det < 0.0:
+    if so3.det9(vec[0] + vec[1] + vec[2]) < 0.0:
         for r in range(3):
             vec[r][2] = -vec[r][2]
     return values, vec

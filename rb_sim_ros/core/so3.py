@@ -163,10 +163,10 @@ def orthonormalize(rot: np.ndarray) -> np.ndarray:
         raise ValueError(f'orthonormalize needs a finite matrix with det > 0, got {x}')
     if not 0.5 <= big < 2.0:  # a power of two first: exact, and the determinant stays finite
         x = [math.ldexp(c, -math.frexp(big)[1]) for c in x]
-    if not _det(x) > 0.0:
+    if not det9(x) > 0.0:
         raise ValueError(f'orthonormalize needs a finite matrix with det > 0, got {x}')
     for _ in range(100):
-        d = _det(x)
+        d = det9(x)
         if abs(d - 1.0) > 1e-3:
             g = abs(d) ** (-1.0 / 3.0)
             x = [g * c for c in x]
@@ -183,14 +183,15 @@ def orthonormalize(rot: np.ndarray) -> np.ndarray:
     return out
 
 
-def _det(r) -> float:
+def det9(r) -> float:
+    """det R of 9 row-major floats, in plain float arithmetic."""
     return (r[0] * (r[4] * r[8] - r[5] * r[7]) - r[1] * (r[3] * r[8] - r[5] * r[6])
             + r[2] * (r[3] * r[7] - r[4] * r[6]))
 
 
 def _inverse_transpose(r) -> list[float]:
     """(R^-1)^T of 9 row-major floats: the cofactor matrix over the determinant."""
-    d = _det(r)
+    d = det9(r)
     return [(r[4] * r[8] - r[5] * r[7]) / d, (r[5] * r[6] - r[3] * r[8]) / d,
             (r[3] * r[7] - r[4] * r[6]) / d,
             (r[2] * r[7] - r[1] * r[8]) / d, (r[0] * r[8] - r[2] * r[6]) / d,
@@ -205,7 +206,7 @@ def orthonormality_error(rot: np.ndarray) -> float:
     r = [float(c) for c in np.asarray(rot, dtype=float).reshape(9)]
     if not all(math.isfinite(c) for c in r):
         return math.inf
-    worst = abs(_det(r) - 1.0)
+    worst = abs(det9(r) - 1.0)
     for i in range(3):
         for j in range(3):
             s = r[i] * r[j] + r[3 + i] * r[3 + j] + r[6 + i] * r[6 + j]
@@ -226,7 +227,6 @@ def mul9(a, b, transpose_b: bool = False) -> tuple[float, ...]:
 
 def mul9_vec(a, v, transpose: bool = False) -> tuple[float, float, float]:
     """A v (or A^T v) of a 3x3 matrix as 9 row-major floats, in plain float arithmetic."""
-    a = [float(c) for c in a]
     x, y, z = (float(c) for c in v)
     if transpose:
         return (a[0] * x + a[3] * y + a[6] * z, a[1] * x + a[4] * y + a[7] * z,

@@ -44,14 +44,20 @@ def _positive(name: str, v: Any) -> None:
         raise ValueError(f'{name} must be a finite number > 0, got {v!r}')
 
 
-def _timeout(name: str, v: Any) -> None:
-    if not 0.0 <= _number(name, v) <= 1e9:
-        raise ValueError(f'{name} must be between 0 and 1e9 s, got {v!r}')
+def _within(low: float, high: float, text: str):
+    """A check for a number from ``low`` to ``high``, ``text`` saying so in the refusal."""
+    def check(name: str, v: Any) -> None:
+        if not low <= _number(name, v) <= high:
+            raise ValueError(f'{name} must be between {text}, got {v!r}')
+    return check
 
 
-def _dt(name: str, v: Any) -> None:
-    if not 1e-9 <= _number(name, v) <= 10.0:
-        raise ValueError(f'{name} must be between 1e-9 and 10 s, got {v!r}')
+def _integer(low: int, high: int):
+    """A check for an int (not a bool) from ``low`` to ``high``."""
+    def check(name: str, v: Any) -> None:
+        if isinstance(v, bool) or not isinstance(v, int) or not low <= v <= high:
+            raise ValueError(f'{name} must be an integer from {low} to {high}, got {v!r}')
+    return check
 
 
 def _real_time_factor(name: str, v: Any) -> None:
@@ -59,16 +65,6 @@ def _real_time_factor(name: str, v: Any) -> None:
     if f != 0.0 and not MIN_REAL_TIME_FACTOR <= f <= 1e9:
         raise ValueError(f'{name} must be 0 (as fast as possible) or between '
                          f'{MIN_REAL_TIME_FACTOR:g} and 1e9, got {v!r}')
-
-
-def _count(name: str, v: Any) -> None:
-    if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= MAX_CATCHUP:
-        raise ValueError(f'{name} must be an integer from 1 to {MAX_CATCHUP}, got {v!r}')
-
-
-def _body_topics(name: str, v: Any) -> None:
-    if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 100_000:
-        raise ValueError(f'{name} must be an integer from 0 to 100000, got {v!r}')
 
 
 def _bool(name: str, v: Any) -> None:
@@ -130,7 +126,7 @@ class Param:
 
 PARAMS = (
     Param('dt', 0.001, 'Physics step (s), 1e-9 to 10. Simulated time is always step_count * dt.',
-          True, _dt),
+          True, _within(1e-9, 10.0, '1e-9 and 10 s')),
     Param('publish_rate', 100.0, 'Rate (Hz, sim time) of pose/twist/odom/clock. 1/(rate*dt) '
           'must be a whole number of physics steps.', True, _positive),
     Param('integrator', multistep.EQ27.name,
@@ -157,7 +153,7 @@ PARAMS = (
           "in odom) or 'world'.", True, _frame),
     Param('command_timeout', 1.0, 'Sim-time seconds (0 to 1e9) after the last wrench command '
           'at which the wrench is set to zero; 0 holds the last command forever.', False,
-          _timeout),
+          _within(0.0, 1e9, '0 and 1e9 s')),
     Param('max_wrench', 1.0e6, 'Largest accepted force norm (N) and torque norm (N m); '
           'larger or non-finite commands are rejected.', False, _positive),
     Param('real_time_factor', 1.0, 'Sim time per wall time: 1.0 follows the wall clock, 2.0 '
@@ -165,7 +161,7 @@ PARAMS = (
           f'otherwise {MIN_REAL_TIME_FACTOR:g} to 1e9.', False, _real_time_factor),
     Param('max_catchup', 10, 'Most publish periods stepped in one tick to catch up after a '
           'late tick (1 to 10000); beyond that, real time is dropped (counted in diagnostics).',
-          False, _count),
+          False, _integer(1, MAX_CATCHUP)),
     Param('start_paused', False, 'Start paused at step 0. While paused, inputs take effect '
           'as they arrive (at the step the next step call takes), so a script of inputs and '
           'step calls gives the same run every time.', True, _bool),
@@ -178,7 +174,7 @@ PARAMS = (
           'topics <name>/wrench, <name>/pose, ... (0 to 100000). Each topic is a DDS endpoint, '
           'and endpoints cost time and memory to create: the rest are simulated, recorded '
           "only through their effect on the others, and published together on 'poses'.",
-          True, _body_topics),
+          True, _integer(0, 100_000)),
     Param('record', '', 'Path of an MCAP file to record the run to; empty: no recording.', True,
           _string),
     Param('record_overwrite', False, 'Overwrite an existing recording file.', True, _bool),

@@ -159,11 +159,6 @@ class NodeRecorder:
         return self._writer.failed or self._closed_error
 
     @property
-    def error(self) -> str | None:
-        """The same as ``failed``."""
-        return self.failed
-
-    @property
     def pending(self) -> int:
         """Messages handed over and not yet written (the writer's queue)."""
         return self._writer.pending

@@ -17,6 +17,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped, Twist, Wrench as WrenchMsg
 from nav_msgs.msg import Odometry
 
+from rb_sim_ros.core import so3
 from rb_sim_ros.core.rigid_body import Frame, Wrench
 
 
@@ -49,14 +50,8 @@ def check_wrench(force, torque, max_wrench: float) -> None:
             raise ValueError(f'{name} norm {norm:.6g} exceeds max_wrench {max_wrench:.6g}')
 
 
-def rotate(r, v, transpose=False):
-    """R v (or R^T v) for R given as 9 row-major floats."""
-    x, y, z = v
-    if transpose:
-        return (r[0] * x + r[3] * y + r[6] * z, r[1] * x + r[4] * y + r[7] * z,
-                r[2] * x + r[5] * y + r[8] * z)
-    return (r[0] * x + r[1] * y + r[2] * z, r[3] * x + r[4] * y + r[5] * z,
-            r[6] * x + r[7] * y + r[8] * z)
+# R v (or R^T v) for R given as 9 row-major floats.
+rotate = so3.mul9_vec
 
 
 def rotation_from_quaternion(q):

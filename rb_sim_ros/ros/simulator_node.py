@@ -247,11 +247,7 @@ class SimulatorNode(Node):
                 self.diagnostics.maybe_publish(self, self._v['real_time_factor'])
         elif self._period_wall_ns == 0.0:  # as fast as possible
             self._wait_for_recorder()
-            for _ in range(10):  # the lock is taken per period: services wait one at most
-                with self._lock:
-                    if self._paused or self._stop.is_set() or self._period_wall_ns != 0.0:
-                        break
-                    self._period()
+            self._periods_now(10, as_fast_as_possible=True)
             time.sleep(0)  # let the executor thread take the GIL for inputs
         else:
             due_at = self._anchor_wall + (self._periods + 1 - self._anchor_period) * \
@@ -263,11 +259,17 @@ class SimulatorNode(Node):
             self._wait_for_recorder()
             with self._lock:
                 due = self._tick(now, now - due_at)
-            for _ in range(due):
-                with self._lock:
-                    if self._paused or self._stop.is_set() or self._period_wall_ns == 0.0:
-                        break
-                    self._period()
+            self._periods_now(due, as_fast_as_possible=False)
+
+    def _periods_now(self, count: int, as_fast_as_possible: bool) -> None:
+        """Up to ``count`` periods, the lock taken for each (a service waits one at most);
+        stops early on a pause, on shutdown, or when real_time_factor changes mode."""
+        for _ in range(count):
+            with self._lock:
+                if self._paused or self._stop.is_set() or \
+                        (self._period_wall_ns == 0.0) != as_fast_as_possible:
+                    return
+                self._period()
 
     def _wait_for_recorder(self) -> None:
         """Back-pressure: while the recording's writer has more than MAX_BACKLOG messages to
@@ -295,8 +297,7 @@ class SimulatorNode(Node):
     def _period(self) -> None:
         """One publish period: apply inputs, step, publish."""
         sim = self.sim
-        while self._pending:
-            self._apply(self._pending.popleft())
+        self._drain()
         if self._timeout_steps:
             for port in self._moving:
                 if (sim.step_count - port.last_command_step >= self._timeout_steps
@@ -464,9 +465,6 @@ def _config(v: dict, scene=None) -> Config:
         gravity, bodies, contact = scene
     else:
         gravity = (0.0, 0.0, 0.0)
-        for name in ('mass', 'inertia', 'initial_position', 'initial_orientation',
-                     'initial_linear_velocity', 'initial_angular_velocity'):
-            node_params.check(name, v[name])
         bodies = (BodySpec(name='body', mass=float(v['mass']),
                            inertia=tuple(float(c) for c in v['inertia']),
                            initial_position=tuple(float(c) for c in v['initial_position']),
@@ -545,7 +543,7 @@ def main(args=None) -> int:
     except KeyboardInterrupt:  # a signal while starting
         pass
     finally:
-        starting[0] = False  # a second signal during the shutdown only sets the flag
+        starting[0] = False  # a signal during the shutdown does not raise into it
         if node is not None:
             node.close()
             node.destroy_node()
