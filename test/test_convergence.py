@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from rb_sim_ros import RigidBody, State, Stepper, Wrench
-from rb_sim_ros.core import multistep, so3
+from rb_sim_ros.core import multistep, so3, step_kernel
 import reference
 
 BODY = RigidBody(1.3, [[1.2, 0.1, 0.05], [0.1, 2.0, -0.1], [0.05, -0.1, 2.6]])
@@ -134,7 +134,9 @@ def test_global_order_two_with_a_wrench_change_every_few_steps():
 def test_stale_history_across_wrench_changes_falls_to_first_order():
     # Keep a_{n-1}, beta_{n-1} of the old wrench, as a naive multistep would (NOTES.md 2).
     def keep_stale_history(stepper):
-        stepper._history_stale = False
+        # The kernel's history flag: the stored a_{n-1}, beta_{n-1} taken as they are.
+        if stepper._state[0, step_kernel.HISTORY] == step_kernel.HISTORY_STALE:
+            stepper._state[0, step_kernel.HISTORY] = step_kernel.HISTORY_VALID
     orders = _orders(_global_errors(SCHEDULE, 2.0, DTS, tamper=keep_stale_history))
     assert orders['w'][-1] == pytest.approx(1.0, abs=0.2)
 

@@ -189,3 +189,20 @@ def test_a_rotation_written_off_so3_is_pulled_back_within_orthonormalize_every_s
         assert so3.orthonormality_error(s.rotation()) < 1e-12
     expected = so3.exp(omega * s.time) @ rot0
     assert so3.angle_between(s.rotation(), expected) < 1e-6
+
+
+def test_orthonormalisation_goes_on_after_a_spell_without_turning():
+    """A body that does not turn skips the rotation update, and its orthonormalisation with it
+    (R does not change). When the countdown ran out in that spell, the first turning step must
+    pull R back, not wait for a countdown that has gone past zero (as it once did: R stayed
+    off SO(3) for good)."""
+    sphere = RigidBody(2.0, [0.3, 0.3, 0.3])
+    s = Stepper(sphere, 1e-3)
+    s.step(Stepper.ORTHONORMALIZE_EVERY + 100)  # at rest past the countdown
+    rot0 = so3.exp([0.2, 0.4, -0.1])
+    off = rot0 + 1e-7 * np.array([[0.3, -0.5, 0.2], [0.7, 0.1, -0.4], [-0.2, 0.6, 0.5]])
+    s.apply_contact((0.0, 0.0, 0.0), off, (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    s.step(Stepper.ORTHONORMALIZE_EVERY)  # translating, not turning: the countdown runs out
+    s.set_wrench(Wrench(torque=(0.0, 0.0, 0.1)))
+    s.step(10)
+    assert so3.orthonormality_error(s.rotation()) < 1e-12

@@ -46,17 +46,17 @@ HARDENING = 'test/test_node_hardening.py::'
 # - ([b][w] + [w][b]) dt^3 / 12) R_n, i.e. no (b x w) term in the rotation vector and the
 # symmetric matrix b w^T + w b^T - 2 (b . w) I subtracted (rc = rotation_cross dt^3).
 _EQ14 = """\
-        bw14 = bx * wx + by * wy + bz * wz
-        e00 -= rc * (2.0 * bx * wx - 2.0 * bw14)
-        e11 -= rc * (2.0 * by * wy - 2.0 * bw14)
-        e22 -= rc * (2.0 * bz * wz - 2.0 * bw14)
-        e01 -= rc * (bx * wy + wx * by)
-        e10 -= rc * (bx * wy + wx * by)
-        e02 -= rc * (bx * wz + wx * bz)
-        e20 -= rc * (bx * wz + wx * bz)
-        e12 -= rc * (by * wz + wy * bz)
-        e21 -= rc * (by * wz + wy * bz)
-        r00, r01, r02, r10, r11, r12, r20, r21, r22 = r
+    e20, e21, e22 = bxz - ay_, byz + ax_, 1.0 - cb * (xx2 + yy2)
+    bw14 = bx * wx + by * wy + bz * wz
+    e00 -= rc * (2.0 * bx * wx - 2.0 * bw14)
+    e11 -= rc * (2.0 * by * wy - 2.0 * bw14)
+    e22 -= rc * (2.0 * bz * wz - 2.0 * bw14)
+    e01 -= rc * (bx * wy + wx * by)
+    e10 -= rc * (bx * wy + wx * by)
+    e02 -= rc * (bx * wz + wx * bz)
+    e20 -= rc * (bx * wz + wx * bz)
+    e12 -= rc * (by * wz + wy * bz)
+    e21 -= rc * (by * wz + wy * bz)
 """
 
 # name, file, [(search, replace), ...], tests that must fail, what the edit breaks.
@@ -93,34 +93,40 @@ MUTANTS = [
        'math.ceil(timeout / self.config.dt - 1e-9)')],
      [HARDENING + 'test_a_timeout_shorter_than_a_step_still_times_out'],
      'a command_timeout shorter than a step never times out'),
-    ('no-orthonormalisation', 'rb_sim_ros/core/stepper.py',
-     [('                r1 = so3.orthonormalize_components(*r1)\n', '                pass\n')],
+    ('no-orthonormalisation', 'rb_sim_ros/core/step_kernel.py',
+     [('            q00, q01, q02, q10, q11, q12, q20, q21, q22 = orthonormalize(\n'
+       '                q00, q01, q02, q10, q11, q12, q20, q21, q22)\n', '            pass\n')],
      [STEPPER + 'test_a_rotation_written_off_so3_is_pulled_back_within_orthonormalize_every_'
       'steps'],
      'R never pulled back to SO(3)'),
-    ('start-up-no-extrapolation', 'rb_sim_ros/core/stepper.py',
-     [('            self._pa = (2.0 * a[0] - a1[0], 2.0 * a[1] - a1[1], 2.0 * a[2] - a1[2])\n'
-       '            self._pb = (2.0 * b[0] - b1[0], 2.0 * b[1] - b1[1], 2.0 * b[2] - b1[2])\n',
-       '            self._pa, self._pb = a, b\n')],
+    ('orthonormalisation-lost-after-a-spell', 'rb_sim_ros/core/step_kernel.py',
+     [('        if countdown <= 0 and not frozen_rotation:',
+       '        if countdown == 0 and not frozen_rotation:')],
+     [STEPPER + 'test_orthonormalisation_goes_on_after_a_spell_without_turning'],
+     'a countdown that ran out while the body did not turn never orthonormalises again'),
+    ('start-up-no-extrapolation', 'rb_sim_ros/core/step_kernel.py',
+     [('        apx, apy, apz = 2.0 * ax - a10, 2.0 * ay - a11, 2.0 * az - a12\n'
+       '        bpx, bpy, bpz = 2.0 * bx - b10, 2.0 * by - b11, 2.0 * bz - b12\n',
+       '        apx, apy, apz, bpx, bpy, bpz = ax, ay, az, bx, by, bz\n')],
      [STEPPER + 'test_first_step_from_rest_with_gravity_and_damping_has_local_order_3_and_4',
       STEPPER + 'test_first_step_of_a_damped_spinning_body_has_local_order_3_and_4'],
      'start-up takes a_{-1} = a_0 (an Euler first step)'),
-    ('history-without-velocity', 'rb_sim_ros/core/stepper.py',
-     [('self._pa, self._pb = self._accelerations(rp, wp, vp)',
-       'self._pa, self._pb = self._accelerations(rp, wp)')],
+    ('history-without-velocity', 'rb_sim_ros/core/step_kernel.py',
+     [('float(s[i, VP]), float(s[i, VP + 1]), float(s[i, VP + 2]), False)',
+       '0.0, 0.0, 0.0, False)')],
      [STEPPER + 'test_damped_translation_under_force_changes_is_second_order_against_the_'
       'closed_form',
       STEPPER + 'test_damped_asymmetric_body_under_wrench_changes_is_second_order_against_dop853'],
      'history re-evaluated on a wrench change without linear damping'),
     # -- caught before ---------------------------------------------------------------------
-    ('eq14-rotation', 'rb_sim_ros/core/multistep.py',
-     [('        px = wx * dt + rn * bx + rp * bpx + rc * (by * wz - bz * wy)\n'
-       '        py = wy * dt + rn * by + rp * bpy + rc * (bz * wx - bx * wz)\n'
-       '        pz = wz * dt + rn * bz + rp * bpz + rc * (bx * wy - by * wx)\n',
-       '        px = wx * dt + rn * bx + rp * bpx\n'
-       '        py = wy * dt + rn * by + rp * bpy\n'
-       '        pz = wz * dt + rn * bz + rp * bpz\n'),
-      ('        r00, r01, r02, r10, r11, r12, r20, r21, r22 = r\n', _EQ14)],
+    ('eq14-rotation', 'rb_sim_ros/core/step_kernel.py',
+     [('    px = wx * dt + rn * bx + rp * bpx + rc * (by * wz - bz * wy)\n'
+       '    py = wy * dt + rn * by + rp * bpy + rc * (bz * wx - bx * wz)\n'
+       '    pz = wz * dt + rn * bz + rp * bpz + rc * (bx * wy - by * wx)\n',
+       '    px = wx * dt + rn * bx + rp * bpx\n'
+       '    py = wy * dt + rn * by + rp * bpy\n'
+       '    pz = wz * dt + rn * bz + rp * bpz\n'),
+      ('    e20, e21, e22 = bxz - ay_, byz + ax_, 1.0 - cb * (xx2 + yy2)\n', _EQ14)],
      [CONVERGENCE + 'test_local_orders_from_exact_history'],
      'eq. (14) as printed instead of the last line of eq. (27)'),
     ('cross-term-sign', 'rb_sim_ros/core/multistep.py',
@@ -128,7 +134,7 @@ MUTANTS = [
      [CONVERGENCE + 'test_local_orders_from_exact_history'],
      '(omega x beta) instead of (beta x omega) in eq. (27)'),
     ('stale-history', 'rb_sim_ros/core/stepper.py',
-     [('self._history_stale = self._prev is not None\n', 'self._history_stale = False\n')],
+     [('                self._state[0, K.HISTORY] = K.HISTORY_STALE\n', '                pass\n')],
      [CONVERGENCE + 'test_global_order_two_with_a_wrench_change_every_few_steps'],
      'history of the old wrench kept across a change (NOTES.md 2)'),
     ('jacobian-sign', 'rb_sim_ros/contact/contact_solver.py',

@@ -22,9 +22,8 @@ so another explicit method of this family is another table, not another function
 from __future__ import annotations
 
 from dataclasses import dataclass
-import math
 
-from rb_sim_ros.core import so3
+from rb_sim_ros.core import so3, step_kernel
 
 
 @dataclass(frozen=True)
@@ -89,81 +88,25 @@ def method_by_name(name: str) -> Multistep:
             f'integrator must be one of {sorted(METHODS)}, got {name!r}') from None
 
 
-def make_step(method: Multistep, dt, functions=math, rotate: bool = True):
+def make_step(method: Multistep, dt, rotate: bool = True):
     """One step of ``method`` with a fixed dt (s), as a function of components:
 
         step(x, v, r, w, a, b, a_prev, b_prev) -> (x, v, r, w) at t + dt
 
-    x (m), v (m/s), w (rad/s) are world-frame 3-tuples and r the 9 row-major components of R;
-    a, b are the linear (m/s^2) and angular (rad/s^2) accelerations at t, a_prev and b_prev those
-    at t - dt, all world frame. Components may be floats (``functions`` = math) or numpy arrays
-    of one shape (``functions`` = numpy, which supplies sqrt, sin, cos). The coefficients times
-    powers of dt are computed once here.
+    x (m), v (m/s), w (rad/s) are world-frame 3-tuples of floats and r the 9 row-major
+    components of R; a, b are the linear (m/s^2) and angular (rad/s^2) accelerations at t,
+    a_prev and b_prev those at t - dt, all world frame. It is the step kernel's own update
+    (``step_kernel.multistep_step``), called on one body: tests check the method through it.
 
     ``rotate=False`` builds a step that leaves R and omega as they are, for a body that does
     not turn (omega = beta = beta_prev = 0 under no torque), where the full update would give
     them back (omega bit for bit, R up to the sign of a zero entry) at four times the cost.
-    (A body at rest is not stepped at all; one that only does not translate takes the full
-    step: translation is 3% of it.)
     """
-    vn, vp = method.velocity_now * dt, method.velocity_prev * dt
-    pn, pp = method.position_now * dt * dt, method.position_prev * dt * dt
-    rn, rp = method.rotation_now * dt * dt, method.rotation_prev * dt * dt
-    rc = method.rotation_cross * dt * dt * dt
-    sqrt, sin, cos = functions.sqrt, functions.sin, functions.cos
+    coefficients = step_kernel.method_coefficients(method, float(dt))
     tiny = so3.TINY_ANGLE_SQ
 
     def step(x, v, r, w, a, b, a_prev, b_prev):
-        ax, ay, az = a
-        bx, by, bz = b
-        apx, apy, apz = a_prev
-        bpx, bpy, bpz = b_prev
-        xx, xy, xz = x
-        vx, vy, vz = v
-        wx, wy, wz = w
-        # Rotation vector of eq. (27), last line.
-        px = wx * dt + rn * bx + rp * bpx + rc * (by * wz - bz * wy)
-        py = wy * dt + rn * by + rp * bpy + rc * (bz * wx - bx * wz)
-        pz = wz * dt + rn * bz + rp * bpz + rc * (bx * wy - by * wx)
-        # exp([p]) = I + A [p] + B [p]^2 (Rodrigues), A = sin(t)/t, B = (1 - cos t)/t^2, in
-        # half-angle form (see so3.TINY_ANGLE_SQ): no branch, so it runs on arrays too.
-        xx2, yy2, zz2 = px * px, py * py, pz * pz
-        t2 = xx2 + yy2 + zz2 + tiny
-        t = sqrt(t2)
-        s = sin(0.5 * t)
-        ca = 2.0 * s * cos(0.5 * t) / t
-        cb = 2.0 * s * s / t2
-        bxy, bxz, byz = cb * px * py, cb * px * pz, cb * py * pz
-        ax_, ay_, az_ = ca * px, ca * py, ca * pz
-        e00, e01, e02 = 1.0 - cb * (yy2 + zz2), bxy - az_, bxz + ay_
-        e10, e11, e12 = bxy + az_, 1.0 - cb * (xx2 + zz2), byz - ax_
-        e20, e21, e22 = bxz - ay_, byz + ax_, 1.0 - cb * (xx2 + yy2)
-        r00, r01, r02, r10, r11, r12, r20, r21, r22 = r
-        return (
-            (xx + vx * dt + pn * ax + pp * apx,
-             xy + vy * dt + pn * ay + pp * apy,
-             xz + vz * dt + pn * az + pp * apz),
-            (vx + vn * ax + vp * apx, vy + vn * ay + vp * apy, vz + vn * az + vp * apz),
-            (e00 * r00 + e01 * r10 + e02 * r20, e00 * r01 + e01 * r11 + e02 * r21,
-             e00 * r02 + e01 * r12 + e02 * r22,
-             e10 * r00 + e11 * r10 + e12 * r20, e10 * r01 + e11 * r11 + e12 * r21,
-             e10 * r02 + e11 * r12 + e12 * r22,
-             e20 * r00 + e21 * r10 + e22 * r20, e20 * r01 + e21 * r11 + e22 * r21,
-             e20 * r02 + e21 * r12 + e22 * r22),
-            (wx + vn * bx + vp * bpx, wy + vn * by + vp * bpy, wz + vn * bz + vp * bpz),
-        )
-
-    if rotate:
-        return step
-
-    def translation(x, v, r, w, a, b, a_prev, b_prev):
-        ax, ay, az = a
-        apx, apy, apz = a_prev
-        xx, xy, xz = x
-        vx, vy, vz = v
-        return ((xx + vx * dt + pn * ax + pp * apx,
-                 xy + vy * dt + pn * ay + pp * apy,
-                 xz + vz * dt + pn * az + pp * apz),
-                (vx + vn * ax + vp * apx, vy + vn * ay + vp * apy, vz + vn * az + vp * apz),
-                r, w)
-    return translation
+        out = step_kernel.multistep_step(*coefficients, tiny, rotate, *x, *v, *r, *w, *a, *b,
+                                         *a_prev, *b_prev)
+        return out[0:3], out[3:6], out[6:15], out[15:18]
+    return step

@@ -19,6 +19,8 @@ import math
 
 import numpy as np
 
+from rb_sim_ros.core import step_kernel
+
 # exp([p]) = I + A [p] + B [p]^2 with A = sin(t)/t and B = (1 - cos t)/t^2, t = |p|. The
 # integrator writes them in half-angle form, A = 2 sin(t/2) cos(t/2) / t and
 # B = 2 sin^2(t/2) / t^2, which has no cancellation at small t, and adds TINY_ANGLE_SQ to t^2 so
@@ -116,35 +118,10 @@ def quaternion_xyzw_from_matrix(rot: np.ndarray) -> np.ndarray:
     return np.array(quaternion_xyzw_from_components(*comps))
 
 
-def orthonormalize_components(r00, r01, r02, r10, r11, r12, r20, r21, r22):
-    """One Newton step of the polar decomposition, R <- R (3 I - R^T R) / 2, on components.
-
-    For R within e of SO(3) the result is within O(e^2): the integrator calls it every
-    ``Stepper.ORTHONORMALIZE_EVERY`` steps to stop rounding errors from accumulating.
-    """
-    # S = R^T R (symmetric)
-    s00 = r00 * r00 + r10 * r10 + r20 * r20
-    s11 = r01 * r01 + r11 * r11 + r21 * r21
-    s22 = r02 * r02 + r12 * r12 + r22 * r22
-    s01 = r00 * r01 + r10 * r11 + r20 * r21
-    s02 = r00 * r02 + r10 * r12 + r20 * r22
-    s12 = r01 * r02 + r11 * r12 + r21 * r22
-    # M = (3 I - S) / 2
-    m00 = 0.5 * (3.0 - s00)
-    m11 = 0.5 * (3.0 - s11)
-    m22 = 0.5 * (3.0 - s22)
-    m01 = -0.5 * s01
-    m02 = -0.5 * s02
-    m12 = -0.5 * s12
-    return (r00 * m00 + r01 * m01 + r02 * m02,
-            r00 * m01 + r01 * m11 + r02 * m12,
-            r00 * m02 + r01 * m12 + r02 * m22,
-            r10 * m00 + r11 * m01 + r12 * m02,
-            r10 * m01 + r11 * m11 + r12 * m12,
-            r10 * m02 + r11 * m12 + r12 * m22,
-            r20 * m00 + r21 * m01 + r22 * m02,
-            r20 * m01 + r21 * m11 + r22 * m12,
-            r20 * m02 + r21 * m12 + r22 * m22)
+# One Newton step of the polar decomposition, R <- R (3 I - R^T R) / 2, on the 9 components:
+# for R within e of SO(3) the result is within O(e^2). The step kernel's own function (it is
+# what the integrator applies every ``Stepper.ORTHONORMALIZE_EVERY`` steps).
+orthonormalize_components = step_kernel.orthonormalize
 
 
 def orthonormalize(rot: np.ndarray) -> np.ndarray:

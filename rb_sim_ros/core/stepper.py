@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from rb_sim_ros.core import euler_dynamics, multistep, so3
+from rb_sim_ros.core import step_kernel as K
 from rb_sim_ros.core.rigid_body import (finite_floats, Frame, rate, RigidBody, State, Wrench,
                                         ZERO_WRENCH)
 
@@ -97,7 +98,8 @@ class Stepper(FixedStep):
     """Advances one rigid body with a fixed step dt (s) under a held wrench.
 
     Time is ``step_count * dt``, never wall time. Every input is validated before anything
-    changes; a failed call leaves the stepper as it was.
+    changes; a failed call leaves the stepper as it was. The body is one row of the step
+    kernel's arrays (``step_kernel``): a step is one compiled call.
     """
 
     ORTHONORMALIZE_EVERY = 1024
@@ -117,35 +119,38 @@ class Stepper(FixedStep):
                  angular_damping: float = 0.0, specialize: bool = True) -> None:
         """``gravity`` (m/s^2, world) accelerates the centre of mass; ``linear_damping`` c and
         ``angular_damping`` d (1/s) add -c v and -d omega to the accelerations. ``specialize``
-        builds the step for what the body needs (see ``euler_dynamics.make_accelerations``)
-        and skips the translation or rotation update of a body at rest in that sense under no
-        force or torque; False always takes the general path (for comparison)."""
+        lets the kernel skip the translation or rotation update of a body at rest in that
+        sense under no force or torque, and the gyroscopic term of an isotropic body; False
+        always takes the general path (for comparison)."""
         if not isinstance(body, RigidBody):
             raise ValueError(f'body must be a RigidBody, got {body!r}')
         self._dt = check_dt(dt)
-        self._gravity = finite_floats('gravity', gravity, 3)
-        self._linear_damping = rate('linear_damping', linear_damping)
-        self._angular_damping = rate('angular_damping', angular_damping)
-        self._specialize = bool(specialize)
+        gravity = finite_floats('gravity', gravity, 3)
+        linear_damping = rate('linear_damping', linear_damping)
+        angular_damping = rate('angular_damping', angular_damping)
         self._method = (multistep.method_by_name(method) if isinstance(method, str)
                         else method)
         if not isinstance(self._method, multistep.Multistep):
             raise ValueError(f'method must be a Multistep or its name, got {method!r}')
         self._body = body
         self._inverse_mass = 1.0 / body.mass
-        # The hot path works in principal axes: r = R Q (see euler_dynamics.principal_axes).
-        self._moments, q = euler_dynamics.principal_axes(body.inertia)
-        isotropic = self._moments[0] == self._moments[1] == self._moments[2]
-        self._max_turn_rate_sq = math.inf if isotropic else (self.MAX_TURN / self._dt) ** 2
+        # The kernel works in principal axes: r = R Q (see euler_dynamics.principal_axes).
+        moments, q = euler_dynamics.principal_axes(body.inertia)
         self._q = None if np.array_equal(q, np.eye(3)) else q
         # Q as 9 floats: products with it are written out (so3.mul9), not numpy's BLAS.
         self._q9 = None if self._q is None else tuple(float(c) for c in q.reshape(9))
-        self._advance = multistep.make_step(self._method, self._dt)
-        # The step of a body that does not turn (see make_step).
-        self._no_rotation = multistep.make_step(self._method, self._dt, rotate=False)
-        self._startup = multistep.make_step(multistep.TAYLOR1, self._dt)
+        self._coefficients = coefficients(self._method, self._dt, self.ORTHONORMALIZE_EVERY)
+        self._state, self._params, self._work = K.new_arrays(1)
+        self._spare = np.zeros_like(self._state)
+        self._status = np.zeros(1, dtype=np.int64)
+        self._taken = np.zeros(1, dtype=np.int64)
+        self._bad = np.zeros((1, 3))
+        self._bodies = np.zeros(1, dtype=np.int64)
+        set_body_params(self._params[0], moments, gravity, linear_damping, angular_damping,
+                        bool(specialize), self.MAX_TURN, self._dt)
         self._step_count = 0
-        self._wrench = ZERO_WRENCH
+        self._has_state = False
+        self._wrench = None
         self.set_wrench(wrench)
         self.set_state(State() if state is None else state)
 
@@ -160,25 +165,46 @@ class Stepper(FixedStep):
         return self._wrench
 
     @property
+    def work(self) -> dict[str, int]:
+        """What the kernel has done for this body so far: full steps, steps of translation
+        only (a body that does not turn) and start-ups or history re-evaluations. A body at
+        rest and unforced adds nothing."""
+        full, translation, start_up = (int(c) for c in self._work[0])
+        return {'full': full, 'translation': translation, 'start_up': start_up}
+
+    @property
     def state(self) -> State:
         """The current state (world frame), as a validated, immutable ``State``."""
-        return State(self._x, self._rotation(), self._v, self._w)
+        x, _, v, w = self._row()
+        return State(x, self._rotation(), v, w)
 
     def pose_twist(self) -> tuple[tuple[float, ...], ...]:
         """(position m, quaternion x-y-z-w, linear velocity m/s, angular velocity rad/s), world
         frame, as tuples of floats: the cheap read for publishing."""
-        r = self._r if self._q is None else tuple(float(c) for c in self._rotation().reshape(9))
-        return self._x, so3.quaternion_xyzw_from_components(*r), self._v, self._w
+        x, r, v, w = self.components()
+        return x, so3.quaternion_xyzw_from_components(*r), v, w
 
     def rotation(self) -> np.ndarray:
         """R (body to world) as integrated: not projected onto SO(3) as ``State`` does, so
         its orthonormality error is the integrator's own."""
         return self._rotation()
 
+    def _row(self):
+        row = self._state[0].tolist()
+        return tuple(row[K.X:K.X + 3]), tuple(row[K.R:K.R + 9]), tuple(row[K.V:K.V + 3]), \
+            tuple(row[K.W:K.W + 3])
+
     def _rotation(self) -> np.ndarray:
         """R of the user's body frame: the principal-frame R Q, times Q^T."""
-        r = self._r if self._q is None else so3.mul9(self._r, self._q9, transpose_b=True)
-        return np.array(r).reshape(3, 3)
+        return np.array(self.components()[1]).reshape(3, 3)
+
+    def components(self):
+        """(position m, R row-major (9 floats, body to world), linear velocity m/s, angular
+        velocity rad/s), world frame, R as integrated: the cheap read of the collision world."""
+        x, r, v, w = self._row()
+        if self._q is not None:
+            r = so3.mul9(r, self._q9, transpose_b=True)
+        return x, r, v, w
 
     # -- write -----------------------------------------------------------------------------
     def set_state(self, state: State, previous: State | None = None) -> None:
@@ -188,18 +214,16 @@ class Stepper(FixedStep):
             raise ValueError(f'state must be a State, got {state!r}')
         if previous is not None and not isinstance(previous, State):
             raise ValueError(f'previous must be a State or None, got {previous!r}')
-        self._x, self._v, self._r, self._w = _components(state, self._q)
-        self._a, self._b = self._accelerations(self._r, self._w, self._v)
-        self._prev = None if previous is None else _components(previous, self._q)
-        self._pa = self._pb = None
-        self._history_stale = previous is not None
-        self._orthonormalize_countdown = self.ORTHONORMALIZE_EVERY
-
-    def components(self):
-        """(position m, R row-major (9 floats, body to world), linear velocity m/s, angular
-        velocity rad/s), world frame, R as integrated: the cheap read of the collision world."""
-        r = self._r if self._q is None else tuple(float(c) for c in self._rotation().reshape(9))
-        return self._x, r, self._v, self._w
+        row = self._state[0]
+        _write(row, K.X, _components(state, self._q))
+        if previous is None:
+            row[K.HISTORY] = K.HISTORY_NONE
+        else:
+            _write(row, K.XP, _components(previous, self._q))
+            row[K.HISTORY] = K.HISTORY_STALE
+        row[K.COUNTDOWN] = self.ORTHONORMALIZE_EVERY
+        K.evaluate(self._state, self._params, 0)
+        self._has_state = True
 
     def apply_contact(self, position, rotation: np.ndarray, linear_velocity,
                       angular_velocity, step: int | None = None) -> None:
@@ -221,11 +245,10 @@ class Stepper(FixedStep):
                 step, f'a contact made the state non-finite at step {step} '
                 f'(t = {step * self._dt:.9g} s): x = {x}, v = {v}, omega = {w}; the body '
                 'keeps its state before the contact')
-        self._x, self._v, self._r, self._w = x, v, r, w
-        self._a, self._b = self._accelerations(self._r, self._w, self._v)
-        self._prev = None
-        self._pa = self._pb = None
-        self._history_stale = False
+        row = self._state[0]
+        _write(row, K.X, (x, v, r, w))
+        row[K.HISTORY] = K.HISTORY_NONE
+        K.evaluate(self._state, self._params, 0)
 
     def rest(self, n: int) -> None:
         """Count ``n`` >= 0 steps spent asleep (the collision world's): the clock advances,
@@ -236,14 +259,13 @@ class Stepper(FixedStep):
 
     def restart_history(self) -> None:
         """Forget the previous step (after an impulse: do not extrapolate across it)."""
-        self._prev = None
-        self._history_stale = False
+        self._state[0, K.HISTORY] = K.HISTORY_NONE
 
     def set_wrench(self, wrench: Wrench) -> None:
         """Hold ``wrench`` from the next step on (zero-order hold)."""
         if not isinstance(wrench, Wrench):
             raise ValueError(f'wrench must be a Wrench, got {wrench!r}')
-        if wrench == self._wrench and hasattr(self, '_accelerations'):
+        if wrench == self._wrench:
             return
         self._wrench = wrench
         in_body = wrench.frame is Frame.BODY
@@ -251,13 +273,11 @@ class Stepper(FixedStep):
         if in_body and self._q is not None:
             force = so3.mul9_vec(self._q9, force, transpose=True)
             torque = so3.mul9_vec(self._q9, torque, transpose=True)
-        self._accelerations = euler_dynamics.make_accelerations(
-            self._inverse_mass, self._moments, tuple(float(c) for c in force),
-            tuple(float(c) for c in torque), in_body, in_body, self._gravity,
-            self._linear_damping, self._angular_damping, self._specialize)
-        if hasattr(self, '_r'):
-            self._a, self._b = self._accelerations(self._r, self._w, self._v)
-            self._history_stale = self._prev is not None
+        set_wrench_params(self._params[0], self._inverse_mass, force, torque, in_body)
+        if self._has_state:
+            K.evaluate(self._state, self._params, 0)
+            if self._state[0, K.HISTORY] != K.HISTORY_NONE:
+                self._state[0, K.HISTORY] = K.HISTORY_STALE
 
     def step(self, n: int = 1) -> None:
         """Advance ``n`` >= 0 steps.
@@ -267,125 +287,98 @@ class Stepper(FixedStep):
         unstable). The stepper is then left exactly as it was after the last good step: state,
         history and clock, so every read (``state``, ``pose_twist``, ``components``,
         ``rotation``, ``time``) gives that finite state, and ``set_state``, ``set_wrench`` or
-        stepping on from there work as usual. The loop itself does not test each step: a
-        non-finite value never becomes finite again in this arithmetic (nan absorbs, inf meets
-        sin() which raises; the first pass lets that exception through), so the end state is
-        checked, and only on failure are the same steps taken again from the saved start, one
-        by one, to find the first bad one. The arithmetic is deterministic, so the second pass
-        repeats the first exactly.
+        stepping on from there work as usual. The kernel checks the end state only; on failure
+        the same steps are taken again from the unchanged start, checked one by one, to find
+        the first bad one (the arithmetic repeats the first pass exactly).
         """
         if not isinstance(n, int) or isinstance(n, bool) or n < 0:
             raise ValueError(f'n must be an int >= 0, got {n!r}')
         if n == 0:
             return
-        saved = self._save()
-        try:
-            self._run(n, check=False)
-            if _finite(self._x, self._v, self._r, self._w) and self._turn_ok(self._w):
-                return
-        except (ValueError, OverflowError):
-            pass
-        self._restore(saved)
-        try:
-            self._run(n, check=True)
-        except IntegrationError:
-            if self._step_count == saved[STEP_COUNT]:  # the first step failed: none taken
-                self._restore(saved)  # (start-up may have left a non-finite history)
-            raise
+        args = (self._params, self._coefficients, self._bodies, n)
+        out = (self._status, self._taken, self._bad, self._work)
+        K.advance(self._state, self._spare, *args, False, *out)
+        if self._status[0] == K.STATUS_OK:
+            self._state, self._spare = self._spare, self._state
+            self._step_count += n
+            return
+        K.advance(self._state, self._spare, *args, True, *out)
+        self._state, self._spare = self._spare, self._state
+        self._step_count += int(self._taken[0])
+        raise self._error(int(self._status[0]))
 
-    def _run(self, n: int, check: bool) -> None:
-        accelerations, advance = self._accelerations, self._advance
-        x, v, r, w, a, b = self._x, self._v, self._r, self._w, self._a, self._b
-        try:
-            ap, bp = self._history()
-        except (ValueError, OverflowError):
-            if not check:
-                raise
-            raise IntegrationError(
-                self._step_count, f'start-up became non-finite at step {self._step_count} '
-                f'(t = {self._step_count * self._dt:.9g} s) from v = {v}, omega = {w}') from None
-        xp, vp, rp, wp = self._prev or (x, v, r, w)
-        countdown = self._orthonormalize_countdown
-        frozen_rotation = False
-        if self._specialize:
-            zero = euler_dynamics.ZERO3
-            frozen_rotation = (accelerations.torque_free and w == zero and b == zero
-                               and bp == zero)
-            frozen_translation = (accelerations.force_free and v == zero and a == zero
-                                  and ap == zero)
-            if frozen_rotation and frozen_translation:  # at rest, unforced: nothing moves
-                self._store(n, x, v, r, w, a, b, x, v, r, w, a, b, countdown)
-                return
-            if frozen_rotation:
-                advance = self._no_rotation
-                accelerations = accelerations.linear_only
-        for i in range(n):
-            try:
-                x1, v1, r1, w1 = advance(x, v, r, w, a, b, ap, bp)
-            except (ValueError, OverflowError):
-                if not check:  # step() goes back to the start and finds the first bad step
-                    raise
-                x1 = None
-            if check and (x1 is None or not _finite(x1, v1, r1, w1)
-                          or not self._turn_ok(w1)):
-                # Only checked steps get here, so x .. w, the state before, are finite.
-                self._store(i, x, v, r, w, a, b, xp, vp, rp, wp, ap, bp, countdown)
-                step = self._step_count
-                what = ('became non-finite' if x1 is None or not _finite(x1, v1, r1, w1)
-                        else f'turns faster than {self.MAX_TURN:g} rad a step '
-                        f'(|omega| = {math.sqrt(sum(c * c for c in w1)):.6g} rad/s): beyond it '
-                        "the explicit update of Euler's equations of a body with unequal "
-                        'moments is unstable (reduce dt)')
-                raise IntegrationError(
-                    step, f'state {what} at step {step} (t = {step * self._dt:.9g} s) from '
-                    f'v = {v}, omega = {w}; the body keeps its state before that step')
-            countdown -= 1
-            if not countdown and not frozen_rotation:
-                r1 = so3.orthonormalize_components(*r1)
-                countdown = self.ORTHONORMALIZE_EVERY
-            xp, vp, rp, wp, ap, bp = x, v, r, w, a, b
-            x, v, r, w = x1, v1, r1, w1
-            a, b = accelerations(r, w, v)
-        self._store(n, x, v, r, w, a, b, xp, vp, rp, wp, ap, bp, countdown)
-
-    def _turn_ok(self, w) -> bool:
-        """Whether omega turns the body at most MAX_TURN rad a step (or it is isotropic)."""
-        return w[0] * w[0] + w[1] * w[1] + w[2] * w[2] <= self._max_turn_rate_sq
-
-    def _save(self):
-        return (self._x, self._v, self._r, self._w, self._a, self._b, self._prev, self._pa,
-                self._pb, self._history_stale, self._step_count, self._orthonormalize_countdown)
-
-    def _restore(self, saved) -> None:
-        (self._x, self._v, self._r, self._w, self._a, self._b, self._prev, self._pa,
-         self._pb, self._history_stale, self._step_count,
-         self._orthonormalize_countdown) = saved
-
-    def _history(self):
-        """(a_{n-1}, beta_{n-1}) for the next step, world frame: start-up or re-evaluation."""
-        x, v, r, w, a, b = self._x, self._v, self._r, self._w, self._a, self._b
-        if self._prev is None:
-            # Start-up: predict with a one-step Taylor step, extrapolate back.
-            _, v1, r1, w1 = self._startup(x, v, r, w, a, b, a, b)
-            a1, b1 = self._accelerations(r1, w1, v1)
-            self._pa = (2.0 * a[0] - a1[0], 2.0 * a[1] - a1[1], 2.0 * a[2] - a1[2])
-            self._pb = (2.0 * b[0] - b1[0], 2.0 * b[1] - b1[1], 2.0 * b[2] - b1[2])
-        elif self._history_stale:
-            _, vp, rp, wp = self._prev
-            self._pa, self._pb = self._accelerations(rp, wp, vp)
-        self._history_stale = False
-        return self._pa, self._pb
-
-    def _store(self, steps, x, v, r, w, a, b, xp, vp, rp, wp, ap, bp, countdown):
-        self._x, self._v, self._r, self._w, self._a, self._b = x, v, r, w, a, b
-        if steps:
-            self._prev = (xp, vp, rp, wp)
-            self._pa, self._pb = ap, bp
-            self._step_count += steps
-        self._orthonormalize_countdown = countdown
+    def _error(self, status: int) -> IntegrationError:
+        step = self._step_count
+        _, _, v, w = self._row()
+        if status == K.STATUS_START_UP:
+            return IntegrationError(
+                step, f'start-up became non-finite at step {step} '
+                f'(t = {step * self._dt:.9g} s) from v = {v}, omega = {w}')
+        if status == K.STATUS_TURN:
+            w1 = self._bad[0]
+            what = (f'turns faster than {self.MAX_TURN:g} rad a step '
+                    f'(|omega| = {math.sqrt(float(w1 @ w1)):.6g} rad/s): beyond it '
+                    "the explicit update of Euler's equations of a body with unequal "
+                    'moments is unstable (reduce dt)')
+        else:
+            what = 'became non-finite'
+        return IntegrationError(
+            step, f'state {what} at step {step} (t = {step * self._dt:.9g} s) from '
+            f'v = {v}, omega = {w}; the body keeps its state before that step')
 
 
-STEP_COUNT = 10  # the index of step_count in Stepper._save()
+def coefficients(method: multistep.Multistep, dt: float, every: int) -> np.ndarray:
+    """The kernel's coefficients: the method's and the start-up's (TAYLOR1), times powers of
+    dt, the angle lift and the orthonormalisation period."""
+    return np.array(K.method_coefficients(method, dt)
+                    + K.method_coefficients(multistep.TAYLOR1, dt)
+                    + [so3.TINY_ANGLE_SQ, float(every)])
+
+
+def set_body_params(p: np.ndarray, moments, gravity, linear_damping: float,
+                    angular_damping: float, specialize: bool, max_turn: float,
+                    dt: float) -> None:
+    """Fill a kernel params row with what does not depend on the wrench."""
+    ix, iy, iz = moments
+    p[K.MOMENTS:K.MOMENTS + 3] = moments
+    p[K.INVERSE_MOMENTS:K.INVERSE_MOMENTS + 3] = (1.0 / ix, 1.0 / iy, 1.0 / iz)
+    p[K.GRAVITY:K.GRAVITY + 3] = gravity
+    p[K.LINEAR_DAMPING] = linear_damping
+    p[K.ANGULAR_DAMPING] = angular_damping
+    isotropic = ix == iy == iz
+    p[K.MAX_TURN_SQ] = math.inf if isotropic else (max_turn / dt) ** 2
+    flags = 0
+    if specialize:
+        flags |= K.SPECIALIZE | (K.ISOTROPIC if isotropic else 0)
+    p[K.FLAGS] = flags
+
+
+def set_wrench_params(p: np.ndarray, inverse_mass: float, force, torque,
+                      in_body: bool) -> None:
+    """Fill a kernel params row with a held wrench (force and torque in the principal body
+    frame if ``in_body``, else world), as Thm 1 takes it: F / m, and F / m + g where constant."""
+    fx, fy, fz = (float(force[0]) * inverse_mass, float(force[1]) * inverse_mass,
+                  float(force[2]) * inverse_mass)
+    gx, gy, gz = (float(c) for c in p[K.GRAVITY:K.GRAVITY + 3])
+    has_gravity = gx != 0.0 or gy != 0.0 or gz != 0.0
+    torque_free = all(float(c) == 0.0 for c in torque)
+    force_free = not has_gravity and all(float(c) == 0.0 for c in force)
+    p[K.FORCE:K.FORCE + 3] = (fx, fy, fz)
+    p[K.TORQUE:K.TORQUE + 3] = tuple(float(c) for c in torque)
+    p[K.WORLD_A:K.WORLD_A + 3] = (fx + gx, fy + gy, fz + gz) if has_gravity else (fx, fy, fz)
+    flags = int(p[K.FLAGS]) & (K.SPECIALIZE | K.ISOTROPIC)
+    flags |= (K.FORCE_IN_BODY | K.TORQUE_IN_BODY) if in_body else 0
+    flags |= (K.TORQUE_FREE if torque_free else 0) | (K.FORCE_FREE if force_free else 0)
+    p[K.FLAGS] = flags
+
+
+def _write(row: np.ndarray, at: int, components) -> None:
+    """Write (x, v, r, w) at ``at`` of a kernel state row (the layout of step_kernel)."""
+    x, v, r, w = components
+    row[at:at + 3] = x
+    row[at + 3:at + 6] = v
+    row[at + 6:at + 15] = r
+    row[at + 15:at + 18] = w
 
 
 def _finite(*vectors) -> bool:

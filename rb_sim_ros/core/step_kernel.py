@@ -1,0 +1,402 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The step kernel: every body of a world, n steps of Proof 3, in one compiled call.
+
+One structure of arrays holds the bodies (a row each): ``state`` (width STATE_WIDTH) with
+x, v, R, omega, a, beta, the previous step's x, v, R, omega, a, beta (the method's history), the
+orthonormalisation countdown and the history's status; ``params`` (width PARAM_WIDTH) with what
+the held wrench and the body give Thm 1: principal moments and their inverses, force over mass,
+torque, gravity, damping, the turn limit and flags. ``coefficients`` holds the method's
+coefficients times powers of dt (``method_coefficients``), shared by the world. R is that of
+the principal frame (see ``euler_dynamics.principal_axes``); vectors are world frame unless
+their flag puts the force or torque in the body's principal frame.
+
+``advance`` reads ``src`` and writes ``dst``: a run that fails leaves ``src`` as it was, so the
+caller can commit (swap) or go back at no cost. What one body's n steps do, in order:
+
+1. its history: start-up (a one-step Taylor prediction, a_{-1} = 2 a_0 - a_1*) when there is
+   none, re-evaluation at the previous state under a new wrench when it is stale (NOTES.md 2);
+2. the skips of a body that needs less (flag SPECIALIZE): at rest and unforced nothing is
+   computed; not turning under no torque, only x and v are updated;
+3. n steps of eq. (11)-(13) and (27); every ORTHONORMALIZE_EVERY steps R is pulled back to SO(3)
+   by one Newton step of the polar decomposition.
+
+Checking. ``checked=False`` checks the end state only (finite, and a body with unequal moments
+turning at most MAX_TURN rad a step): a non-finite value never becomes finite again in this
+arithmetic. ``checked=True`` checks every step and stops before the first bad one, the state
+before it written to ``dst``; ``status`` says why (STATUS_*), ``taken`` how many steps were good
+and ``bad`` the omega that failed the turn check. The arithmetic is the same in both modes, so
+a checked rerun repeats the unchecked run exactly up to the bad step.
+
+Everything is plain + - * / sqrt sin cos on float64 (no BLAS, no fused multiply-add): the
+compiled and interpreted paths (``NUMBA_DISABLE_JIT=1``) give the same bits, on every machine.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rb_sim_ros.core.jit import kernel, parallel_kernel, prange
+
+# -- state row ---------------------------------------------------------------------------------
+X, V, R, W, A, B = 0, 3, 6, 15, 18, 21
+XP, VP, RP, WP, AP, BP = 24, 27, 30, 39, 42, 45
+COUNTDOWN = 48
+HISTORY = 49  # HISTORY_NONE, HISTORY_VALID or HISTORY_STALE
+STATE_WIDTH = 50
+HISTORY_NONE, HISTORY_VALID, HISTORY_STALE = 0.0, 1.0, 2.0
+
+# -- params row ---------------------------------------------------------------------------------
+MOMENTS, INVERSE_MOMENTS, FORCE, TORQUE, GRAVITY, WORLD_A = 0, 3, 6, 9, 12, 15
+LINEAR_DAMPING, ANGULAR_DAMPING, MAX_TURN_SQ, FLAGS = 18, 19, 20, 21
+PARAM_WIDTH = 22
+# flags
+FORCE_IN_BODY, TORQUE_IN_BODY, TORQUE_FREE, ISOTROPIC, FORCE_FREE, SPECIALIZE = (
+    1, 2, 4, 8, 16, 32)
+
+# -- coefficients --------------------------------------------------------------------------------
+# [0:8] the method (dt, vn, vp, pn, pp, rn, rp, rc), [8:16] the start-up's TAYLOR1,
+# [16] TINY_ANGLE_SQ, [17] ORTHONORMALIZE_EVERY.
+COEFFICIENTS = 18
+
+# -- status --------------------------------------------------------------------------------------
+STATUS_OK, STATUS_NON_FINITE, STATUS_TURN, STATUS_START_UP = 0, 1, 2, 3
+
+# -- work counters (per body, added to) ----------------------------------------------------------
+WORK_FULL, WORK_TRANSLATION, WORK_START_UP = 0, 1, 2
+WORK_WIDTH = 3
+
+
+def method_coefficients(method, dt: float) -> list[float]:
+    """The 8 coefficients of a ``multistep.Multistep`` times powers of dt, as make_step has
+    them: dt, velocity (now, prev) dt, position (now, prev) dt^2, rotation (now, prev) dt^2,
+    cross dt^3."""
+    return [dt, method.velocity_now * dt, method.velocity_prev * dt,
+            method.position_now * dt * dt, method.position_prev * dt * dt,
+            method.rotation_now * dt * dt, method.rotation_prev * dt * dt,
+            method.rotation_cross * dt * dt * dt]
+
+
+@kernel
+def accelerations(p, i, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, vx, vy, vz,
+                  linear_only):
+    """(a, beta) of Thm 1 for body i of ``p`` (params) at R (principal frame), omega, v: world
+    frame. ``linear_only``: the body does not turn (omega = 0 under no torque): beta = 0."""
+    flags = int(p[i, FLAGS])
+    fx, fy, fz = float(p[i, FORCE]), float(p[i, FORCE + 1]), float(p[i, FORCE + 2])
+    gx, gy, gz = float(p[i, GRAVITY]), float(p[i, GRAVITY + 1]), float(p[i, GRAVITY + 2])
+    c_lin, c_ang = float(p[i, LINEAR_DAMPING]), float(p[i, ANGULAR_DAMPING])
+    if flags & FORCE_IN_BODY:
+        a0 = r00 * fx + r01 * fy + r02 * fz + gx
+        a1 = r10 * fx + r11 * fy + r12 * fz + gy
+        a2 = r20 * fx + r21 * fy + r22 * fz + gz
+    else:
+        a0, a1, a2 = float(p[i, WORLD_A]), float(p[i, WORLD_A + 1]), float(p[i, WORLD_A + 2])
+    if c_lin != 0.0:
+        a0, a1, a2 = a0 - c_lin * vx, a1 - c_lin * vy, a2 - c_lin * vz
+    if linear_only:
+        return a0, a1, a2, 0.0, 0.0, 0.0
+    tx0, ty0, tz0 = float(p[i, TORQUE]), float(p[i, TORQUE + 1]), float(p[i, TORQUE + 2])
+    jx = float(p[i, INVERSE_MOMENTS])
+    if flags & ISOTROPIC:
+        # No gyroscopic term ([w] I w = I w x w = 0) and no change of frame.
+        if (flags & TORQUE_IN_BODY) and not (flags & TORQUE_FREE):
+            b0 = (r00 * tx0 + r01 * ty0 + r02 * tz0) * jx
+            b1 = (r10 * tx0 + r11 * ty0 + r12 * tz0) * jx
+            b2 = (r20 * tx0 + r21 * ty0 + r22 * tz0) * jx
+        else:
+            b0, b1, b2 = tx0 * jx, ty0 * jx, tz0 * jx
+    else:
+        ix, iy, iz = float(p[i, MOMENTS]), float(p[i, MOMENTS + 1]), float(p[i, MOMENTS + 2])
+        jy, jz = float(p[i, INVERSE_MOMENTS + 1]), float(p[i, INVERSE_MOMENTS + 2])
+        # omega and tau in the body frame: R^T v.
+        bx = r00 * wx + r10 * wy + r20 * wz
+        by = r01 * wx + r11 * wy + r21 * wz
+        bz = r02 * wx + r12 * wy + r22 * wz
+        if (flags & TORQUE_IN_BODY) or (flags & TORQUE_FREE):
+            tx, ty, tz = tx0, ty0, tz0
+        else:
+            tx = r00 * tx0 + r10 * ty0 + r20 * tz0
+            ty = r01 * tx0 + r11 * ty0 + r21 * tz0
+            tz = r02 * tx0 + r12 * ty0 + r22 * tz0
+        # I_b^-1 (tau_b - omega_b x I_b omega_b): Euler's equations in principal axes.
+        cx = (tx - (iz - iy) * by * bz) * jx
+        cy = (ty - (ix - iz) * bz * bx) * jy
+        cz = (tz - (iy - ix) * bx * by) * jz
+        b0 = r00 * cx + r01 * cy + r02 * cz
+        b1 = r10 * cx + r11 * cy + r12 * cz
+        b2 = r20 * cx + r21 * cy + r22 * cz
+    if c_ang != 0.0:
+        b0, b1, b2 = b0 - c_ang * wx, b1 - c_ang * wy, b2 - c_ang * wz
+    return a0, a1, a2, b0, b1, b2
+
+
+@kernel
+def rotation_step(dt, rn, rp, rc, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+                  wx, wy, wz, bx, by, bz, bpx, bpy, bpz):
+    """R_{n+1} of eq. (27), last line: exp([p]) R with p = omega dt + rn beta + rp beta_prev
+    + rc (beta x omega). exp([p]) = I + A [p] + B [p]^2 (Rodrigues) with A = sin(t)/t and
+    B = (1 - cos t)/t^2 in half-angle form, t^2 lifted by TINY_ANGLE_SQ (see so3): no branch
+    on the angle. A non-finite angle gives nan (Python's sin would raise; numba's gives nan)."""
+    px = wx * dt + rn * bx + rp * bpx + rc * (by * wz - bz * wy)
+    py = wy * dt + rn * by + rp * bpy + rc * (bz * wx - bx * wz)
+    pz = wz * dt + rn * bz + rp * bpz + rc * (bx * wy - by * wx)
+    xx2, yy2, zz2 = px * px, py * py, pz * pz
+    t2 = xx2 + yy2 + zz2 + tiny
+    if t2 <= 1.7976931348623157e308:
+        t = math.sqrt(t2)
+        s = math.sin(0.5 * t)
+        ca = 2.0 * s * math.cos(0.5 * t) / t
+        cb = 2.0 * s * s / t2
+    else:
+        ca = cb = math.nan
+    bxy, bxz, byz = cb * px * py, cb * px * pz, cb * py * pz
+    ax_, ay_, az_ = ca * px, ca * py, ca * pz
+    e00, e01, e02 = 1.0 - cb * (yy2 + zz2), bxy - az_, bxz + ay_
+    e10, e11, e12 = bxy + az_, 1.0 - cb * (xx2 + zz2), byz - ax_
+    e20, e21, e22 = bxz - ay_, byz + ax_, 1.0 - cb * (xx2 + yy2)
+    return (e00 * r00 + e01 * r10 + e02 * r20, e00 * r01 + e01 * r11 + e02 * r21,
+            e00 * r02 + e01 * r12 + e02 * r22,
+            e10 * r00 + e11 * r10 + e12 * r20, e10 * r01 + e11 * r11 + e12 * r21,
+            e10 * r02 + e11 * r12 + e12 * r22,
+            e20 * r00 + e21 * r10 + e22 * r20, e20 * r01 + e21 * r11 + e22 * r21,
+            e20 * r02 + e21 * r12 + e22 * r22)
+
+
+@kernel
+def orthonormalize(r00, r01, r02, r10, r11, r12, r20, r21, r22):
+    """One Newton step of the polar decomposition, R (3 I - R^T R) / 2: from a matrix within
+    ~1e-8 of SO(3) to within ~1e-16. (so3.orthonormalize_components, written out.)"""
+    s00 = r00 * r00 + r10 * r10 + r20 * r20
+    s11 = r01 * r01 + r11 * r11 + r21 * r21
+    s22 = r02 * r02 + r12 * r12 + r22 * r22
+    s01 = r00 * r01 + r10 * r11 + r20 * r21
+    s02 = r00 * r02 + r10 * r12 + r20 * r22
+    s12 = r01 * r02 + r11 * r12 + r21 * r22
+    m00, m11, m22 = 0.5 * (3.0 - s00), 0.5 * (3.0 - s11), 0.5 * (3.0 - s22)
+    m01, m02, m12 = -0.5 * s01, -0.5 * s02, -0.5 * s12
+    return (r00 * m00 + r01 * m01 + r02 * m02, r00 * m01 + r01 * m11 + r02 * m12,
+            r00 * m02 + r01 * m12 + r02 * m22,
+            r10 * m00 + r11 * m01 + r12 * m02, r10 * m01 + r11 * m11 + r12 * m12,
+            r10 * m02 + r11 * m12 + r12 * m22,
+            r20 * m00 + r21 * m01 + r22 * m02, r20 * m01 + r21 * m11 + r22 * m12,
+            r20 * m02 + r21 * m12 + r22 * m22)
+
+
+@kernel
+def multistep_step(dt, vn, vp, pn, pp, rn, rp, rc, tiny, rotate,
+                   xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+                   wx, wy, wz, ax, ay, az, bx, by, bz, apx, apy, apz, bpx, bpy, bpz):
+    """One step of Proof 3 (eq. (11)-(13) and (27)) with the coefficients of a method times
+    powers of dt (``method_coefficients``): (x, v, R, omega) at t + dt, 18 floats, from the
+    state and the accelerations at t (a, beta) and t - dt (a_prev, beta_prev), world frame.
+    ``rotate=False``: a body that does not turn (omega = beta = beta_prev = 0), whose R and
+    omega the full update would give back, keeps them."""
+    nx0 = xx + vx * dt + pn * ax + pp * apx
+    nx1 = xy + vy * dt + pn * ay + pp * apy
+    nx2 = xz + vz * dt + pn * az + pp * apz
+    nv0 = vx + vn * ax + vp * apx
+    nv1 = vy + vn * ay + vp * apy
+    nv2 = vz + vn * az + vp * apz
+    if not rotate:
+        return (nx0, nx1, nx2, nv0, nv1, nv2, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+                wx, wy, wz)
+    q00, q01, q02, q10, q11, q12, q20, q21, q22 = rotation_step(
+        dt, rn, rp, rc, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+        wx, wy, wz, bx, by, bz, bpx, bpy, bpz)
+    return (nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12, q20, q21, q22,
+            wx + vn * bx + vp * bpx, wy + vn * by + vp * bpy, wz + vn * bz + vp * bpz)
+
+
+@kernel
+def evaluate(state, params, i):
+    """Store a and beta of body i at its state (after a write of the state or the wrench)."""
+    s = state
+    a0, a1, a2, b0, b1, b2 = accelerations(
+        params, i, float(s[i, R]), float(s[i, R + 1]), float(s[i, R + 2]), float(s[i, R + 3]),
+        float(s[i, R + 4]), float(s[i, R + 5]), float(s[i, R + 6]), float(s[i, R + 7]),
+        float(s[i, R + 8]), float(s[i, W]), float(s[i, W + 1]), float(s[i, W + 2]),
+        float(s[i, V]), float(s[i, V + 1]), float(s[i, V + 2]), False)
+    s[i, A], s[i, A + 1], s[i, A + 2] = a0, a1, a2
+    s[i, B], s[i, B + 1], s[i, B + 2] = b0, b1, b2
+
+
+@kernel
+def evaluate_bodies(state, params, bodies):
+    """``evaluate`` for each body listed in ``bodies`` (int64 indices)."""
+    for k in range(bodies.shape[0]):
+        evaluate(state, params, bodies[k])
+
+
+@kernel
+def _finite(*values):
+    total = 0.0
+    for c in values:
+        total += c * 0.0  # nan if c is inf or nan
+    return total == 0.0
+
+
+@kernel
+def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
+    """n steps of body i from row i of ``src`` into row i of ``dst`` (see the module)."""
+    dt, vn, vp, pn, pp = float(c[0]), float(c[1]), float(c[2]), float(c[3]), float(c[4])
+    rn, rp, rc = float(c[5]), float(c[6]), float(c[7])
+    tiny, every = float(c[16]), int(c[17])
+    flags = int(p[i, FLAGS])
+    max_turn_sq = float(p[i, MAX_TURN_SQ])
+    s = src
+    xx, xy, xz = float(s[i, X]), float(s[i, X + 1]), float(s[i, X + 2])
+    vx, vy, vz = float(s[i, V]), float(s[i, V + 1]), float(s[i, V + 2])
+    r00, r01, r02 = float(s[i, R]), float(s[i, R + 1]), float(s[i, R + 2])
+    r10, r11, r12 = float(s[i, R + 3]), float(s[i, R + 4]), float(s[i, R + 5])
+    r20, r21, r22 = float(s[i, R + 6]), float(s[i, R + 7]), float(s[i, R + 8])
+    wx, wy, wz = float(s[i, W]), float(s[i, W + 1]), float(s[i, W + 2])
+    ax, ay, az = float(s[i, A]), float(s[i, A + 1]), float(s[i, A + 2])
+    bx, by, bz = float(s[i, B]), float(s[i, B + 1]), float(s[i, B + 2])
+    countdown = int(s[i, COUNTDOWN])
+    history = float(s[i, HISTORY])
+    status[i] = STATUS_OK
+    taken[i] = 0
+    if n <= 0:
+        dst[i, :] = src[i, :]
+        return
+    # 1. The history a_{n-1}, beta_{n-1}.
+    if history == HISTORY_NONE:
+        # Start-up: one TAYLOR1 step (a_prev = a), the accelerations there, extrapolate back.
+        (_, _, _, v10, v11, v12, q00, q01, q02, q10, q11, q12, q20, q21, q22,
+         w10, w11, w12) = multistep_step(
+            float(c[8]), float(c[9]), float(c[10]), float(c[11]), float(c[12]),
+            float(c[13]), float(c[14]), float(c[15]), tiny, True,
+            xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+            wx, wy, wz, ax, ay, az, bx, by, bz, ax, ay, az, bx, by, bz)
+        a10, a11, a12, b10, b11, b12 = accelerations(
+            p, i, q00, q01, q02, q10, q11, q12, q20, q21, q22, w10, w11, w12, v10, v11, v12,
+            False)
+        apx, apy, apz = 2.0 * ax - a10, 2.0 * ay - a11, 2.0 * az - a12
+        bpx, bpy, bpz = 2.0 * bx - b10, 2.0 * by - b11, 2.0 * bz - b12
+        work[i, WORK_START_UP] += 1
+    elif history == HISTORY_STALE:
+        # A new wrench: the previous step's accelerations again, under it.
+        apx, apy, apz, bpx, bpy, bpz = accelerations(
+            p, i, float(s[i, RP]), float(s[i, RP + 1]), float(s[i, RP + 2]),
+            float(s[i, RP + 3]), float(s[i, RP + 4]), float(s[i, RP + 5]),
+            float(s[i, RP + 6]), float(s[i, RP + 7]), float(s[i, RP + 8]),
+            float(s[i, WP]), float(s[i, WP + 1]), float(s[i, WP + 2]),
+            float(s[i, VP]), float(s[i, VP + 1]), float(s[i, VP + 2]), False)
+        work[i, WORK_START_UP] += 1
+    else:
+        apx, apy, apz = float(s[i, AP]), float(s[i, AP + 1]), float(s[i, AP + 2])
+        bpx, bpy, bpz = float(s[i, BP]), float(s[i, BP + 1]), float(s[i, BP + 2])
+    if checked and not _finite(apx, apy, apz, bpx, bpy, bpz):
+        dst[i, :] = src[i, :]
+        status[i] = STATUS_START_UP
+        return
+    # 2. The skips.
+    frozen_rotation = False
+    if flags & SPECIALIZE:
+        frozen_rotation = ((flags & TORQUE_FREE) != 0 and wx == 0.0 and wy == 0.0
+                           and wz == 0.0 and bx == 0.0 and by == 0.0 and bz == 0.0
+                           and bpx == 0.0 and bpy == 0.0 and bpz == 0.0)
+        frozen_translation = ((flags & FORCE_FREE) != 0 and vx == 0.0 and vy == 0.0
+                              and vz == 0.0 and ax == 0.0 and ay == 0.0 and az == 0.0
+                              and apx == 0.0 and apy == 0.0 and apz == 0.0)
+        if frozen_rotation and frozen_translation:  # at rest, unforced: nothing moves
+            dst[i, :] = src[i, :]
+            for k in range(XP, XP + 24):
+                dst[i, k] = src[i, k - XP]  # the previous step is this one
+            dst[i, HISTORY] = HISTORY_VALID
+            taken[i] = n
+            return
+    # 3. The steps.
+    pxx, pxy, pxz = xx, xy, xz
+    pvx, pvy, pvz = vx, vy, vz
+    p00, p01, p02, p10, p11, p12, p20, p21, p22 = r00, r01, r02, r10, r11, r12, r20, r21, r22
+    pwx, pwy, pwz = wx, wy, wz
+    good = 0
+    for _ in range(n):
+        (nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12, q20, q21, q22,
+         nw0, nw1, nw2) = multistep_step(
+            dt, vn, vp, pn, pp, rn, rp, rc, tiny, not frozen_rotation,
+            xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+            wx, wy, wz, ax, ay, az, bx, by, bz, apx, apy, apz, bpx, bpy, bpz)
+        work[i, WORK_TRANSLATION if frozen_rotation else WORK_FULL] += 1
+        if checked:
+            code = STATUS_OK
+            if not _finite(nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12,
+                           q20, q21, q22, nw0, nw1, nw2):
+                code = STATUS_NON_FINITE
+            elif not (nw0 * nw0 + nw1 * nw1 + nw2 * nw2 <= max_turn_sq):
+                code = STATUS_TURN
+            if code != STATUS_OK:
+                status[i] = code
+                bad[i, 0], bad[i, 1], bad[i, 2] = nw0, nw1, nw2
+                break
+        countdown -= 1
+        if countdown <= 0 and not frozen_rotation:
+            q00, q01, q02, q10, q11, q12, q20, q21, q22 = orthonormalize(
+                q00, q01, q02, q10, q11, q12, q20, q21, q22)
+            countdown = every
+        pxx, pxy, pxz, pvx, pvy, pvz = xx, xy, xz, vx, vy, vz
+        p00, p01, p02, p10, p11, p12, p20, p21, p22 = r00, r01, r02, r10, r11, r12, r20, r21, r22
+        pwx, pwy, pwz = wx, wy, wz
+        apx, apy, apz, bpx, bpy, bpz = ax, ay, az, bx, by, bz
+        xx, xy, xz, vx, vy, vz = nx0, nx1, nx2, nv0, nv1, nv2
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = q00, q01, q02, q10, q11, q12, q20, q21, q22
+        wx, wy, wz = nw0, nw1, nw2
+        ax, ay, az, bx, by, bz = accelerations(
+            p, i, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, vx, vy, vz,
+            frozen_rotation)
+        good += 1
+    taken[i] = good
+    if good == 0:  # the first step failed: none taken, the row as it was
+        dst[i, :] = src[i, :]
+        return
+    d = dst
+    d[i, X], d[i, X + 1], d[i, X + 2] = xx, xy, xz
+    d[i, V], d[i, V + 1], d[i, V + 2] = vx, vy, vz
+    d[i, R], d[i, R + 1], d[i, R + 2] = r00, r01, r02
+    d[i, R + 3], d[i, R + 4], d[i, R + 5] = r10, r11, r12
+    d[i, R + 6], d[i, R + 7], d[i, R + 8] = r20, r21, r22
+    d[i, W], d[i, W + 1], d[i, W + 2] = wx, wy, wz
+    d[i, A], d[i, A + 1], d[i, A + 2] = ax, ay, az
+    d[i, B], d[i, B + 1], d[i, B + 2] = bx, by, bz
+    d[i, XP], d[i, XP + 1], d[i, XP + 2] = pxx, pxy, pxz
+    d[i, VP], d[i, VP + 1], d[i, VP + 2] = pvx, pvy, pvz
+    d[i, RP], d[i, RP + 1], d[i, RP + 2] = p00, p01, p02
+    d[i, RP + 3], d[i, RP + 4], d[i, RP + 5] = p10, p11, p12
+    d[i, RP + 6], d[i, RP + 7], d[i, RP + 8] = p20, p21, p22
+    d[i, WP], d[i, WP + 1], d[i, WP + 2] = pwx, pwy, pwz
+    d[i, AP], d[i, AP + 1], d[i, AP + 2] = apx, apy, apz
+    d[i, BP], d[i, BP + 1], d[i, BP + 2] = bpx, bpy, bpz
+    d[i, COUNTDOWN] = countdown
+    d[i, HISTORY] = HISTORY_VALID
+    if not checked and not (
+            _finite(xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+                    wx, wy, wz)
+            and wx * wx + wy * wy + wz * wz <= max_turn_sq):
+        status[i] = STATUS_NON_FINITE  # somewhere in the run: a checked run finds where
+
+
+@kernel
+def advance(src, dst, params, coefficients, bodies, n, checked, status, taken, bad, work):
+    """n steps of each body listed in ``bodies`` (int64 indices), one after the other."""
+    for k in range(bodies.shape[0]):
+        advance_body(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
+                     bad, work)
+
+
+@parallel_kernel
+def advance_parallel(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
+                     work):
+    """``advance`` with the bodies shared among the cores (they are independent)."""
+    for k in prange(bodies.shape[0]):
+        advance_body(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
+                     bad, work)
+
+
+def new_arrays(count: int):
+    """(state, params, work) for ``count`` bodies, zeroed; R to be written by the caller."""
+    return (np.zeros((count, STATE_WIDTH)), np.zeros((count, PARAM_WIDTH)),
+            np.zeros((count, WORK_WIDTH), dtype=np.int64))

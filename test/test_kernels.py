@@ -1,0 +1,110 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The compiled kernels: one source for the compiled and the interpreted path, Thm 1 as the
+report writes it, and a cache that cannot serve stale machine code."""
+
+import json
+import os
+from pathlib import Path
+import re
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from rb_sim_ros.core import euler_dynamics, jit, so3, step_kernel as K
+
+HERE = Path(__file__).resolve().parent
+
+
+def _fingerprints(disable_jit: bool) -> dict:
+    env = dict(os.environ, NUMBA_DISABLE_JIT='1' if disable_jit else '0')
+    out = subprocess.run([sys.executable, str(HERE / 'kernel_fingerprint.py'), 'batch', 'demo',
+                          'heap'], env=env, capture_output=True, text=True, timeout=900)
+    assert out.returncode == 0, out.stderr[-3000:]
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_compiled_and_interpreted_paths_give_the_same_bits():
+    """1000 batch bodies, the collision demo (1.5 s, a wrench change) and the 1000-sphere heap
+    (3 steps): compiled, and interpreted with NUMBA_DISABLE_JIT=1, the same states to the bit."""
+    compiled, interpreted = _fingerprints(False), _fingerprints(True)
+    assert compiled.pop('compiled') is True and interpreted.pop('compiled') is False
+    assert compiled == interpreted
+
+
+def _thm1_world(moments, q, rot, omega, torque_world):
+    """eq. (10) literally: I = R I_body R^T in the world frame, solved with numpy."""
+    inertia_body = q @ np.diag(moments) @ q.T
+    inertia_world = rot @ inertia_body @ rot.T
+    return euler_dynamics.angular_acceleration_world(inertia_world, omega, torque_world)
+
+
+@pytest.mark.parametrize('frame', ['world', 'body'])
+@pytest.mark.parametrize('isotropic', [False, True])
+def test_kernel_accelerations_are_thm1_in_the_world_frame(frame, isotropic):
+    rng = np.random.default_rng(11)
+    for _ in range(50):
+        moments = np.sort(rng.uniform(0.5, 2.0, 3))
+        if isotropic:
+            moments[:] = moments[1]
+        rot = so3.exp(rng.normal(size=3))  # R of the principal frame
+        omega, torque, force = rng.normal(size=(3, 3)) * 2.0
+        mass, gravity = 1.7, np.array([0.1, -0.2, -9.81])
+        p = np.zeros((1, K.PARAM_WIDTH))
+        in_body = frame == 'body'
+        p[0, K.MOMENTS:K.MOMENTS + 3] = moments
+        p[0, K.INVERSE_MOMENTS:K.INVERSE_MOMENTS + 3] = 1.0 / moments
+        p[0, K.FORCE:K.FORCE + 3] = force / mass
+        p[0, K.TORQUE:K.TORQUE + 3] = torque
+        p[0, K.GRAVITY:K.GRAVITY + 3] = gravity
+        p[0, K.WORLD_A:K.WORLD_A + 3] = force / mass + gravity
+        p[0, K.FLAGS] = ((K.FORCE_IN_BODY | K.TORQUE_IN_BODY if in_body else 0)
+                         | K.SPECIALIZE | (K.ISOTROPIC if isotropic else 0))
+        out = K.accelerations(p, 0, *rot.reshape(9), *omega, 0.0, 0.0, 0.0, False)
+        torque_world = rot @ torque if in_body else torque
+        expect_b = _thm1_world(moments, np.eye(3), rot, omega, torque_world)
+        expect_a = (rot @ force if in_body else force) / mass + gravity
+        np.testing.assert_allclose(out[:3], expect_a, rtol=1e-13, atol=1e-13)
+        np.testing.assert_allclose(out[3:], expect_b, rtol=1e-12, atol=1e-12)
+
+
+def test_every_compiled_module_is_in_the_cache_stamp():
+    """numba keys its own cache on the one file of a function; ours hashes every module of the
+    kernel layers, so an edit of a helper recompiles what calls it. A kernel outside those
+    layers would not be stamped."""
+    package = Path(jit.__file__).resolve().parent.parent
+    with_kernels = {f for f in package.rglob('*.py')
+                    if re.search(r'^@(parallel_)?kernel\b', f.read_text(), re.M)}
+    assert with_kernels and with_kernels <= set(jit.kernel_sources())
+
+
+def test_the_stamp_changes_with_any_kernel_source(tmp_path, monkeypatch):
+    package = Path(jit.__file__).resolve().parent.parent
+    for layer in jit.KERNEL_LAYERS:
+        shutil.copytree(package / layer, tmp_path / layer,
+                        ignore=shutil.ignore_patterns('__pycache__'))
+    monkeypatch.setattr(jit, 'PACKAGE', tmp_path)
+    before = jit.source_stamp()
+    assert before == jit.source_stamp()
+    sources = jit.kernel_sources()
+    assert len(sources) > 10
+    for path in sources:
+        text = path.read_text()
+        path.write_text(text + '\n# an edit\n')
+        assert jit.source_stamp() != before, path
+        path.write_text(text)
+    assert jit.source_stamp() == before
+
+
+def test_the_cache_moves_to_the_user_directory_where_the_package_is_read_only(
+        tmp_path, monkeypatch):
+    unwritable = Path('/dev/null/numba')  # under a file: mkdir fails, as in a read-only tree
+    monkeypatch.setattr(jit, 'cache_directories', lambda: [unwritable, tmp_path / 'user'])
+    function = getattr(K.advance, 'py_func', K.advance)
+    locator = jit._SourceHashLocator.from_function(function, K.__file__)
+    assert locator is not None and Path(locator.get_cache_path()) == tmp_path / 'user'
+    # Functions outside the package are left to numba's own locators.
+    assert jit._SourceHashLocator.from_function(np.add.__call__, __file__) is None
