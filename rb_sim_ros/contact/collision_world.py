@@ -15,8 +15,9 @@ iteration over sets or dicts, no randomness):
 
 1. every moving body that is awake takes one step of its own ``Stepper`` (Proof 3, its
    wrench, gravity and damping), exactly as without collisions;
-2. broad phase (``broad_phase.sweep_and_prune`` on the colliders' world AABBs, each widened by
-   its body's speculative margin; every collider against every plane by its support distance);
+2. broad phase (``world_kernels.sweep_and_prune`` on the colliders' world AABBs, each widened
+   by its body's speculative margin; every collider against every plane by its support
+   distance);
 3. narrow phase (``narrow_phase``; sphere-sphere and sphere-plane pairs as numpy batches);
 4. impulses and position correction (``contact_solver.solve``, warm-started from the impulses
    of the same contact features at the step before);
@@ -56,10 +57,9 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from rb_sim_ros.contact import broad_phase, contact_solver, narrow_phase
+from rb_sim_ros.contact import contact_solver, narrow_phase, world_kernels as wk
 from rb_sim_ros.contact.bodies import BodySpec, make_steppers
 from rb_sim_ros.contact.collision_shapes import combined_material, Plane, Shape
-from rb_sim_ros.core import so3
 from rb_sim_ros.core.rigid_body import finite_floats, non_negative, State
 from rb_sim_ros.core.stepper import IntegrationError, step_all
 
@@ -267,14 +267,27 @@ class CollisionWorld:
         self._reach = reach
         self._centres = np.array([c.position if c.body < 0 else np.zeros(3)
                                   for c in colliders]).reshape(-1, 3)
-        self._rotations = np.array([c.rotation if c.body < 0 else np.eye(3)
-                                    for c in colliders]).reshape(-1, 3, 3)
+        # World rotations as 9 row-major values (the kernels' form) and as 3x3 views of them.
+        self._rotations9 = np.array([c.rotation if c.body < 0 else np.eye(3)
+                                     for c in colliders]).reshape(-1, 9)
+        self._rotations = self._rotations9.reshape(-1, 3, 3)
+        self._local_rot9 = np.ascontiguousarray(self._local_rot.reshape(-1, 9))
         self._lower = np.zeros((len(colliders), 3))
         self._upper = np.zeros((len(colliders), 3))
-        static = np.flatnonzero(self._cstatic)
-        ext = self._extents(static)
-        self._lower[static] = self._centres[static] - ext
-        self._upper[static] = self._centres[static] + ext
+        for c in np.flatnonzero(self._cstatic).tolist():
+            wk.extents(c, self._rotations9, self._half, self._half_length, self._radius, 0.0,
+                       self._centres, self._lower, self._upper)
+        # The moving bodies with colliders as rows of their steppers' store.
+        self._store = self._moving_steppers[0]._store
+        self._rows = np.array([s._row for s in self._moving_steppers], dtype=np.int64)
+        self._q = np.array([s._q9 if s._q9 is not None else np.eye(3).reshape(9)
+                            for s in self._moving_steppers]).reshape(-1, 9)
+        self._has_q = np.array([s._q9 is not None for s in self._moving_steppers])
+        self._x = np.zeros((nb + 1, 3))
+        self._rot = np.zeros((nb, 9))
+        self._v = np.zeros((nb + 1, 3))
+        self._w = np.zeros((nb + 1, 3))
+        self._margin = np.zeros(nb + 1)
         self._sphere = self._kind == 'sphere'
         self._collider_count = len(colliders) + len(plane_normals)
         # Materials of the colliders, then of the planes (the world's where a shape has none);
@@ -292,15 +305,8 @@ class CollisionWorld:
         self._slow_steps = np.zeros(nb, dtype=np.int64)
         self._wrench_seen = [s.wrench for s in self._moving_steppers]
         self._index = {self.bodies[k].name: i for i, k in enumerate(self._moving_specs)}
-        self._stepping = self._all_steppers
-
-    def _extents(self, idx: np.ndarray) -> np.ndarray:
-        """Half widths (m) of the world AABBs of colliders ``idx`` at their current poses."""
-        rot = self._rotations[idx]
-        ext = np.einsum('nij,nj->ni', np.abs(rot), self._half[idx])
-        ext += (self._half_length[idx][:, None] * np.abs(rot[:, :, 2])
-                + self._radius[idx][:, None])
-        return ext
+        self._by_row = {s._row: s for s in self._all_steppers}
+        self._restep()
 
     # -- read ----------------------------------------------------------------------------------
     @property
@@ -389,8 +395,10 @@ class CollisionWorld:
         self._restep()
 
     def _restep(self) -> None:
-        asleep = {id(self._moving_steppers[i]) for i in np.flatnonzero(self._asleep[:-1])}
-        self._stepping = tuple(s for s in self._all_steppers if id(s) not in asleep)
+        """The store rows of the bodies that step: all but the sleepers."""
+        asleep = set(self._rows[np.flatnonzero(self._asleep[:-1])].tolist())
+        self._stepping = np.array(sorted(s._row for s in self._all_steppers
+                                         if s._row not in asleep), dtype=np.int64)
 
     def _step_once(self) -> None:
         if self._unchecked:
@@ -412,15 +420,12 @@ class CollisionWorld:
                 changed = np.array(changed, dtype=np.int64)
                 self._slow_steps[changed] = 0
                 self._wake(changed, self._step_count)
-        error = None
-        for s in self._stepping:
-            try:
-                s.step(1)
-            except IntegrationError as e:
-                error = error or IntegrationError(e.step, f"body '{self._owner(s)}': {e}")
+        failed = self._store.advance(self._stepping, 1)  # every awake body, one call
         self._step_count += 1
-        if error is not None:
-            raise error
+        if failed:  # the others took their step; the first that failed, in body order
+            s = self._by_row[failed[0]]
+            e = s._error()
+            raise IntegrationError(e.step, f"body '{self._owner(s)}': {e}")
         self._collide(t0)
 
     def _collide(self, t0: float, integrated: bool = True) -> None:
@@ -438,8 +443,8 @@ class CollisionWorld:
             # Sleepers pair like static colliders (not with each other or the static ones);
             # a sleeper near an awake body wakes, and the pairs are found again with it
             # awake, so a whole resting pile wakes in the step something reaches it.
-            pairs = broad_phase.sweep_and_prune(self._lower, self._upper, self._cowner,
-                                                self._cstatic | asleep[self._cbody])
+            pairs = wk.sweep_and_prune(self._lower, self._upper, self._cowner,
+                                       self._cstatic | asleep[self._cbody])
             if not asleep.any() or not len(pairs):
                 break
             sa, sb = asleep[self._cbody[pairs[:, 0]]], asleep[self._cbody[pairs[:, 1]]]
@@ -482,21 +487,21 @@ class CollisionWorld:
                 self._store_warm(keys, result.normal_impulse, result.tangent_impulse)
             t4 = clock()
             touched = np.flatnonzero(result.touched[:nb])
-            turn = np.einsum('ij,ij->i', result.rotation, result.rotation) > MIN_TURN ** 2
-            for i in touched.tolist():
-                if i in spared:
-                    continue
-                r_new, w_new = rot[i], result.angular_velocity[i]
-                if turn[i]:
-                    # The correction turns the body with its spin (omega in the body frame
-                    # kept): turning R under a fixed world omega would change 1/2 w . I w.
-                    correction = so3.exp(result.rotation[i])
-                    r_new, w_new = correction @ r_new, correction @ w_new
-                try:
-                    self._moving_steppers[i].apply_contact(
-                        x[i] + result.displacement[i], r_new, result.velocity[i], w_new, step)
-                except IntegrationError as failed:  # the others still get theirs; raised below
-                    error = error or self._named(i, failed)
+            write = np.array([i for i in touched.tolist() if i not in spared], dtype=np.int64)
+            bad = np.zeros(len(write), dtype=bool)
+            wk.write_contacts(self._store.state, self._store.params, self._rows, self._q,
+                              self._has_q, write, x, self._rot, result.velocity,
+                              result.angular_velocity, result.displacement, result.rotation,
+                              MIN_TURN, bad)
+            if bad.any() and error is None:  # the others got theirs
+                i = int(write[np.flatnonzero(bad)[0]])
+                error = IntegrationError(
+                    step, f"body '{self._name(i)}': a contact made the state non-finite at "
+                    f'step {step} (t = {step * self.dt:.9g} s): x = '
+                    f'{(x[i] + result.displacement[i]).tolist()}, v = '
+                    f'{result.velocity[i].tolist()}, omega = '
+                    f'{result.angular_velocity[i].tolist()}; the body keeps its state before '
+                    'the contact')
             if self._sleep_steps and integrated:
                 self._fall_asleep(contacts, result, nb, pairs)
             stats.active = int(np.count_nonzero(result.normal_impulse > 0.0))
@@ -570,24 +575,14 @@ class CollisionWorld:
     def _read(self, nb: int, dyn: np.ndarray, cb: np.ndarray):
         """(x, R, v, omega, speculative margin) of the moving bodies with colliders (a zero
         row appended for the static slot but for R); places their colliders and AABBs."""
-        pts = [s.components() for s in self._moving_steppers]
-        x = np.array([p[0] for p in pts] + [(0.0, 0.0, 0.0)])
-        rot = np.array([p[1] for p in pts]).reshape(nb, 3, 3)
-        v = np.array([p[2] for p in pts] + [(0.0, 0.0, 0.0)])
-        w = np.array([p[3] for p in pts] + [(0.0, 0.0, 0.0)])
-        dt = self.dt
-        if self.speculative:
-            g = math.sqrt(sum(c * c for c in self._gravity))
-            speed = np.linalg.norm(v[:nb], axis=1) + np.linalg.norm(w[:nb], axis=1) * self._reach
-            margin = np.append(speed * dt + g * dt * dt, 0.0)
-        else:
-            margin = np.zeros(nb + 1)
-        self._rotations[dyn] = rot[cb] @ self._local_rot[dyn]
-        self._centres[dyn] = x[cb] + np.einsum('nij,nj->ni', rot[cb], self._local_pos[dyn])
-        ext = self._extents(dyn) + margin[cb][:, None]
-        self._lower[dyn] = self._centres[dyn] - ext
-        self._upper[dyn] = self._centres[dyn] + ext
-        return x, rot, v, w, margin
+        x, rot, v, w, margin = self._x, self._rot, self._v, self._w, self._margin
+        wk.read_bodies(self._store.state, self._rows, self._q, self._has_q, x, rot, v, w)
+        g = math.sqrt(sum(c * c for c in self._gravity))
+        wk.speculative_margins(v, w, self._reach, nb, self.dt, g, self.speculative, margin)
+        wk.place_colliders(dyn, self._cbody, x, rot, self._local_pos, self._local_rot9,
+                           self._half, self._half_length, self._radius, margin, self._centres,
+                           self._rotations9, self._lower, self._upper)
+        return x, rot.reshape(nb, 3, 3), v, w, margin
 
     def _fall_asleep(self, contacts, result, nb: int, pairs: np.ndarray) -> None:
         """Count the steps each awake body has been slow (every point of its colliders under
@@ -631,17 +626,9 @@ class CollisionWorld:
     def _plane_candidates(self, dyn, cb, margin) -> np.ndarray:
         if not len(self._plane_normals) or not len(dyn):
             return np.zeros((0, 2), dtype=np.int64)
-        normals = self._plane_normals
-        rot = self._rotations[dyn]
-        # Extent of each collider towards each plane: sum_i h_i |n . axis_i| + h |n . z| + r.
-        proj = np.abs(np.einsum('nij,pi->npj', rot, normals))       # |axis_j . n_p|
-        support = (np.einsum('npj,nj->np', proj, self._half[dyn])
-                   + self._half_length[dyn][:, None] * proj[:, :, 2]
-                   + self._radius[dyn][:, None])
-        found = broad_phase.plane_pairs(support, normals, self._plane_points,
-                                        self._centres[dyn], margin[cb])
-        found[:, 0] = dyn[found[:, 0]]
-        return found
+        return wk.plane_candidates(dyn, self._cbody, self._rotations9, self._half,
+                                   self._half_length, self._radius, self._centres,
+                                   self._plane_normals, self._plane_points, margin)
 
     def _narrow(self, pairs, plane_pairs, margin):
         """Contacts of the candidate pairs: (ContactArrays, [(owner a, owner b)], keys,

@@ -396,6 +396,15 @@ def advance_parallel(src, dst, params, coefficients, bodies, n, checked, status,
                      bad, work)
 
 
+@kernel
+def copy_rows(dst, src, rows):
+    """dst[i] = src[i] for each row i of ``rows`` (a run's commit of some rows of a store)."""
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        for c in range(dst.shape[1]):
+            dst[i, c] = src[i, c]
+
+
 def new_arrays(count: int):
     """(state, params, work) for ``count`` bodies, zeroed; R to be written by the caller."""
     return (np.zeros((count, STATE_WIDTH)), np.zeros((count, PARAM_WIDTH)),
