@@ -519,13 +519,13 @@ def test_sweep_and_prune_finds_exactly_the_overlapping_pairs():
         upper = lower + rng.uniform(0.0, 1.5, (count, 3))
         group = rng.integers(0, max(count // 2, 1), count)
         static = rng.random(count) < 0.3
-        for axis in (None, 0, 1, 2):
+        for axis in (-1, 0, 1, 2):
             got = broad_phase.sweep_and_prune(lower, upper, group, static, axis)
             want = broad_phase.brute_force_pairs(lower, upper, group, static)
             np.testing.assert_array_equal(got, want)
     # Touching boxes count; equal bounds in any order give the same sorted pairs.
     lower = np.array([[0.0, 0, 0], [1.0, 0, 0], [1.0, 0, 0]])
-    pairs = broad_phase.sweep_and_prune(lower, lower + 1.0)
+    pairs = broad_phase.sweep_and_prune(lower, lower + 1.0, np.arange(3), np.zeros(3, bool), -1)
     np.testing.assert_array_equal(pairs, [[0, 1], [0, 2], [1, 2]])
 
 
@@ -533,14 +533,32 @@ def test_sweep_and_prune_is_not_quadratic_when_few_touch():
     count = 20000                           # a row of boxes, each touching its neighbours only
     lower = np.zeros((count, 3))
     lower[:, 0] = np.arange(count) * 1.0
-    pairs = broad_phase.sweep_and_prune(lower, lower + [1.0, 1.0, 1.0])
+    pairs = broad_phase.sweep_and_prune(lower, lower + [1.0, 1.0, 1.0], np.arange(count),
+                                        np.zeros(count, bool), -1)
     assert len(pairs) == count - 1
 
 
-def test_plane_pairs_use_the_support_distance():
+def test_plane_candidates_use_the_support_distance():
     normals = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]])    # the ground, a wall at x = 5
     plane_points = np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.0]])
     centres = np.array([[0.0, 0.0, 0.5], [4.6, 0.0, 3.0], [0.0, 0.0, 2.0]])
-    support = np.array([[0.5, 0.5], [0.5, 0.5], [0.5, 0.5]])
-    pairs = broad_phase.plane_pairs(support, normals, plane_points, centres, np.zeros(3))
+    # Spheres of radius 0.5 (support 0.5 towards any plane), then the same as boxes of half
+    # extents 0.5 turned by 45 degrees about y: support 0.5 sqrt(2) towards the ground and wall.
+    rotations = np.tile(np.eye(3).reshape(9), (3, 1))
+    half, half_length = np.zeros((3, 3)), np.zeros(3)
+    radius = np.full(3, 0.5)
+    colliders, body, margin = np.arange(3), np.zeros(3, dtype=np.int64), np.zeros(1)
+    pairs = broad_phase.plane_candidates(colliders, body, rotations, half, half_length, radius,
+                                         centres, normals, plane_points, margin)
     np.testing.assert_array_equal(pairs, [[0, 0], [1, 1]])
+    turned = np.tile(so3.exp([0.0, math.pi / 4, 0.0]).reshape(9), (3, 1))
+    centres = np.array([[0.0, 0.0, 0.7], [4.3, 0.0, 3.0], [0.0, 0.0, 0.8]])
+    pairs = broad_phase.plane_candidates(colliders, body, turned, np.full((3, 3), 0.5),
+                                         half_length, np.zeros(3), centres, normals,
+                                         plane_points, margin)
+    np.testing.assert_array_equal(pairs, [[0, 0], [1, 1]])  # 0.7 < 0.707 < 0.8
+    margin[0] = 0.1                                           # within the margin: a candidate
+    pairs = broad_phase.plane_candidates(colliders, body, turned, np.full((3, 3), 0.5),
+                                         half_length, np.zeros(3), centres, normals,
+                                         plane_points, margin)
+    np.testing.assert_array_equal(pairs, [[0, 0], [1, 1], [2, 0]])

@@ -10,8 +10,7 @@ placement in the body frame, their shape's sizes). The stages, in the order of a
 * ``speculative_margins``: how far each body can move in a step, (|v| + |omega| rho) dt
   + |g| dt^2 (docs/collisions.md);
 * ``place_colliders``: each collider's world centre, rotation and AABB widened by its body's
-  margin;
-* ``sweep_and_prune`` and ``plane_candidates``: the broad phase (``broad_phase`` documents it);
+  margin (then ``broad_phase`` pairs them);
 * ``write_contacts``: the solver's velocities and position correction back into the rows.
 
 Plain + - * / sqrt sin cos on float64, no BLAS: compiled and interpreted (NUMBA_DISABLE_JIT=1)
@@ -103,94 +102,6 @@ def extents(c, rotations, half, half_length, radius, widen, centres, lower, uppe
         e += widen
         lower[c, a] = float(centres[c, a]) - e
         upper[c, a] = float(centres[c, a]) + e
-
-
-@kernel
-def sweep_and_prune(lower, upper, group, static):
-    """Pairs (P, 2) of indices i < j whose boxes overlap on all three axes (closed intervals),
-    but for pairs of one ``group`` (the colliders of one body) and pairs of two ``static``
-    colliders; sorted by (i, j). Sort and sweep on the axis of the largest spread of the
-    lower bounds (any axis gives the same pairs; the spread only makes it fast)."""
-    count = lower.shape[0]
-    if count < 2:
-        return np.zeros((0, 2), dtype=np.int64)
-    axis, best = 0, -1.0
-    for a in range(3):
-        lo_min, lo_max = math.inf, -math.inf
-        for i in range(count):
-            value = float(lower[i, a])
-            lo_min = min(lo_min, value)
-            lo_max = max(lo_max, value)
-        if lo_max - lo_min > best:
-            axis, best = a, lo_max - lo_min
-    keys = np.empty(count)
-    for i in range(count):
-        keys[i] = lower[i, axis]
-    order = np.argsort(keys, kind='mergesort')
-    found = 0
-    capacity = 4 * count
-    pairs = np.empty(capacity, dtype=np.int64)
-    for p in range(count):
-        i = order[p]
-        hi = float(upper[i, axis])
-        for s in range(p + 1, count):
-            j = order[s]
-            if float(lower[j, axis]) > hi:
-                break
-            if group[i] == group[j] or (static[i] and static[j]):
-                continue
-            overlap = True
-            for a in range(3):
-                if a != axis and (float(lower[i, a]) > float(upper[j, a])
-                                  or float(lower[j, a]) > float(upper[i, a])):
-                    overlap = False
-            if not overlap:
-                continue
-            if found == capacity:
-                bigger = np.empty(2 * capacity, dtype=np.int64)
-                bigger[:capacity] = pairs
-                pairs, capacity = bigger, 2 * capacity
-            pairs[found] = min(i, j) * count + max(i, j)
-            found += 1
-    keys_found = np.sort(pairs[:found])
-    out = np.empty((found, 2), dtype=np.int64)
-    for k in range(found):
-        out[k, 0] = keys_found[k] // count
-        out[k, 1] = keys_found[k] % count
-    return out
-
-
-@kernel
-def plane_candidates(colliders, body, rotations, half, half_length, radius, centres,
-                     plane_normals, plane_points, margin):
-    """Pairs (P, 2) of (collider, plane), sorted, where collider ``colliders[k]`` comes within
-    its body's margin of plane p: n . c - support <= n . p0 + margin, support the collider's
-    extent towards the plane (sum_j h_j |n . R[:, j]| + h |n . R[:, 2]| + r)."""
-    count, planes = colliders.shape[0], plane_normals.shape[0]
-    out = np.empty((count * planes, 2), dtype=np.int64)
-    found = 0
-    for k in range(count):
-        c = colliders[k]
-        hx, hy, hz = float(half[c, 0]), float(half[c, 1]), float(half[c, 2])
-        for p in range(planes):
-            nx, ny, nz = (float(plane_normals[p, 0]), float(plane_normals[p, 1]),
-                          float(plane_normals[p, 2]))
-            a0 = abs(nx * float(rotations[c, 0]) + ny * float(rotations[c, 3])
-                     + nz * float(rotations[c, 6]))
-            a1 = abs(nx * float(rotations[c, 1]) + ny * float(rotations[c, 4])
-                     + nz * float(rotations[c, 7]))
-            a2 = abs(nx * float(rotations[c, 2]) + ny * float(rotations[c, 5])
-                     + nz * float(rotations[c, 8]))
-            support = (a0 * hx + a1 * hy + a2 * hz) + float(half_length[c]) * a2 + float(
-                radius[c])
-            height = (nx * float(centres[c, 0]) + ny * float(centres[c, 1])
-                      + nz * float(centres[c, 2])) - (
-                nx * float(plane_points[p, 0]) + ny * float(plane_points[p, 1])
-                + nz * float(plane_points[p, 2]))
-            if height - support <= float(margin[body[c]]):
-                out[found, 0], out[found, 1] = c, p
-                found += 1
-    return out[:found]
 
 
 @kernel
