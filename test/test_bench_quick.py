@@ -114,6 +114,9 @@ def test_collision_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
     assert resting['asleep']['contacts'] == 0 and resting['awake']['contacts'] > 0
     assert 1 < resting['asleep']['awake_after_drop'] < 2 * resting['side'] ** 2
     assert resting['mujoco_sleeping']['awake_trees'] < 2 * resting['side'] ** 2
+    contact = _quick('contact_step_bench', tmp_path)  # closed forms checked before timing
+    assert set(contact['seconds_per_step']) == {'sliding box', 'bouncing ball', 'rolling ball',
+                                                'tipping cube'}
 
 
 def test_step_benchmarks_pass_their_checks_in_quick_mode(tmp_path):

@@ -7,7 +7,12 @@ The figures of these scenarios (dt = 1 ms, gravity 9.81 m/s^2) in docs/collision
 helpers; the bounds asserted here are the documented ones.
 """
 
+import json
 import math
+import os
+from pathlib import Path
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -22,6 +27,7 @@ from rb_sim_ros.sim.simulation import BodySpec, Config, Simulation
 
 G = (0.0, 0.0, -9.81)
 GROUND = (Plane(),)
+HERE = Path(__file__).resolve().parent
 
 
 # -- the solver on single impacts --------------------------------------------------------------
@@ -51,8 +57,7 @@ def impact(rng, restitution, friction=0.0, static_b=False):
     bodies = cs.Bodies(position, v, w, inv_mass, inv_inertia)
     contacts = cs.ContactArrays(np.array([0]), np.array([1]), point[None], normal[None],
                                 np.array([0.0]))
-    vn = cs._Rows(contacts, bodies).normal_velocity(np.concatenate([v, w], axis=1))[0]
-    if vn > 0.0:                                    # make them approach
+    if normal_velocity(contacts, bodies, v, w) > 0.0:    # make them approach
         bodies.velocity, bodies.angular_velocity = -v, -w
     settings = cs.SolverSettings(restitution=restitution, friction=friction,
                                  bounce_threshold=0.0, position_iterations=0,
@@ -172,20 +177,65 @@ def random_contact_set(rng, count=120, bodies_count=31, spin=1.0):
     return bodies, contacts
 
 
-def test_float_and_numpy_kernels_give_the_same_bits():
-    rng = np.random.default_rng(9)
-    count = 120
-    bodies, contacts = random_contact_set(rng, count)
-    warm = rng.uniform(0.0, 0.1, count), rng.normal(size=(count, 3)) * 0.01
+def solver_fingerprints(*cases: str) -> tuple[dict, dict]:
+    """(compiled, interpreted): test/solver_fingerprint.py's digests of the solves ``cases``,
+    run compiled and with NUMBA_DISABLE_JIT=1, each in a fresh interpreter."""
     out = []
-    for threshold in (0, 10 ** 9):
-        settings = cs.SolverSettings(restitution=0.4, friction=0.6, batch_threshold=threshold)
-        out.append(cs.solve(contacts, bodies, settings, *warm))
-    assert out[0].colours > 1
-    for name in ('velocity', 'angular_velocity', 'displacement', 'rotation', 'normal_impulse',
-                 'tangent_impulse', 'position_impulse', 'touched'):
-        np.testing.assert_array_equal(getattr(out[0], name), getattr(out[1], name), name)
-    assert out[0].velocity_iterations == out[1].velocity_iterations
+    for disable in ('0', '1'):
+        env = dict(os.environ, NUMBA_DISABLE_JIT=disable)
+        run = subprocess.run([sys.executable, str(HERE / 'solver_fingerprint.py'), *cases],
+                             env=env, capture_output=True, text=True, timeout=900)
+        assert run.returncode == 0, run.stderr[-3000:]
+        out.append(json.loads(run.stdout.strip().splitlines()[-1]))
+    compiled, interpreted = out
+    assert compiled.pop('compiled') is True and interpreted.pop('compiled') is False
+    return compiled, interpreted
+
+
+def test_compiled_and_interpreted_solver_give_the_same_bits():
+    """One kernel, two paths: compiled, and interpreted (NUMBA_DISABLE_JIT=1), the same bits
+    for 120 random contacts with restitution, friction, a warm start and the position pass,
+    and for a solve that the energy guard blends (per-contact materials, couples)."""
+    compiled, interpreted = solver_fingerprints('friction_warm', 'energy_guard')
+    assert compiled == interpreted
+    assert compiled['friction_warm']['colours'] > 1
+    assert compiled['friction_warm']['position_iterations'] > 0
+    assert compiled['energy_guard']['velocity_iterations'] > 3   # the plastic solve ran too
+
+
+def test_many_contacts_keep_momentum():
+    """The 120 random contacts less those with the static body, couples on: each impulse and
+    couple is equal and opposite, so over many colours linear momentum and angular momentum
+    about a fixed point are what they were; each normal impulse pushes, each tangent one is
+    perpendicular to n. (After 10 iterations a tangent impulse may lie outside the cone of
+    the final normal one, which the last normal update lowered: the cone holds at
+    convergence, test_impact_on_a_static_body_and_coulomb_friction.)"""
+    rng = np.random.default_rng(9)
+    bodies, every = random_contact_set(rng, 120)
+    free = every.body_b != len(bodies.inverse_mass) - 1
+    contacts = cs.ContactArrays(every.body_a[free], every.body_b[free], every.point[free],
+                                every.normal[free], every.depth[free])
+    count = len(contacts)
+    warm = rng.uniform(0.0, 0.1, count), rng.normal(size=(count, 3)) * 0.01
+    settings = cs.SolverSettings(restitution=0.4, friction=0.6, rolling_resistance=0.02,
+                                 torsional_friction=0.01)
+    result = cs.solve(contacts, bodies, settings, *warm)
+    assert result.colours > 1 and (result.normal_impulse > 0.0).sum() > 20
+    mass = 1.0 / bodies.inverse_mass[:-1]
+    inertia = np.linalg.inv(bodies.inverse_inertia[:-1])
+    origin = np.array([0.3, -0.7, 1.1])
+
+    def momenta_of(v, w):
+        p = mass[:, None] * v[:-1]
+        spin = np.einsum('nij,nj->ni', inertia, w[:-1])
+        return p.sum(axis=0), (np.cross(bodies.position[:-1] - origin, p) + spin).sum(axis=0)
+    p0, l0 = momenta_of(bodies.velocity, bodies.angular_velocity)
+    p1, l1 = momenta_of(result.velocity, result.angular_velocity)
+    np.testing.assert_allclose(p1, p0, rtol=0, atol=1e-12 * np.abs(mass).sum())
+    np.testing.assert_allclose(l1, l0, rtol=0, atol=1e-12 * np.abs(l0).max())
+    assert np.all(result.normal_impulse >= 0.0)
+    along = np.einsum('mi,mi->m', result.tangent_impulse, contacts.normal)
+    assert np.abs(along).max() < 1e-12
 
 
 def test_solver_settings_refuse_bad_values_naming_them():
@@ -423,7 +473,8 @@ def mechanical_energy(world):
 def test_mixed_scene_stays_inside_its_walls_loses_energy_and_is_deterministic():
     """Spheres, a capsule, a box and a body of three colliders among walls and a static
     pillar. Balls and the rod go on rolling (rigid bodies have no rolling resistance); the
-    crate comes to rest. Three runs, one with the numpy kernel only, agree bit for bit."""
+    crate comes to rest. Three runs agree bit for bit, one with batch_threshold=0 (ignored
+    now that one kernel solves every contact set: kept so that old scene files load)."""
     worlds = [mixed_scene(), mixed_scene(), mixed_scene(batch_threshold=0)]
     energy = [mechanical_energy(worlds[0])]
     for _ in range(15):

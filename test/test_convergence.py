@@ -135,8 +135,9 @@ def test_stale_history_across_wrench_changes_falls_to_first_order():
     # Keep a_{n-1}, beta_{n-1} of the old wrench, as a naive multistep would (NOTES.md 2).
     def keep_stale_history(stepper):
         # The kernel's history flag: the stored a_{n-1}, beta_{n-1} taken as they are.
-        if stepper._state[0, step_kernel.HISTORY] == step_kernel.HISTORY_STALE:
-            stepper._state[0, step_kernel.HISTORY] = step_kernel.HISTORY_VALID
+        row = stepper._store.state[stepper._row]
+        if row[step_kernel.HISTORY] == step_kernel.HISTORY_STALE:
+            row[step_kernel.HISTORY] = step_kernel.HISTORY_VALID
     orders = _orders(_global_errors(SCHEDULE, 2.0, DTS, tamper=keep_stale_history))
     assert orders['w'][-1] == pytest.approx(1.0, abs=0.2)
 

@@ -3,19 +3,27 @@
 """Shapes, the narrow phase against analytic cases, and the broad phase against brute force.
 
 Convention checked throughout: the normal points from A to B, depth > 0 is overlap, and the
-point is midway between the two surfaces (see narrow_phase's module doc).
+point is midway between the two surfaces (see narrow_phase's module doc). The array kernels
+(narrow_kernels) give what ``collide`` gives, pair by pair, with the same bits compiled and
+interpreted.
 """
 
+import json
 import math
+import os
+from pathlib import Path
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
-from rb_sim_ros.contact import broad_phase, narrow_phase as nph
-from rb_sim_ros.contact.collision_shapes import (Box, Capsule, Plane, shape_from_dict,
+from rb_sim_ros.contact import broad_phase, narrow_kernels as nk, narrow_phase as nph
+from rb_sim_ros.contact.collision_shapes import (Box, Capsule, Plane, RANK, shape_from_dict,
                                                  shape_to_dict, Sphere, world_pose)
 from rb_sim_ros.core import so3
 
+HERE = Path(__file__).resolve().parent
 I3 = np.eye(3)
 ORIGIN = np.zeros(3)
 
@@ -187,7 +195,7 @@ def test_segment_box_distance_is_the_minimum_over_the_segment():
     half = [0.5, 0.3, 0.2]
     for _ in range(200):
         p0, d = rng.normal(size=3) * 1.5, rng.normal(size=3)
-        t, dist2 = nph._segment_box_distance(p0.tolist(), d.tolist(), half)
+        t, dist2 = nk.segment_box_distance(*p0.tolist(), *d.tolist(), *half)
         ts = np.linspace(0.0, 1.0, 4001)
         pts = p0 + ts[:, None] * d
         excess = np.maximum(np.abs(pts) - half, 0.0)
@@ -285,34 +293,222 @@ def test_every_pair_swaps_consistently():
                     assert abs(np.linalg.norm(c.normal) - 1.0) < 1e-12
 
 
-def test_batches_equal_the_pair_functions():
+def test_batches_equal_collide_to_the_bit():
     rng = np.random.default_rng(1)
     m = 300
     ca, cb = rng.normal(size=(m, 3)), rng.normal(size=(m, 3))
     ra, rb = rng.uniform(0.1, 1.0, m), rng.uniform(0.1, 1.0, m)
-    keep, pt, nrm, depth = nph.sphere_sphere_batch(ca, ra, cb, rb, 0.05)
+    margin = np.where(rng.random(m) < 0.5, 0.0, 0.05)
+    ca[7] = cb[7]                                        # coincident centres: the fallback
+    keep, pt, nrm, depth = nph.sphere_sphere_batch(ca, ra, cb, rb, margin)
+    assert 0 < keep.sum() < m and len(pt) == len(nrm) == len(depth) == keep.sum()
     k = 0
     for i in range(m):
-        found = nph.sphere_sphere(ca[i], ra[i], cb[i], rb[i], 0.05)
-        assert bool(found) == keep[i]
+        found = nph.collide(Sphere(ra[i]), (ca[i], I3), Sphere(rb[i]), (cb[i], I3), margin[i])
+        assert len(found) == keep[i]
         if found:
-            np.testing.assert_allclose(pt[k], found[0].point, atol=1e-15)
-            np.testing.assert_allclose(nrm[k], found[0].normal, atol=1e-15)
-            assert depth[k] == pytest.approx(found[0].depth, abs=1e-15)
+            np.testing.assert_array_equal(pt[k], found[0].point)
+            np.testing.assert_array_equal(nrm[k], found[0].normal)
+            assert depth[k] == found[0].depth
             k += 1
-    n = rng.normal(size=(m, 3))
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    planes = [Plane(tuple(v)) for v in rng.normal(size=(m, 3))]
+    n = np.array([p.normal for p in planes])
     p0 = rng.normal(size=(m, 3)) * 0.5
     keep, pt, nrm, depth = nph.sphere_plane_batch(ca, ra, p0, n, 0.0)
+    assert 0 < keep.sum() < m
     k = 0
     for i in range(m):
-        found = nph.sphere_plane(ca[i], ra[i], p0[i], n[i], 0.0)
-        assert bool(found) == keep[i]
+        found = nph.collide(Sphere(ra[i]), (ca[i], I3), planes[i], (p0[i], I3), 0.0)
+        assert len(found) == keep[i]
         if found:
-            np.testing.assert_allclose(pt[k], found[0].point, atol=1e-15)
-            np.testing.assert_allclose(nrm[k], found[0].normal)
-            assert depth[k] == pytest.approx(found[0].depth, abs=1e-15)
+            np.testing.assert_array_equal(pt[k], found[0].point)
+            np.testing.assert_array_equal(nrm[k], found[0].normal)
+            assert depth[k] == found[0].depth
             k += 1
+    empty = nph.sphere_sphere_batch(np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)),
+                                    np.zeros(0), 0.1)
+    assert len(empty[0]) == len(empty[1]) == 0
+
+
+# -- the array kernels ---------------------------------------------------------------------------
+KINDS = ('sphere', 'capsule', 'box', 'plane')
+
+
+def _random_shape(rng, kind):
+    if kind == 'sphere':
+        return Sphere(float(rng.uniform(0.05, 0.5)))
+    if kind == 'capsule':
+        length = 0.0 if rng.random() < 0.15 else float(rng.uniform(0.1, 1.0))
+        return Capsule(float(rng.uniform(0.05, 0.3)), length)
+    if kind == 'box':
+        return Box(tuple(rng.uniform(0.1, 1.0, 3)))
+    return Plane(tuple(rng.normal(size=3)))
+
+
+def _random_rotation(rng):
+    mode = rng.integers(4)
+    if mode == 0:
+        return I3                                       # faces on faces, parallel capsules
+    if mode == 1:
+        return so3.exp((0.0, 0.0, float(rng.normal()) * 0.5))   # turned about z only
+    if mode == 2:
+        return so3.exp((0.0, math.pi / 2, 0.0))         # capsules lying along x
+    return so3.exp(rng.normal(size=3))
+
+
+def _half_height(shape, rot) -> float:
+    """Half the extent of a placed sphere, capsule or box along the world z axis (m)."""
+    if shape.kind == 'box':
+        return float(np.abs(rot[2]) @ shape.half_extents)
+    if shape.kind == 'capsule':
+        return abs(rot[2, 2]) * shape.half_length + shape.radius
+    return shape.radius
+
+
+def mixed_set(seed: int = 0, count: int = 700):
+    """Random colliders in pairs of every two kinds (both orders, a plane as A too, never two
+    planes), near each other: half of them B stacked on A along z (resting faces, capsules
+    lying on boxes, parallel capsules, deep overlaps), margins 0 or up to 0.2 m; then a few
+    pairs at non-finite poses. (shapes, poses, pair_a, pair_b, margins)."""
+    rng = np.random.default_rng(seed)
+    shapes, poses, pairs, margins = [], [], [], []
+    while len(pairs) < count:
+        ka, kb = (KINDS[k] for k in rng.integers(4, size=2))
+        if ka == kb == 'plane':
+            continue
+        for kind in (ka, kb):
+            shape = _random_shape(rng, kind)
+            if kind == 'plane':
+                pose = (rng.normal(size=3) * 0.1 + (0.0, 0.0, -0.3), I3)
+            else:
+                pose = (rng.normal(size=3) * 0.35, _random_rotation(rng))
+            shapes.append(shape)
+            poses.append(pose)
+        if ka != 'plane' and kb != 'plane' and rng.random() < 0.5:
+            # B on top of A: its centre over A's by the sum of their half heights, give or take.
+            lift = (_half_height(shapes[-2], poses[-2][1]) + _half_height(shapes[-1], poses[-1][1])
+                    + float(rng.normal()) * 0.02)
+            poses[-1] = (poses[-2][0] + (rng.normal() * 0.1, rng.normal() * 0.1, lift),
+                         poses[-1][1])
+        pairs.append((len(shapes) - 2, len(shapes) - 1))
+        margins.append(0.0 if rng.random() < 0.4 else float(rng.uniform(0.0, 0.2)))
+    bad = [(Sphere(0.1), (np.array([math.nan, 0.0, 0.0]), I3)),
+           (Box((0.2, 0.2, 0.2)), (np.array([0.0, math.inf, 0.0]), I3)),
+           (Capsule(0.1, 0.3), (ORIGIN, np.full((3, 3), math.nan))),
+           (Box((0.2, 0.2, 0.2)), (ORIGIN, np.full((3, 3), math.inf))),
+           (Capsule(0.1, 0.3), (np.array([0.0, 0.0, -math.inf]), I3))]
+    for shape, pose in bad:
+        for other in (Sphere(0.2), Capsule(0.1, 0.4), Box((0.3, 0.3, 0.3)), Plane()):
+            shapes += [shape, other]
+            poses += [pose, (ORIGIN, I3)]
+            pairs.append((len(shapes) - 2, len(shapes) - 1))
+            margins.append(0.1)
+    pair_a, pair_b = (np.array(c, dtype=np.int64) for c in zip(*pairs))
+    return shapes, poses, pair_a, pair_b, np.array(margins)
+
+
+def _arrays(shapes, poses, pair_a, pair_b, margins) -> dict:
+    packed = [nph.shape_arrays(s, *p) for s, p in zip(shapes, poses)]
+    return {'pair_a': pair_a, 'pair_b': pair_b,
+            'kinds': np.array([p[0] for p in packed], dtype=np.int64),
+            'geoms': np.array([p[1] for p in packed]),
+            'centres': np.array([p[2] for p in packed]),
+            'rotations': np.array([p[3] for p in packed]), 'margins': margins}
+
+
+def _collide_pairs(arrays: dict):
+    rows = len(arrays['pair_a']) * nk.MAX_CONTACTS_PER_PAIR
+    out = (np.zeros((rows, 3)), np.zeros((rows, 3)), np.zeros(rows),
+           np.zeros(rows, dtype=np.int64), np.zeros(rows, dtype=np.int64))
+    names = ('pair_a', 'pair_b', 'kinds', 'geoms', 'centres', 'rotations', 'margins')
+    count = nk.collide_pairs(*(arrays[k] for k in names), *out)
+    return count, out
+
+
+def test_kinds_are_the_narrow_phase_ranks():
+    assert nph.KIND == RANK
+    assert (nk.KIND_SPHERE, nk.KIND_CAPSULE, nk.KIND_BOX, nk.KIND_PLANE) == (0, 1, 2, 3)
+
+
+def test_collide_pairs_agrees_with_collide_pair_by_pair():
+    shapes, poses, pair_a, pair_b, margins = data = mixed_set()
+    count, (point, normal, depth, feature, source) = _collide_pairs(_arrays(*data))
+    row = 0
+    per_pair = np.zeros(len(pair_a), dtype=int)
+    for k, (i, j) in enumerate(zip(pair_a, pair_b)):
+        for c in nph.collide(shapes[i], poses[i], shapes[j], poses[j], margins[k]):
+            assert source[row] == k
+            np.testing.assert_array_equal(point[row], c.point)      # nan == nan here
+            np.testing.assert_array_equal(normal[row], c.normal)
+            np.testing.assert_array_equal(depth[row], c.depth)
+            assert feature[row] == c.feature
+            row += 1
+            per_pair[k] += 1
+    assert row == count
+    # The set reaches every pair of kinds and the cases with their own code.
+    touching = per_pair > 0
+    kind_pairs = {(shapes[i].kind, shapes[j].kind)
+                  for i, j in zip(pair_a[touching], pair_b[touching])}
+    assert kind_pairs == {(a, b) for a in KINDS for b in KINDS} - {('plane', 'plane')}
+    kinds = [(shapes[pair_a[s]].kind, shapes[pair_b[s]].kind) for s in source[:count]]
+    found = {(min(k, key=RANK.get), max(k, key=RANK.get), int(f))
+             for k, f in zip(kinds, feature[:count])}
+    for case in [('capsule', 'capsule', 1), ('capsule', 'capsule', 2),     # parallel overlap
+                 ('capsule', 'plane', 1), ('capsule', 'box', 10), ('capsule', 'box', 1),
+                 ('capsule', 'box', 20)]:                                  # near, ends, deep
+        assert case in found, case
+    assert {200 <= f < 209 for (a, b, f) in found if a == b == 'box'} == {False, True}
+    # Face contacts on a face of A's and on one of B's (the normal along one of its axes).
+    reference = set()
+    for row in range(count):
+        i, j = pair_a[source[row]], pair_b[source[row]]
+        if shapes[i].kind == shapes[j].kind == 'box' and feature[row] >= 1000:
+            along_a = np.abs(poses[i][1].T @ normal[row]).max() > 1.0 - 1e-12
+            along_b = np.abs(poses[j][1].T @ normal[row]).max() > 1.0 - 1e-12
+            reference.add('a' if along_a and not along_b else 'b' if along_b else 'both')
+    assert {'a', 'b'} <= reference
+    assert per_pair.max() >= 8                                            # a box on a plane
+    assert np.isnan(depth[:count]).any()                                  # the bad poses
+
+
+def test_compiled_and_interpreted_collide_pairs_give_the_same_bits(tmp_path):
+    path = tmp_path / 'pairs.npz'
+    np.savez(path, **_arrays(*mixed_set()))
+    prints = []
+    for disable in ('0', '1'):
+        env = dict(os.environ, NUMBA_DISABLE_JIT=disable)
+        out = subprocess.run([sys.executable, str(HERE / 'narrow_fingerprint.py'), str(path)],
+                             env=env, capture_output=True, text=True, timeout=900)
+        assert out.returncode == 0, out.stderr[-3000:]
+        prints.append(json.loads(out.stdout.strip().splitlines()[-1]))
+    compiled, interpreted = prints
+    assert compiled.pop('compiled') is True and interpreted.pop('compiled') is False
+    assert compiled == interpreted and compiled['count'] > 500
+
+
+def test_collide_pair_refuses_outputs_too_small_two_planes_and_bad_indices():
+    kind, geom, centre, rot = nph.shape_arrays(Sphere(0.5), ORIGIN, I3)
+    plane = nph.shape_arrays(Plane(), ORIGIN, I3)
+    rows = nk.MAX_CONTACTS_PER_PAIR
+    out = (np.zeros((rows, 3)), np.zeros((rows, 3)), np.zeros(rows), np.zeros(rows, np.int64))
+    assert nk.collide_pair(kind, geom, centre, rot, *plane, 0.0, *out, 0) == 1
+    with pytest.raises(ValueError, match='MAX_CONTACTS_PER_PAIR rows'):
+        nk.collide_pair(kind, geom, centre, rot, *plane, 0.0, *out, 1)
+    with pytest.raises(ValueError, match='two planes'):
+        nk.collide_pair(*plane, *plane, 0.0, *out, 0)
+    with pytest.raises(ValueError, match='two planes'):
+        nph.collide(Plane(), (ORIGIN, I3), Plane(), (ORIGIN, I3))
+    arrays = _arrays([Sphere(0.5), Plane()], [(ORIGIN, I3)] * 2, np.array([0]), np.array([1]),
+                     np.zeros(1))
+    count, out = _collide_pairs(arrays)
+    assert count == 1 and out[4][0] == 0 and out[2][0] == 0.5
+    arrays['pair_b'] = np.array([2])
+    with pytest.raises(ValueError, match='out of range'):
+        _collide_pairs(arrays)
+    with pytest.raises(ValueError, match='P \\* MAX_CONTACTS_PER_PAIR'):
+        nk.collide_pairs(np.array([0]), np.array([1]), arrays['kinds'], arrays['geoms'],
+                         arrays['centres'], arrays['rotations'], np.zeros(1),
+                         *(a[:rows - 1] for a in out))
 
 
 # -- broad phase -------------------------------------------------------------------------------
@@ -323,13 +519,13 @@ def test_sweep_and_prune_finds_exactly_the_overlapping_pairs():
         upper = lower + rng.uniform(0.0, 1.5, (count, 3))
         group = rng.integers(0, max(count // 2, 1), count)
         static = rng.random(count) < 0.3
-        for axis in (None, 0, 1, 2):
+        for axis in (-1, 0, 1, 2):
             got = broad_phase.sweep_and_prune(lower, upper, group, static, axis)
             want = broad_phase.brute_force_pairs(lower, upper, group, static)
             np.testing.assert_array_equal(got, want)
     # Touching boxes count; equal bounds in any order give the same sorted pairs.
     lower = np.array([[0.0, 0, 0], [1.0, 0, 0], [1.0, 0, 0]])
-    pairs = broad_phase.sweep_and_prune(lower, lower + 1.0)
+    pairs = broad_phase.sweep_and_prune(lower, lower + 1.0, np.arange(3), np.zeros(3, bool), -1)
     np.testing.assert_array_equal(pairs, [[0, 1], [0, 2], [1, 2]])
 
 
@@ -337,14 +533,32 @@ def test_sweep_and_prune_is_not_quadratic_when_few_touch():
     count = 20000                           # a row of boxes, each touching its neighbours only
     lower = np.zeros((count, 3))
     lower[:, 0] = np.arange(count) * 1.0
-    pairs = broad_phase.sweep_and_prune(lower, lower + [1.0, 1.0, 1.0])
+    pairs = broad_phase.sweep_and_prune(lower, lower + [1.0, 1.0, 1.0], np.arange(count),
+                                        np.zeros(count, bool), -1)
     assert len(pairs) == count - 1
 
 
-def test_plane_pairs_use_the_support_distance():
+def test_plane_candidates_use_the_support_distance():
     normals = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]])    # the ground, a wall at x = 5
     plane_points = np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.0]])
     centres = np.array([[0.0, 0.0, 0.5], [4.6, 0.0, 3.0], [0.0, 0.0, 2.0]])
-    support = np.array([[0.5, 0.5], [0.5, 0.5], [0.5, 0.5]])
-    pairs = broad_phase.plane_pairs(support, normals, plane_points, centres, np.zeros(3))
+    # Spheres of radius 0.5 (support 0.5 towards any plane), then the same as boxes of half
+    # extents 0.5 turned by 45 degrees about y: support 0.5 sqrt(2) towards the ground and wall.
+    rotations = np.tile(np.eye(3).reshape(9), (3, 1))
+    half, half_length = np.zeros((3, 3)), np.zeros(3)
+    radius = np.full(3, 0.5)
+    colliders, body, margin = np.arange(3), np.zeros(3, dtype=np.int64), np.zeros(1)
+    pairs = broad_phase.plane_candidates(colliders, body, rotations, half, half_length, radius,
+                                         centres, normals, plane_points, margin)
     np.testing.assert_array_equal(pairs, [[0, 0], [1, 1]])
+    turned = np.tile(so3.exp([0.0, math.pi / 4, 0.0]).reshape(9), (3, 1))
+    centres = np.array([[0.0, 0.0, 0.7], [4.3, 0.0, 3.0], [0.0, 0.0, 0.8]])
+    pairs = broad_phase.plane_candidates(colliders, body, turned, np.full((3, 3), 0.5),
+                                         half_length, np.zeros(3), centres, normals,
+                                         plane_points, margin)
+    np.testing.assert_array_equal(pairs, [[0, 0], [1, 1]])  # 0.7 < 0.707 < 0.8
+    margin[0] = 0.1                                           # within the margin: a candidate
+    pairs = broad_phase.plane_candidates(colliders, body, turned, np.full((3, 3), 0.5),
+                                         half_length, np.zeros(3), centres, normals,
+                                         plane_points, margin)
+    np.testing.assert_array_equal(pairs, [[0, 0], [1, 1], [2, 0]])

@@ -3,7 +3,6 @@
 """Recordings of the real node over DDS, read by rosbags and re-simulated bit for bit."""
 
 import copy
-import json
 import math
 import os
 from pathlib import Path
@@ -148,28 +147,10 @@ def test_the_regression_fixture_still_replays_bit_for_bit(installed, ros_env):
     assert 'identical' in result.stdout
 
 
-def _blas_kernel() -> dict:
-    import sys
-    sys.path.insert(0, str(FIXTURES))
-    try:
-        from make_collision_fixtures import blas_kernel
-    finally:
-        sys.path.remove(str(FIXTURES))
-    return json.loads(json.dumps(blas_kernel()))
-
-
 @pytest.mark.parametrize('name', ['collision_demo.mcap', 'resting_stack.mcap'])
 def test_the_collision_fixtures_still_replay_bit_for_bit(installed, ros_env, name):
     """The collision demo and a resting stack (test/fixtures/make_collision_fixtures.py) pin
-    the contact numerics. Their bits depend on the BLAS kernel until the engine is rebuilt
-    without BLAS (issue 13): on a processor where OpenBLAS picks another, this says so."""
-    import scipy.linalg  # noqa: F401 - another BLAS in the process must not confuse the reading
-    made_with = json.loads((FIXTURES / 'blas_kernel.json').read_text())
-    here = _blas_kernel()
-    assert len(here['blas']) == 1, here  # numpy's own, read: a failed reading is no reason to skip
-    if here != made_with:
-        pytest.skip(f'made with BLAS {made_with}, this machine uses {here}: the contact path '
-                    'still multiplies with BLAS (issue 13 removes it)')
+    the contact numerics, on any processor: the step uses no BLAS."""
     result = _replay(installed, ros_env, '--verify', str(FIXTURES / name))
     assert result.returncode == 0, result.stdout + result.stderr
     assert 'identical' in result.stdout

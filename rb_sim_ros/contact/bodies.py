@@ -14,8 +14,9 @@ import numpy as np
 
 from rb_sim_ros.contact import contact_solver
 from rb_sim_ros.contact.collision_shapes import is_shape, Plane
+from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import finite_floats, non_negative, rate, RigidBody, State
-from rb_sim_ros.core.stepper import Stepper
+from rb_sim_ros.core.stepper import BodyStore, check_dt, Stepper
 
 
 # What a body's name may be: it becomes a topic namespace and a frame id (scene.NAME too).
@@ -138,14 +139,18 @@ class ContactSettings:
 def make_steppers(bodies, dt: float, integrator: str,
                   gravity) -> tuple[dict[str, Stepper], dict[str, State]]:
     """A Stepper (at its initial state, with its damping) for each moving body of ``bodies``,
-    and the initial state of each static one, by name."""
+    all rows of one ``BodyStore`` (so that they step in one call), and the initial state of
+    each static one, by name."""
     steppers: dict[str, Stepper] = {}
     static: dict[str, State] = {}
+    store = BodyStore(sum(1 for spec in bodies if not spec.static), check_dt(dt),
+                      multistep.method_by_name(integrator))
     for spec in bodies:
         if spec.static:
             static[spec.name] = spec.initial_state()
         else:
             steppers[spec.name] = Stepper(
                 spec.body(), dt, spec.initial_state(), method=integrator, gravity=gravity,
-                linear_damping=spec.linear_damping, angular_damping=spec.angular_damping)
+                linear_damping=spec.linear_damping, angular_damping=spec.angular_damping,
+                store=store)
     return steppers, static

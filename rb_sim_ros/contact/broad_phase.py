@@ -2,75 +2,114 @@
 # Licensed under the Apache License, Version 2.0
 """Broad phase: which pairs of colliders may touch, without testing all N^2 of them.
 
-Sort and sweep on axis-aligned boxes (AABBs, world frame, m), vectorised with numpy: sort the
-boxes by their lower bound on one axis (the axis along which the centres spread most, unless
-given), find with one ``searchsorted`` how far each box's upper bound reaches into the sorted
-list, expand those runs into candidate pairs, and keep the ones whose boxes also overlap on the
-other two axes. The cost is O(N log N + C) for C pairs overlapping on the sweep axis, instead
-of N^2 / 2 tests. Infinite planes are not boxes: ``plane_pairs`` tests each collider's exact
-support distance against each plane.
+Sort and sweep on axis-aligned boxes (AABBs, world frame, m): sort the boxes by their lower
+bound on one axis (the axis along which the lower bounds spread most, unless given), and for
+each box walk the sorted list while the next lower bound is within its upper bound, keeping
+the pairs whose boxes also overlap on the other two axes. The cost is O(N log N + C) for C
+pairs overlapping on the sweep axis, instead of N^2 / 2 tests. Infinite planes are not boxes:
+``plane_candidates`` tests each collider's exact support distance against each plane.
 
 The result is deterministic: pairs (i, j) with i < j, sorted lexicographically, whatever the
-input order of equal bounds (stable sorts only).
+input order of equal bounds. Compiled kernels (``core.jit``), plain float comparisons and
+arithmetic: compiled and interpreted give the same pairs.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-
-def sweep_axis(lower: np.ndarray, upper: np.ndarray) -> int:
-    """The axis (0, 1, 2) along which the box centres spread most (the first on a tie)."""
-    centres = lower + upper
-    return int(np.argmax(centres.var(axis=0))) if len(centres) else 0
+from rb_sim_ros.core.jit import kernel
 
 
-def sweep_and_prune(lower: np.ndarray, upper: np.ndarray, group: np.ndarray | None = None,
-                    static: np.ndarray | None = None, axis: int | None = None) -> np.ndarray:
-    """Pairs (P, 2) of indices i < j whose boxes [lower, upper] (each (N, 3), m) overlap
-    (closed intervals: touching counts). Pairs in the same ``group`` (N,) (colliders of one
-    body) and pairs of two ``static`` (N,) colliders are left out."""
-    lower = np.asarray(lower, dtype=float)
-    upper = np.asarray(upper, dtype=float)
-    count = len(lower)
+@kernel
+def sweep_and_prune(lower, upper, group, static, axis):
+    """Pairs (P, 2) of indices i < j whose boxes [lower, upper] (each (N, 3), m) overlap on all
+    three axes (closed intervals: touching counts), but for pairs of one ``group`` (N,) (the
+    colliders of one body) and pairs of two ``static`` (N,) colliders; sorted by (i, j). Sort
+    and sweep on ``axis``, or where it is -1 on the axis of the largest spread of the lower
+    bounds (any axis gives the same pairs; the spread only makes it fast)."""
+    count = lower.shape[0]
     if count < 2:
         return np.zeros((0, 2), dtype=np.int64)
-    if axis is None:
-        axis = sweep_axis(lower, upper)
-    order = np.argsort(lower[:, axis], kind='stable')
-    lo = lower[order, axis]
-    hi = upper[order, axis]
-    # Box at sorted position p overlaps (on this axis) every later q with lo[q] <= hi[p].
-    end = np.searchsorted(lo, hi, side='right')
-    counts = np.maximum(end - np.arange(count) - 1, 0)
-    total = int(counts.sum())
-    if total == 0:
-        return np.zeros((0, 2), dtype=np.int64)
-    # Run p of the candidates is (p, p + 1), ..., (p, end[p] - 1), laid end to end.
-    positions = np.arange(count)
-    first = np.repeat(positions, counts)
-    second = np.arange(total) - np.repeat(np.cumsum(counts) - counts - positions - 1, counts)
-    i, j = order[first], order[second]
-    # One contiguous array per axis: gathers from it are several times faster than from
-    # columns of the (N, 3) arrays.
-    lower_t, upper_t = np.ascontiguousarray(lower.T), np.ascontiguousarray(upper.T)
-    keep = np.ones(total, dtype=bool)
-    for k in range(3):
-        if k != axis:
-            lo_k, hi_k = lower_t[k], upper_t[k]
-            keep &= (lo_k[i] <= hi_k[j]) & (lo_k[j] <= hi_k[i])
-    i, j = i[keep], j[keep]
-    keep = np.ones(len(i), dtype=bool)
-    if group is not None:
-        group = np.asarray(group)
-        keep &= group[i] != group[j]
-    if static is not None:
-        static = np.asarray(static, dtype=bool)
-        keep &= ~(static[i] & static[j])
-    i, j = i[keep], j[keep]
-    a, b = np.minimum(i, j), np.maximum(i, j)
-    pairs = np.stack([a, b], axis=1).astype(np.int64)
-    return pairs[np.lexsort((b, a))]
+    best = -1.0 if axis < 0 else math.inf
+    for a in range(3):
+        lo_min, lo_max = math.inf, -math.inf
+        for i in range(count):
+            value = float(lower[i, a])
+            lo_min = min(lo_min, value)
+            lo_max = max(lo_max, value)
+        if lo_max - lo_min > best:
+            axis, best = a, lo_max - lo_min
+    keys = np.empty(count)
+    for i in range(count):
+        keys[i] = lower[i, axis]
+    order = np.argsort(keys, kind='mergesort')
+    found = 0
+    capacity = 4 * count
+    pairs = np.empty(capacity, dtype=np.int64)
+    for p in range(count):
+        i = order[p]
+        hi = float(upper[i, axis])
+        for s in range(p + 1, count):
+            j = order[s]
+            if float(lower[j, axis]) > hi:
+                break
+            if group[i] == group[j] or (static[i] and static[j]):
+                continue
+            overlap = True
+            for a in range(3):
+                if a != axis and (float(lower[i, a]) > float(upper[j, a])
+                                  or float(lower[j, a]) > float(upper[i, a])):
+                    overlap = False
+            if not overlap:
+                continue
+            if found == capacity:
+                bigger = np.empty(2 * capacity, dtype=np.int64)
+                bigger[:capacity] = pairs
+                pairs, capacity = bigger, 2 * capacity
+            pairs[found] = min(i, j) * count + max(i, j)
+            found += 1
+    keys_found = np.sort(pairs[:found])
+    out = np.empty((found, 2), dtype=np.int64)
+    for k in range(found):
+        out[k, 0] = keys_found[k] // count
+        out[k, 1] = keys_found[k] % count
+    return out
+
+
+@kernel
+def plane_candidates(colliders, body, rotations, half, half_length, radius, centres,
+                     plane_normals, plane_points, margin):
+    """Pairs (P, 2) of (collider, plane), sorted, where collider ``colliders[k]`` comes within
+    its body's margin of plane p: n . c - support <= n . p0 + margin, support the collider's
+    extent towards the plane (sum_j h_j |n . R[:, j]| + h |n . R[:, 2]| + r)."""
+    count, planes = colliders.shape[0], plane_normals.shape[0]
+    out = np.empty((count * planes, 2), dtype=np.int64)
+    found = 0
+    for k in range(count):
+        c = colliders[k]
+        hx, hy, hz = float(half[c, 0]), float(half[c, 1]), float(half[c, 2])
+        for p in range(planes):
+            nx, ny, nz = (float(plane_normals[p, 0]), float(plane_normals[p, 1]),
+                          float(plane_normals[p, 2]))
+            a0 = abs(nx * float(rotations[c, 0]) + ny * float(rotations[c, 3])
+                     + nz * float(rotations[c, 6]))
+            a1 = abs(nx * float(rotations[c, 1]) + ny * float(rotations[c, 4])
+                     + nz * float(rotations[c, 7]))
+            a2 = abs(nx * float(rotations[c, 2]) + ny * float(rotations[c, 5])
+                     + nz * float(rotations[c, 8]))
+            support = (a0 * hx + a1 * hy + a2 * hz) + float(half_length[c]) * a2 + float(
+                radius[c])
+            height = (nx * float(centres[c, 0]) + ny * float(centres[c, 1])
+                      + nz * float(centres[c, 2])) - (
+                nx * float(plane_points[p, 0]) + ny * float(plane_points[p, 1])
+                + nz * float(plane_points[p, 2]))
+            if height - support <= float(margin[body[c]]):
+                out[found, 0], out[found, 1] = c, p
+                found += 1
+    return out[:found]
 
 
 def brute_force_pairs(lower: np.ndarray, upper: np.ndarray, group: np.ndarray | None = None,
@@ -87,17 +126,3 @@ def brute_force_pairs(lower: np.ndarray, upper: np.ndarray, group: np.ndarray | 
         static = np.asarray(static, dtype=bool)
         keep &= ~(static[i] & static[j])
     return np.stack([i[keep], j[keep]], axis=1).astype(np.int64)
-
-
-def plane_pairs(support: np.ndarray, plane_normals: np.ndarray, plane_points: np.ndarray,
-                centres: np.ndarray, margin: np.ndarray) -> np.ndarray:
-    """Pairs (P, 2) of (collider, plane) indices, sorted, where the collider comes within
-    ``margin`` (K,) of the plane: n . c - support <= n . p0 + margin. ``support`` (K, L) is
-    each collider's extent towards each plane (m): for a box sum_i h_i |n . axis_i|, for a
-    sphere its radius; centres (K, 3), plane normals and points (L, 3)."""
-    if len(centres) == 0 or len(plane_normals) == 0:
-        return np.zeros((0, 2), dtype=np.int64)
-    height = centres @ plane_normals.T - np.einsum('ij,ij->i', plane_points, plane_normals)
-    hit = height - support <= np.asarray(margin)[:, None]
-    k, p = np.nonzero(hit)      # row-major: sorted by collider, then plane
-    return np.stack([k, p], axis=1).astype(np.int64)

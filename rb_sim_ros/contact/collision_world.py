@@ -1,6 +1,6 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""Bodies that collide: one Stepper per moving body, static colliders and planes, and contacts.
+"""Bodies that collide: moving bodies (rows of one BodyStore), static colliders and planes.
 
     world = CollisionWorld([BodySpec('ball', mass=1.0, inertia=(4e-3,) * 3,
                                      initial_position=(0.0, 0.0, 1.0),
@@ -11,19 +11,22 @@
     world.state('ball').position, world.last_stats.contacts
 
 Each step, in this order (all deterministic: stable sorts, contacts in pair order, no
-iteration over sets or dicts, no randomness):
+iteration over sets or dicts, no randomness), and ``step(n)`` takes n of them in one compiled
+call (``world_step.world_steps``; Python runs between calls, to apply wrenches and teleports,
+and to name what failed):
 
-1. every moving body that is awake takes one step of its own ``Stepper`` (Proof 3, its
-   wrench, gravity and damping), exactly as without collisions;
-2. broad phase (``broad_phase.sweep_and_prune`` on the colliders' world AABBs, each widened by
-   its body's speculative margin; every collider against every plane by its support distance);
-3. narrow phase (``narrow_phase``; sphere-sphere and sphere-plane pairs as numpy batches);
-4. impulses and position correction (``contact_solver.solve``, warm-started from the impulses
-   of the same contact features at the step before);
-5. every body whose velocity or pose changed gets ``Stepper.apply_contact``: its multistep
-   history restarts there, as at a change of wrench, so the next step does not extrapolate
-   accelerations across the impulse. Bodies not touched keep their history (but for those
-   that fall asleep: they are set to rest).
+1. every moving body that is awake takes one step of the step kernel (Proof 3, its wrench,
+   gravity and damping), exactly as without collisions;
+2. broad phase (``world_kernels.sweep_and_prune`` on the colliders' world AABBs, each widened
+   by its body's speculative margin; every collider against every plane by its support
+   distance);
+3. narrow phase (``narrow_kernels.collide_pairs``, every candidate pair);
+4. impulses and position correction (``solver_kernels.solve_arrays``, warm-started from the
+   impulses of the same contact features at the step before);
+5. every body whose velocity or pose changed is written back (``world_kernels.write_contacts``):
+   its multistep history restarts there, as at a change of wrench, so the next step does not
+   extrapolate accelerations across the impulse. Bodies not touched keep their history (but
+   for those that fall asleep: they are set to rest).
 
 Sleeping (``sleep_time`` > 0, default 0.5 s): a body pressed by a contact whose points all
 move slower than ``sleep_speed`` for sleep_time falls asleep at exact rest, together with every
@@ -56,10 +59,10 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from rb_sim_ros.contact import broad_phase, contact_solver, narrow_phase
+from rb_sim_ros.contact import contact_solver, narrow_kernels as nk, world_kernels as wk
+from rb_sim_ros.contact import world_step as ws
 from rb_sim_ros.contact.bodies import BodySpec, make_steppers
-from rb_sim_ros.contact.collision_shapes import combined_material, Plane, Shape
-from rb_sim_ros.core import so3
+from rb_sim_ros.contact.collision_shapes import Plane, Shape
 from rb_sim_ros.core.rigid_body import finite_floats, non_negative, State
 from rb_sim_ros.core.stepper import IntegrationError, step_all
 
@@ -80,7 +83,8 @@ class StepStats:
     plane (both tested by the narrow phase: ``pairs_tested`` is their sum), ``contacts``
     found (speculative ones included), ``active`` (normal impulse > 0), ``touched`` bodies
     (written), ``sleeping`` bodies, solver ``colours``, the iterations each pass ran, and wall
-    ``seconds`` per phase (statistics only). ``CollisionWorld.totals`` sums them over the
+    ``seconds`` of the step (``{'step': s}``: the stages run in one compiled call, so they are
+    not timed apart; statistics only). ``CollisionWorld.totals`` sums them over the
     steps taken (but for ``colours`` and ``sleeping``, which it leaves at 0: read them in
     ``last_stats``)."""
 
@@ -230,23 +234,12 @@ class CollisionWorld:
         self._plane_normals = np.array(plane_normals, dtype=float).reshape(-1, 3)
         self._plane_points = np.array(plane_points, dtype=float).reshape(-1, 3)
         self._plane_owner = plane_owner
-        # World planes as shapes at the identity, for the narrow phase's generic pairs.
-        self._plane_shapes = [Plane(tuple(n), 0.0) for n in self._plane_normals.tolist()]
-        self._identity = np.eye(3)
         self.enabled = bool(moving) and (len(colliders) + len(plane_normals) > 0)
         if not self.enabled:
             return
         nb = len(moving)
-        self._static_slot = nb
-        inv_mass, inv_inertia = [], []
-        for i in moving:
-            body = self.bodies[i].body()
-            inv_mass.append(1.0 / body.mass)
-            inv_inertia.append(np.linalg.inv(body.inertia))
-        self._inverse_mass = np.array(inv_mass + [0.0])
-        self._inverse_inertia_body = np.array(inv_inertia).reshape(nb, 3, 3)
+        self._inverse_mass = np.array([1.0 / self.bodies[i].mass for i in moving] + [0.0])
         # Per-collider arrays.
-        self._kind = np.array([c.shape.kind for c in colliders])
         self._cbody = np.array([c.body if c.body >= 0 else nb for c in colliders],
                                dtype=np.int64)
         self._cowner = np.array([c.owner for c in colliders], dtype=np.int64)
@@ -267,16 +260,27 @@ class CollisionWorld:
         self._reach = reach
         self._centres = np.array([c.position if c.body < 0 else np.zeros(3)
                                   for c in colliders]).reshape(-1, 3)
-        self._rotations = np.array([c.rotation if c.body < 0 else np.eye(3)
-                                    for c in colliders]).reshape(-1, 3, 3)
+        # World rotations as 9 row-major values (the kernels' form) and as 3x3 views of them.
+        self._rotations9 = np.array([c.rotation if c.body < 0 else np.eye(3)
+                                     for c in colliders]).reshape(-1, 9)
+        self._rotations = self._rotations9.reshape(-1, 3, 3)
+        self._local_rot9 = np.ascontiguousarray(self._local_rot.reshape(-1, 9))
         self._lower = np.zeros((len(colliders), 3))
         self._upper = np.zeros((len(colliders), 3))
-        static = np.flatnonzero(self._cstatic)
-        ext = self._extents(static)
-        self._lower[static] = self._centres[static] - ext
-        self._upper[static] = self._centres[static] + ext
-        self._sphere = self._kind == 'sphere'
-        self._collider_count = len(colliders) + len(plane_normals)
+        for c in np.flatnonzero(self._cstatic).tolist():
+            wk.extents(c, self._rotations9, self._half, self._half_length, self._radius, 0.0,
+                       self._centres, self._lower, self._upper)
+        # The moving bodies with colliders as rows of their steppers' store.
+        self._store = self._moving_steppers[0]._store
+        self._rows = np.array([s._row for s in self._moving_steppers], dtype=np.int64)
+        self._q = np.array([s._q9 if s._q9 is not None else np.eye(3).reshape(9)
+                            for s in self._moving_steppers]).reshape(-1, 9)
+        self._has_q = np.array([s._q9 is not None for s in self._moving_steppers])
+        self._x = np.zeros((nb + 1, 3))
+        self._rot = np.zeros((nb, 9))
+        self._v = np.zeros((nb + 1, 3))
+        self._w = np.zeros((nb + 1, 3))
+        self._margin = np.zeros(nb + 1)
         # Materials of the colliders, then of the planes (the world's where a shape has none);
         # None when no shape has one: the solver then uses the settings' as before.
         shapes = [c.shape for c in colliders] + plane_shapes
@@ -290,17 +294,45 @@ class CollisionWorld:
                           for sh in shapes]))
         self._asleep = np.zeros(nb + 1, dtype=bool)   # the last slot: static colliders
         self._slow_steps = np.zeros(nb, dtype=np.int64)
+        # Colliders then planes, as the narrow phase's kernel takes them: kinds, sizes
+        # (radius, half length, half extents; a plane's normal), centres, rotations.
+        kind_of = {'sphere': nk.KIND_SPHERE, 'capsule': nk.KIND_CAPSULE, 'box': nk.KIND_BOX,
+                   'plane': nk.KIND_PLANE}
+        nc, npl = len(colliders), len(plane_normals)
+        self._kinds = np.array([kind_of[c.shape.kind] for c in colliders]
+                               + [nk.KIND_PLANE] * npl, dtype=np.int64)
+        self._geoms = np.zeros((nc + npl, nk.GEOM_WIDTH))
+        self._geoms[:nc, nk.RADIUS] = self._radius
+        self._geoms[:nc, nk.HALF_LENGTH] = self._half_length
+        self._geoms[:nc, nk.HX:nk.HX + 3] = self._half
+        self._geoms[nc:, nk.NORMAL:nk.NORMAL + 3] = self._plane_normals
+        self._all_centres = np.concatenate([self._centres, self._plane_points])
+        self._all_rotations = np.concatenate([self._rotations9,
+                                              np.tile(np.eye(3).reshape(9), (npl, 1))])
+        # Views of the colliders' rows: the kernels write centres and rotations there.
+        self._centres = self._all_centres[:nc]
+        self._rotations9 = self._all_rotations[:nc]
+        self._rotations = self._rotations9.reshape(-1, 3, 3)
+        self._free_rows = np.array([s._row for s in self._all_steppers
+                                    if s._row not in set(self._rows.tolist())], dtype=np.int64)
+        st = self.settings
+        self._settings_array = contact_solver.settings_array(st)
+        materials = self._materials or (np.full(nc + npl, st.restitution),
+                                        np.full(nc + npl, st.friction))
+        self._restitution, self._friction = (np.array(m, dtype=float) for m in materials)
+        g = math.sqrt(sum(c * c for c in self._gravity))
+        self._config = np.zeros(ws.CONFIG_WIDTH)
+        self._config[[ws.C_DT, ws.C_G, ws.C_SPECULATIVE, ws.C_SLEEP_STEPS, ws.C_SLEEP_SPEED,
+                      ws.C_WARM_START, ws.C_MIN_TURN, ws.C_GAIN_TOLERANCE, ws.C_MATERIALS]] = (
+            self.dt, g, float(self.speculative), float(self._sleep_steps), self._sleep_speed,
+            float(self.warm_start), MIN_TURN, GAIN_TOLERANCE, float(self._materials is not None))
+        self._status = np.zeros(ws.STATUS_WIDTH, dtype=np.int64)
+        self._stats = np.zeros(ws.STATS_WIDTH, dtype=np.int64)
+        self._flagged = np.zeros(nb, dtype=np.int64)
+        self._energy = np.zeros(ws.ENERGY_WIDTH)
         self._wrench_seen = [s.wrench for s in self._moving_steppers]
         self._index = {self.bodies[k].name: i for i, k in enumerate(self._moving_specs)}
-        self._stepping = self._all_steppers
-
-    def _extents(self, idx: np.ndarray) -> np.ndarray:
-        """Half widths (m) of the world AABBs of colliders ``idx`` at their current poses."""
-        rot = self._rotations[idx]
-        ext = np.einsum('nij,nj->ni', np.abs(rot), self._half[idx])
-        ext += (self._half_length[idx][:, None] * np.abs(rot[:, :, 2])
-                + self._radius[idx][:, None])
-        return ext
+        self._by_row = {s._row: s for s in self._all_steppers}
 
     # -- read ----------------------------------------------------------------------------------
     @property
@@ -324,12 +356,12 @@ class CollisionWorld:
         """The contacts of the last step (speculative ones too), in solver order."""
         if self._last is None:
             return []
-        contacts, owners, impulse = self._last
+        point, normal, depth, impulse, ca, cbb = self._last
+        owners = self._cowner.tolist() + list(self._plane_owner)
         names = [b.name for b in self.bodies] + ['']
-        return [WorldContact(names[oa], names[ob], contacts.point[k].copy(),
-                             contacts.normal[k].copy(), float(contacts.depth[k]),
-                             float(impulse[k]))
-                for k, (oa, ob) in enumerate(owners)]
+        return [WorldContact(names[owners[a]], names[owners[b]], point[k].copy(),
+                             normal[k].copy(), float(depth[k]), float(impulse[k]))
+                for k, (a, b) in enumerate(zip(ca.tolist(), cbb.tolist()))]
 
     # -- step ----------------------------------------------------------------------------------
     def step(self, n: int = 1) -> None:
@@ -343,8 +375,90 @@ class CollisionWorld:
             finally:
                 self._step_count += n
             return
-        for _ in range(n):
-            self._step_once()
+        if n == 0:
+            return
+        if self._sleep_steps:
+            # A changed wrench starts a body's slow count again, and wakes a sleeper before
+            # it would miss the step. (Wrenches change only between calls.)
+            seen = self._wrench_seen
+            changed = [i for i, s in enumerate(self._moving_steppers) if s.wrench is not seen[i]]
+            if changed:
+                for i in changed:
+                    seen[i] = self._moving_steppers[i].wrench
+                changed = np.array(changed, dtype=np.int64)
+                self._slow_steps[changed] = 0
+                self._wake(changed, self._step_count)
+        status = self._status
+        status[ws.S_STEP], status[ws.S_UNCHECKED] = self._step_count, int(self._unchecked)
+        t0 = time.perf_counter()
+        out = ws.world_steps(self._world(), n, self._warm_keys, self._warm_normal,
+                             self._warm_tangent)
+        seconds = time.perf_counter() - t0
+        self._warm_keys, self._warm_normal, self._warm_tangent = out[:3]
+        self._last = out[3:]
+        self._step_count = int(status[ws.S_STEP])
+        self._unchecked = bool(status[ws.S_UNCHECKED])
+        self._account(int(status[ws.S_STEPS_DONE]), seconds)
+        if status[ws.S_KIND] != ws.OK:
+            raise self._error()
+
+    @property
+    def last_solve_energy(self) -> tuple[float, float]:
+        """Kinetic energy (J) of the bodies in contact before and after the last step's
+        contact solve (0, 0 without contacts): the solve never adds energy
+        (docs/collisions.md, "Energy")."""
+        return float(self._energy[ws.SOLVE_BEFORE]), float(self._energy[ws.SOLVE_AFTER])
+
+    def _world(self) -> ws.World:
+        """The world's arrays for the step kernel (the store's, as they are now)."""
+        st = self._store
+        return ws.World(
+            st.state, st.spare, st.params, st.coefficients, st.work, st.status, st.taken,
+            st.bad, st.clock, self._rows, self._q, self._has_q, self._reach,
+            self._inverse_mass, self._free_rows, self._kinds, self._geoms, self._all_centres,
+            self._all_rotations, self._restitution, self._friction, self._cbody, self._cowner,
+            self._cstatic, self._cdyn, self._local_pos, self._local_rot9, self._half,
+            self._half_length, self._radius, self._lower, self._upper, self._plane_normals,
+            self._plane_points, self._x, self._rot, self._v, self._w, self._margin,
+            self._asleep, self._slow_steps, self._settings_array, self._config, self._status,
+            self._stats, self._flagged, self._energy)
+
+    def _account(self, steps: int, seconds: float) -> None:
+        """last_stats from the kernel's statistics of the last step; totals summed."""
+        s = self._stats
+        self.last_stats = StepStats(
+            int(s[ws.CANDIDATE_PAIRS]), int(s[ws.PLANE_PAIRS]), int(s[ws.CONTACTS]),
+            int(s[ws.ACTIVE]), int(s[ws.TOUCHED]), int(s[ws.SLEEPING]), int(s[ws.COLOURS]),
+            int(s[ws.V_ITER]), int(s[ws.P_ITER]), {'step': seconds / max(steps, 1)})
+        t = self.totals
+        t.candidate_pairs, t.plane_pairs, t.contacts, t.active, t.touched = (
+            int(c) for c in s[8 + ws.CANDIDATE_PAIRS:8 + ws.TOUCHED + 1])
+        t.velocity_iterations = int(s[8 + ws.V_ITER])
+        t.position_iterations = int(s[8 + ws.P_ITER])
+        t.seconds['step'] = t.seconds.get('step', 0.0) + seconds
+
+    def _error(self) -> IntegrationError:
+        """The IntegrationError of what stopped the kernel (its status), with names."""
+        status = self._status
+        kind, step = int(status[ws.S_KIND]), int(status[ws.S_ERROR_STEP])
+        if kind == ws.INTEGRATION:
+            s = self._by_row[int(status[ws.S_ROW])]
+            e = s._error()
+            return IntegrationError(e.step, f"body '{self._owner(s)}': {e}")
+        flagged = self._flagged[:int(status[ws.S_FLAGGED])].tolist()
+        when = f'at step {step} (t = {step * self.dt:.9g} s)'
+        if kind == ws.WRITE_NON_FINITE:
+            e = self._energy
+            return IntegrationError(
+                step, f"body '{self._name(flagged[0])}': a contact made the state non-finite "
+                f'{when}: x = {e[0:3].tolist()}, v = {e[3:6].tolist()}, omega = '
+                f'{e[6:9].tolist()}; the body keeps its state before the contact')
+        names = ', '.join(f"'{self._name(i)}'" for i in flagged)
+        what = ('non-finite' if kind == ws.SOLVE_NON_FINITE else
+                f'gain kinetic energy ({self._energy[0]:.6g} J -> {self._energy[1]:.6g} J)')
+        return IntegrationError(
+            step, f'the contact solve made {names} {what} {when}; they keep their states '
+            'before the contacts')
 
     def set_state(self, name: str, state: State) -> None:
         """Teleport the moving body ``name`` to ``state`` (world frame); its history restarts,
@@ -386,147 +500,6 @@ class CollisionWorld:
         for i in bodies.tolist():
             s = self._moving_steppers[i]
             s.rest(clock - s.step_count)
-        self._restep()
-
-    def _restep(self) -> None:
-        asleep = {id(self._moving_steppers[i]) for i in np.flatnonzero(self._asleep[:-1])}
-        self._stepping = tuple(s for s in self._all_steppers if id(s) not in asleep)
-
-    def _step_once(self) -> None:
-        if self._unchecked:
-            # The first step (or the first after a teleport) starts from a state no collision
-            # pass has seen: check it first, so that a speculative contact already holds for
-            # this step's integration.
-            self._collide(time.perf_counter(), integrated=False)
-            self._unchecked = False
-        clock = time.perf_counter
-        t0 = clock()
-        if self._sleep_steps:
-            # A changed wrench starts a body's slow count again, and wakes a sleeper before
-            # it would miss the step.
-            seen = self._wrench_seen
-            changed = [i for i, s in enumerate(self._moving_steppers) if s.wrench is not seen[i]]
-            if changed:
-                for i in changed:
-                    seen[i] = self._moving_steppers[i].wrench
-                changed = np.array(changed, dtype=np.int64)
-                self._slow_steps[changed] = 0
-                self._wake(changed, self._step_count)
-        error = None
-        for s in self._stepping:
-            try:
-                s.step(1)
-            except IntegrationError as e:
-                error = error or IntegrationError(e.step, f"body '{self._owner(s)}': {e}")
-        self._step_count += 1
-        if error is not None:
-            raise error
-        self._collide(t0)
-
-    def _collide(self, t0: float, integrated: bool = True) -> None:
-        """Detect and resolve the contacts of the bodies' current states (a step's 2-5);
-        ``integrated``: the awake bodies have taken this step's integration (1)."""
-        clock = time.perf_counter
-        t1 = clock()
-        error = None
-        nb = len(self._moving_steppers)
-        dyn = self._cdyn
-        cb = self._cbody[dyn]
-        asleep = self._asleep
-        while True:
-            x, rot, v, w, margin = self._read(nb, dyn, cb)
-            # Sleepers pair like static colliders (not with each other or the static ones);
-            # a sleeper near an awake body wakes, and the pairs are found again with it
-            # awake, so a whole resting pile wakes in the step something reaches it.
-            pairs = broad_phase.sweep_and_prune(self._lower, self._upper, self._cowner,
-                                                self._cstatic | asleep[self._cbody])
-            if not asleep.any() or not len(pairs):
-                break
-            sa, sb = asleep[self._cbody[pairs[:, 0]]], asleep[self._cbody[pairs[:, 1]]]
-            woken = np.concatenate([self._cbody[pairs[sa & ~sb, 0]],
-                                    self._cbody[pairs[sb & ~sa, 1]]])
-            woken = np.unique(woken[woken < nb])
-            if not len(woken):
-                break
-            self._wake(woken, self._step_count - (1 if integrated else 0))
-            if integrated:
-                # Asleep when (1) ran: take that step now, so that they meet the solve as an
-                # awake body would, with this step's gravity and wrench, and read again.
-                step_all([self._moving_steppers[i] for i in woken.tolist()], 1)
-        awake = ~asleep[cb]
-        plane_pairs = self._plane_candidates(dyn[awake], cb[awake], margin)
-        t2 = clock()
-        contacts, owners, keys, pair_ids = self._narrow(pairs, plane_pairs, margin)
-        t3 = clock()
-        stats = StepStats(len(pairs), len(plane_pairs), len(contacts))
-        if len(contacts):
-            bodies = contact_solver.Bodies(
-                x, v, w, self._inverse_mass,
-                np.concatenate([contact_solver.inverse_inertia_world(
-                    rot, self._inverse_inertia_body), np.zeros((1, 3, 3))]))
-            warm_n = warm_t = None
-            if self.warm_start and len(self._warm_keys):
-                warm_n, warm_t = self._match(keys)
-            e = mu = None
-            if self._materials is not None:
-                e, mu = combined_material(self._materials[0][pair_ids[0]],
-                                          self._materials[1][pair_ids[0]],
-                                          self._materials[0][pair_ids[1]],
-                                          self._materials[1][pair_ids[1]])
-            result = contact_solver.solve(contacts, bodies, self.settings, warm_n, warm_t,
-                                          e, mu)
-            step = self._step_count - 1 if integrated else self._step_count
-            spared, failed = self._check_solve(contacts, bodies, result, nb, step)
-            error = error or failed
-            if self.warm_start:
-                self._store_warm(keys, result.normal_impulse, result.tangent_impulse)
-            t4 = clock()
-            touched = np.flatnonzero(result.touched[:nb])
-            turn = np.einsum('ij,ij->i', result.rotation, result.rotation) > MIN_TURN ** 2
-            for i in touched.tolist():
-                if i in spared:
-                    continue
-                r_new, w_new = rot[i], result.angular_velocity[i]
-                if turn[i]:
-                    # The correction turns the body with its spin (omega in the body frame
-                    # kept): turning R under a fixed world omega would change 1/2 w . I w.
-                    correction = so3.exp(result.rotation[i])
-                    r_new, w_new = correction @ r_new, correction @ w_new
-                try:
-                    self._moving_steppers[i].apply_contact(
-                        x[i] + result.displacement[i], r_new, result.velocity[i], w_new, step)
-                except IntegrationError as failed:  # the others still get theirs; raised below
-                    error = error or self._named(i, failed)
-            if self._sleep_steps and integrated:
-                self._fall_asleep(contacts, result, nb, pairs)
-            stats.active = int(np.count_nonzero(result.normal_impulse > 0.0))
-            stats.touched = len(touched)
-            stats.colours = result.colours
-            stats.velocity_iterations = result.velocity_iterations
-            stats.position_iterations = result.position_iterations
-            self._last = (contacts, owners, result.normal_impulse)
-        else:
-            self._store_warm(np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 3)))
-            self._slow_steps[:] = 0
-            t4 = clock()
-            self._last = None
-        stats.sleeping = int(np.count_nonzero(self._asleep[:nb]))
-        t5 = clock()
-        stats.seconds = {'integrate': t1 - t0, 'broad': t2 - t1, 'narrow': t3 - t2,
-                         'solve': t4 - t3, 'write': t5 - t4}
-        self.last_stats = stats
-        tot = self.totals
-        tot.candidate_pairs += stats.candidate_pairs
-        tot.plane_pairs += stats.plane_pairs
-        tot.contacts += stats.contacts
-        tot.active += stats.active
-        tot.touched += stats.touched
-        tot.velocity_iterations += stats.velocity_iterations
-        tot.position_iterations += stats.position_iterations
-        for k, s in stats.seconds.items():
-            tot.seconds[k] = tot.seconds.get(k, 0.0) + s
-        if error is not None:
-            raise error
 
     def _owner(self, stepper) -> str:
         """The name of the body that ``stepper`` moves."""
@@ -535,216 +508,3 @@ class CollisionWorld:
     def _name(self, i: int) -> str:
         """The name of moving body ``i`` (an index among those with colliders)."""
         return self.bodies[self._moving_specs[i]].name
-
-    def _named(self, i: int, error: IntegrationError) -> IntegrationError:
-        return IntegrationError(error.step, f"body '{self._name(i)}': {error}")
-
-    def _check_solve(self, contacts, bodies, result, nb: int, step: int):
-        """(bodies not to write, IntegrationError naming them, or None): the bodies to which
-        the solve gave a non-finite value, or, if it gave the bodies more kinetic energy than
-        they had (the solver keeps the energy by construction, docs/collisions.md "Energy":
-        this is the last guard, so that no garbage reaches a Stepper or the node), the ones
-        whose energy rose. They keep their states; the others get their contacts."""
-        which = np.unique(np.concatenate([contacts.body_a, contacts.body_b]))
-        which = which[which < nb]
-        u0 = np.concatenate([bodies.velocity, bodies.angular_velocity], axis=1)
-        u1 = np.concatenate([result.velocity, result.angular_velocity, result.displacement,
-                             result.rotation], axis=1)
-        bad = which[~np.all(np.isfinite(u1[which]), axis=1)]
-        if len(bad):
-            what = 'non-finite'
-        else:
-            e0 = contact_solver.kinetic_energies(bodies, u0, which)
-            e1 = contact_solver.kinetic_energies(bodies, u1[:, :6], which)
-            total0, total1 = float(np.sum(e0)), float(np.sum(e1))
-            if total1 <= total0 * (1.0 + GAIN_TOLERANCE) or not math.isfinite(total0):
-                return (), None
-            order = np.argsort(e0 - e1, kind='stable')  # the largest gain first
-            bad = which[order][(e1 > e0)[order]]
-            what = f'gain kinetic energy ({total0:.6g} J -> {total1:.6g} J)'
-        names = ', '.join(f"'{self._name(i)}'" for i in bad.tolist())
-        return set(bad.tolist()), IntegrationError(
-            step, f'the contact solve made {names} {what} at step {step} '
-            f'(t = {step * self.dt:.9g} s); they keep their states before the contacts')
-
-    def _read(self, nb: int, dyn: np.ndarray, cb: np.ndarray):
-        """(x, R, v, omega, speculative margin) of the moving bodies with colliders (a zero
-        row appended for the static slot but for R); places their colliders and AABBs."""
-        pts = [s.components() for s in self._moving_steppers]
-        x = np.array([p[0] for p in pts] + [(0.0, 0.0, 0.0)])
-        rot = np.array([p[1] for p in pts]).reshape(nb, 3, 3)
-        v = np.array([p[2] for p in pts] + [(0.0, 0.0, 0.0)])
-        w = np.array([p[3] for p in pts] + [(0.0, 0.0, 0.0)])
-        dt = self.dt
-        if self.speculative:
-            g = math.sqrt(sum(c * c for c in self._gravity))
-            speed = np.linalg.norm(v[:nb], axis=1) + np.linalg.norm(w[:nb], axis=1) * self._reach
-            margin = np.append(speed * dt + g * dt * dt, 0.0)
-        else:
-            margin = np.zeros(nb + 1)
-        self._rotations[dyn] = rot[cb] @ self._local_rot[dyn]
-        self._centres[dyn] = x[cb] + np.einsum('nij,nj->ni', rot[cb], self._local_pos[dyn])
-        ext = self._extents(dyn) + margin[cb][:, None]
-        self._lower[dyn] = self._centres[dyn] - ext
-        self._upper[dyn] = self._centres[dyn] + ext
-        return x, rot, v, w, margin
-
-    def _fall_asleep(self, contacts, result, nb: int, pairs: np.ndarray) -> None:
-        """Count the steps each awake body has been slow (every point of its colliders under
-        sleep_speed) while pressed by a contact; bodies that have been so for sleep_time
-        sleep, at exact rest, together with every body near them (the broad phase's pairs,
-        transitively), and only if all of those are ready too: a body never sleeps next to
-        an awake one, which would wake it at the next step."""
-        active = result.normal_impulse > 0.0
-        supported = np.zeros(nb + 1, dtype=bool)
-        supported[contacts.body_a[active]] = True
-        supported[contacts.body_b[active]] = True
-        speed = (np.linalg.norm(result.velocity[:nb], axis=1)
-                 + np.linalg.norm(result.angular_velocity[:nb], axis=1) * self._reach)
-        slow = supported[:nb] & (speed < self._sleep_speed) & ~self._asleep[:nb]
-        self._slow_steps = np.where(slow, self._slow_steps + 1, 0)
-        ready = self._slow_steps >= self._sleep_steps
-        if not ready.any():
-            return
-        # Spread "not ready" along the pairs of moving bodies until nothing changes.
-        a, b = self._cbody[pairs[:, 0]], self._cbody[pairs[:, 1]]
-        moving = (a < nb) & (b < nb)
-        a, b = a[moving], b[moving]
-        blocked = np.append(~ready, False)
-        while len(a):
-            spread = blocked.copy()
-            spread[a] |= blocked[b]
-            spread[b] |= blocked[a]
-            if np.array_equal(spread, blocked):
-                break
-            blocked = spread
-        tired = np.flatnonzero(ready & ~blocked[:nb])
-        if not len(tired):
-            return
-        for i in tired.tolist():
-            s = self._moving_steppers[i]
-            x, r, _, _ = s.components()
-            s.apply_contact(x, r, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-        self._asleep[tired] = True
-        self._restep()
-
-    def _plane_candidates(self, dyn, cb, margin) -> np.ndarray:
-        if not len(self._plane_normals) or not len(dyn):
-            return np.zeros((0, 2), dtype=np.int64)
-        normals = self._plane_normals
-        rot = self._rotations[dyn]
-        # Extent of each collider towards each plane: sum_i h_i |n . axis_i| + h |n . z| + r.
-        proj = np.abs(np.einsum('nij,pi->npj', rot, normals))       # |axis_j . n_p|
-        support = (np.einsum('npj,nj->np', proj, self._half[dyn])
-                   + self._half_length[dyn][:, None] * proj[:, :, 2]
-                   + self._radius[dyn][:, None])
-        found = broad_phase.plane_pairs(support, normals, self._plane_points,
-                                        self._centres[dyn], margin[cb])
-        found[:, 0] = dyn[found[:, 0]]
-        return found
-
-    def _narrow(self, pairs, plane_pairs, margin):
-        """Contacts of the candidate pairs: (ContactArrays, [(owner a, owner b)], keys,
-        (collider a, collider b or len(colliders) + plane) of each)."""
-        cbody = self._cbody
-        centres, rotations = self._centres, self._rotations
-        parts = []        # (a collider, b collider or plane id, body a, body b, pt, n, depth, f)
-        nc = len(self._colliders)
-        # Sphere-sphere as one batch.
-        if len(pairs):
-            ss = self._sphere[pairs[:, 0]] & self._sphere[pairs[:, 1]]
-            if np.any(ss):
-                i, j = pairs[ss, 0], pairs[ss, 1]
-                keep, pt, nrm, depth = narrow_phase.sphere_sphere_batch(
-                    centres[i], self._radius[i], centres[j], self._radius[j],
-                    margin[cbody[i]] + margin[cbody[j]])
-                parts.append((i[keep], j[keep], pt, nrm, depth, np.zeros(len(depth), int)))
-            rest = pairs[~ss]
-        else:
-            rest = pairs
-        for i, j in rest.tolist():
-            found = narrow_phase.collide(
-                self._colliders[i].shape, (centres[i], rotations[i]),
-                self._colliders[j].shape, (centres[j], rotations[j]),
-                float(margin[cbody[i]] + margin[cbody[j]]))
-            if found:
-                parts.append(_gather(i, j, found))
-        if len(plane_pairs):
-            sp = self._sphere[plane_pairs[:, 0]]
-            if np.any(sp):
-                i, p = plane_pairs[sp, 0], plane_pairs[sp, 1]
-                keep, pt, nrm, depth = narrow_phase.sphere_plane_batch(
-                    centres[i], self._radius[i], self._plane_points[p], self._plane_normals[p],
-                    margin[cbody[i]])
-                parts.append((i[keep], nc + p[keep], pt, nrm, depth,
-                              np.zeros(len(depth), int)))
-            for i, p in plane_pairs[~sp].tolist():
-                found = narrow_phase.collide(
-                    self._colliders[i].shape, (centres[i], rotations[i]),
-                    self._plane_shapes[p], (self._plane_points[p], self._identity),
-                    float(margin[cbody[i]]))
-                if found:
-                    parts.append(_gather(i, nc + p, found))
-        if not parts:
-            empty = contact_solver.ContactArrays(np.zeros(0, int), np.zeros(0, int),
-                                                 np.zeros((0, 3)), np.zeros((0, 3)),
-                                                 np.zeros(0))
-            none = np.zeros(0, dtype=np.int64)
-            return empty, [], none, (none, none)
-        ca = np.concatenate([p[0] for p in parts]).astype(np.int64)
-        cbb = np.concatenate([p[1] for p in parts]).astype(np.int64)
-        body_b = self._collider_body(cbb)
-        contacts = contact_solver.ContactArrays(
-            cbody[ca], body_b, np.concatenate([p[2] for p in parts]).reshape(-1, 3),
-            np.concatenate([p[3] for p in parts]).reshape(-1, 3),
-            np.concatenate([p[4] for p in parts]).astype(float))
-        feature = np.concatenate([p[5] for p in parts]).astype(np.int64)
-        total = max(self._collider_count, 1)
-        keys = (ca * total + cbb) * (1 << FEATURE_BITS) + (feature % (1 << FEATURE_BITS))
-        owner_a = self._cowner[ca].tolist()
-        owner_b = [self._cowner[c] if c < nc else self._plane_owner[c - nc]
-                   for c in cbb.tolist()]
-        return contacts, list(zip(owner_a, [int(o) for o in owner_b])), keys, (ca, cbb)
-
-    def _collider_body(self, ids: np.ndarray) -> np.ndarray:
-        """The body slot of each collider id of a contact (ids past the colliders are planes:
-        the static slot)."""
-        nc = len(self._colliders)
-        return np.where(ids < nc, self._cbody[np.minimum(ids, nc - 1)], self._static_slot)
-
-    def _store_warm(self, keys, normal, tangent) -> None:
-        """Keep this step's impulses for the next one's warm start, and the kept impulses of
-        contacts between sleepers (or a sleeper and the static world): they are not found
-        while asleep, and a pile that wakes resumes from its resting impulses, not from 0."""
-        old = self._warm_keys
-        if len(old) and self._asleep.any():
-            pair = old >> FEATURE_BITS
-            total = max(self._collider_count, 1)
-            slot = self._static_slot
-            body_a = self._collider_body(pair // total)
-            body_b = self._collider_body(pair % total)
-            keep = ((self._asleep[body_a] | (body_a == slot))
-                    & (self._asleep[body_b] | (body_b == slot)))
-            keys = np.concatenate([keys, old[keep]])
-            normal = np.concatenate([normal, self._warm_normal[keep]])
-            tangent = np.concatenate([tangent, self._warm_tangent[keep]])
-        order = np.argsort(keys, kind='stable')
-        self._warm_keys = keys[order]
-        self._warm_normal = normal[order]
-        self._warm_tangent = tangent[order]
-
-    def _match(self, keys: np.ndarray):
-        """Impulses of the previous step's contacts with the same keys (0 for new ones)."""
-        old = self._warm_keys
-        pos = np.minimum(np.searchsorted(old, keys), len(old) - 1)
-        hit = old[pos] == keys
-        normal = np.where(hit, self._warm_normal[pos], 0.0)
-        tangent = np.where(hit[:, None], self._warm_tangent[pos], 0.0)
-        return normal, tangent
-
-
-def _gather(i: int, j: int, found: list) -> tuple:
-    count = len(found)
-    return (np.full(count, i), np.full(count, j), np.array([c.point for c in found]),
-            np.array([c.normal for c in found]), np.array([c.depth for c in found]),
-            np.array([c.feature for c in found]))

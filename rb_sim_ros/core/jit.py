@@ -48,6 +48,10 @@ def parallel_kernel(function):
 
 prange = numba.prange
 
+# A constant passed from one kernel to another is typed as a literal, and numba compiles the
+# callee once more for every literal value it meets (a big kernel twice, for True and False):
+# kernels pass bool(True), int(1), float(0.0) instead, which are typed as plain values.
+
 
 def kernel_sources() -> list[Path]:
     """Every module of the kernel layers, in a fixed order."""

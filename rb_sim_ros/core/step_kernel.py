@@ -218,7 +218,7 @@ def evaluate(state, params, i):
         params, i, float(s[i, R]), float(s[i, R + 1]), float(s[i, R + 2]), float(s[i, R + 3]),
         float(s[i, R + 4]), float(s[i, R + 5]), float(s[i, R + 6]), float(s[i, R + 7]),
         float(s[i, R + 8]), float(s[i, W]), float(s[i, W + 1]), float(s[i, W + 2]),
-        float(s[i, V]), float(s[i, V + 1]), float(s[i, V + 2]), False)
+        float(s[i, V]), float(s[i, V + 1]), float(s[i, V + 2]), bool(False))
     s[i, A], s[i, A + 1], s[i, A + 2] = a0, a1, a2
     s[i, B], s[i, B + 1], s[i, B + 2] = b0, b1, b2
 
@@ -268,12 +268,12 @@ def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
         (_, _, _, v10, v11, v12, q00, q01, q02, q10, q11, q12, q20, q21, q22,
          w10, w11, w12) = multistep_step(
             float(c[8]), float(c[9]), float(c[10]), float(c[11]), float(c[12]),
-            float(c[13]), float(c[14]), float(c[15]), tiny, True,
+            float(c[13]), float(c[14]), float(c[15]), tiny, bool(True),
             xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
             wx, wy, wz, ax, ay, az, bx, by, bz, ax, ay, az, bx, by, bz)
         a10, a11, a12, b10, b11, b12 = accelerations(
             p, i, q00, q01, q02, q10, q11, q12, q20, q21, q22, w10, w11, w12, v10, v11, v12,
-            False)
+            bool(False))
         apx, apy, apz = 2.0 * ax - a10, 2.0 * ay - a11, 2.0 * az - a12
         bpx, bpy, bpz = 2.0 * bx - b10, 2.0 * by - b11, 2.0 * bz - b12
         work[i, WORK_START_UP] += 1
@@ -284,7 +284,7 @@ def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
             float(s[i, RP + 3]), float(s[i, RP + 4]), float(s[i, RP + 5]),
             float(s[i, RP + 6]), float(s[i, RP + 7]), float(s[i, RP + 8]),
             float(s[i, WP]), float(s[i, WP + 1]), float(s[i, WP + 2]),
-            float(s[i, VP]), float(s[i, VP + 1]), float(s[i, VP + 2]), False)
+            float(s[i, VP]), float(s[i, VP + 1]), float(s[i, VP + 2]), bool(False))
         work[i, WORK_START_UP] += 1
     else:
         apx, apy, apz = float(s[i, AP]), float(s[i, AP + 1]), float(s[i, AP + 2])
@@ -394,6 +394,15 @@ def advance_parallel(src, dst, params, coefficients, bodies, n, checked, status,
     for k in prange(bodies.shape[0]):
         advance_body(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
                      bad, work)
+
+
+@kernel
+def copy_rows(dst, src, rows):
+    """dst[i] = src[i] for each row i of ``rows`` (a run's commit of some rows of a store)."""
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        for c in range(dst.shape[1]):
+            dst[i, c] = src[i, c]
 
 
 def new_arrays(count: int):

@@ -48,15 +48,23 @@ class IntegrationError(RuntimeError):
 
 def step_all(steppers, n: int) -> None:
     """Step every stepper n steps; if one goes non-finite the others still advance, and the
-    first IntegrationError is raised after (that stepper stays at its last finite state)."""
-    error = None
+    first IntegrationError (in the order given) is raised after (that stepper stays at its
+    last finite state). Steppers that share a ``BodyStore`` take their steps in one call."""
+    if not isinstance(n, int) or isinstance(n, bool) or n < 0:
+        raise ValueError(f'n must be an int >= 0, got {n!r}')
+    if n == 0:
+        return
+    stores: dict[int, tuple[BodyStore, list]] = {}
     for s in steppers:
-        try:
-            s.step(n)
-        except IntegrationError as e:
-            error = error or e
-    if error is not None:
-        raise error
+        stores.setdefault(id(s._store), (s._store, []))[1].append(s)
+    failed = {}
+    for store, group in stores.values():
+        rows = np.array([s._row for s in group], dtype=np.int64)
+        for row in store.advance(rows, n):
+            failed[row, id(store)] = True
+    for s in steppers:
+        if (s._row, id(s._store)) in failed:
+            raise s._error()
 
 
 def check_dt(dt: Any) -> float:
@@ -91,7 +99,58 @@ class FixedStep:
     @property
     def time(self) -> float:
         """Simulated time (s): step_count * dt."""
-        return self._step_count * self._dt
+        return self.step_count * self._dt
+
+
+class BodyStore:
+    """Rows of the step kernel's arrays (``step_kernel``) for bodies that share dt and the
+    method: each ``Stepper`` is a view of one row; a whole store, or any set of its rows,
+    takes n steps in one compiled call (``advance``). ``clock`` counts each body's steps."""
+
+    def __init__(self, count: int, dt: float, method: multistep.Multistep) -> None:
+        self.dt, self.method = dt, method
+        self.coefficients = coefficients(method, dt, Stepper.ORTHONORMALIZE_EVERY)
+        self.state, self.params, self.work = K.new_arrays(count)
+        self.spare = np.zeros_like(self.state)
+        self.status = np.zeros(count, dtype=np.int64)
+        self.taken = np.zeros(count, dtype=np.int64)
+        self.bad = np.zeros((count, 3))
+        self.clock = np.zeros(count, dtype=np.int64)
+        self._used = 0
+
+    def __len__(self) -> int:
+        return len(self.clock)
+
+    def take_row(self) -> int:
+        """The next free row (a new Stepper's)."""
+        if self._used >= len(self.clock):
+            raise ValueError(f'this BodyStore has no free row ({len(self.clock)} rows)')
+        self._used += 1
+        return self._used - 1
+
+    def advance(self, rows: np.ndarray, n: int) -> list[int]:
+        """Take n >= 1 steps of the bodies ``rows`` (int64, ascending, no repeats). A body
+        that fails (``Stepper.step``'s errors) stays at its state after the last good step;
+        the rows that failed are returned, their reason in ``status``."""
+        if not len(rows):
+            return []
+        args = (self.params, self.coefficients, rows, n)
+        out = (self.status, self.taken, self.bad, self.work)
+        K.advance(self.state, self.spare, *args, False, *out)
+        failed = rows[self.status[rows] != K.STATUS_OK]
+        if len(failed):
+            # Taken again from the untouched rows, step by step: the state before the bad
+            # step lands in ``spare``, and ``taken`` says how many were good.
+            K.advance(self.state, self.spare, self.params, self.coefficients, failed, n,
+                      True, *out)
+        if len(rows) == len(self.clock):
+            self.state, self.spare = self.spare, self.state
+        else:
+            K.copy_rows(self.state, self.spare, rows)
+        self.clock[rows] += n
+        if len(failed):
+            self.clock[failed] -= n - self.taken[failed]
+        return failed.tolist()
 
 
 class Stepper(FixedStep):
@@ -116,12 +175,14 @@ class Stepper(FixedStep):
                  wrench: Wrench = ZERO_WRENCH,
                  method: multistep.Multistep | str = multistep.EQ27,
                  gravity: Any = (0.0, 0.0, 0.0), linear_damping: float = 0.0,
-                 angular_damping: float = 0.0, specialize: bool = True) -> None:
+                 angular_damping: float = 0.0, specialize: bool = True,
+                 store: BodyStore | None = None) -> None:
         """``gravity`` (m/s^2, world) accelerates the centre of mass; ``linear_damping`` c and
         ``angular_damping`` d (1/s) add -c v and -d omega to the accelerations. ``specialize``
         lets the kernel skip the translation or rotation update of a body at rest in that
         sense under no force or torque, and the gyroscopic term of an isotropic body; False
-        always takes the general path (for comparison)."""
+        always takes the general path (for comparison). ``store``: a ``BodyStore`` of the same
+        dt and method with a free row, shared with other steppers (default: one of its own)."""
         if not isinstance(body, RigidBody):
             raise ValueError(f'body must be a RigidBody, got {body!r}')
         self._dt = check_dt(dt)
@@ -139,16 +200,17 @@ class Stepper(FixedStep):
         self._q = None if np.array_equal(q, np.eye(3)) else q
         # Q as 9 floats: products with it are written out (so3.mul9), not numpy's BLAS.
         self._q9 = None if self._q is None else tuple(float(c) for c in q.reshape(9))
-        self._coefficients = coefficients(self._method, self._dt, self.ORTHONORMALIZE_EVERY)
-        self._state, self._params, self._work = K.new_arrays(1)
-        self._spare = np.zeros_like(self._state)
-        self._status = np.zeros(1, dtype=np.int64)
-        self._taken = np.zeros(1, dtype=np.int64)
-        self._bad = np.zeros((1, 3))
-        self._bodies = np.zeros(1, dtype=np.int64)
-        set_body_params(self._params[0], moments, gravity, linear_damping, angular_damping,
-                        bool(specialize), self.MAX_TURN, self._dt)
-        self._step_count = 0
+        if store is None:
+            store = BodyStore(1, self._dt, self._method)
+        elif not isinstance(store, BodyStore):
+            raise ValueError(f'store must be a BodyStore or None, got {store!r}')
+        elif store.dt != self._dt or store.method != self._method:
+            raise ValueError(f'store steps dt = {store.dt!r} s with {store.method.name}, this '
+                             f'stepper dt = {self._dt!r} s with {self._method.name}')
+        self._store, self._row = store, store.take_row()
+        self._rows = np.array([self._row], dtype=np.int64)
+        set_body_params(store.params[self._row], moments, gravity, linear_damping,
+                        angular_damping, bool(specialize), self.MAX_TURN, self._dt)
         self._has_state = False
         self._wrench = None
         self.set_wrench(wrench)
@@ -169,13 +231,18 @@ class Stepper(FixedStep):
         """What the kernel has done for this body so far: full steps, steps of translation
         only (a body that does not turn) and start-ups or history re-evaluations. A body at
         rest and unforced adds nothing."""
-        full, translation, start_up = (int(c) for c in self._work[0])
+        full, translation, start_up = (int(c) for c in self._store.work[self._row])
         return {'full': full, 'translation': translation, 'start_up': start_up}
+
+    @property
+    def step_count(self) -> int:
+        """Steps taken since construction (``set_state`` does not reset it)."""
+        return int(self._store.clock[self._row])
 
     @property
     def state(self) -> State:
         """The current state (world frame), as a validated, immutable ``State``."""
-        x, _, v, w = self._row()
+        x, _, v, w = self._row_components()
         return State(x, self._rotation(), v, w)
 
     def pose_twist(self) -> tuple[tuple[float, ...], ...]:
@@ -189,8 +256,8 @@ class Stepper(FixedStep):
         its orthonormality error is the integrator's own."""
         return self._rotation()
 
-    def _row(self):
-        row = self._state[0].tolist()
+    def _row_components(self):
+        row = self._store.state[self._row].tolist()
         return tuple(row[K.X:K.X + 3]), tuple(row[K.R:K.R + 9]), tuple(row[K.V:K.V + 3]), \
             tuple(row[K.W:K.W + 3])
 
@@ -201,7 +268,7 @@ class Stepper(FixedStep):
     def components(self):
         """(position m, R row-major (9 floats, body to world), linear velocity m/s, angular
         velocity rad/s), world frame, R as integrated: the cheap read of the collision world."""
-        x, r, v, w = self._row()
+        x, r, v, w = self._row_components()
         if self._q is not None:
             r = so3.mul9(r, self._q9, transpose_b=True)
         return x, r, v, w
@@ -214,7 +281,7 @@ class Stepper(FixedStep):
             raise ValueError(f'state must be a State, got {state!r}')
         if previous is not None and not isinstance(previous, State):
             raise ValueError(f'previous must be a State or None, got {previous!r}')
-        row = self._state[0]
+        row = self._store.state[self._row]
         _write(row, K.X, _components(state, self._q))
         if previous is None:
             row[K.HISTORY] = K.HISTORY_NONE
@@ -222,7 +289,7 @@ class Stepper(FixedStep):
             _write(row, K.XP, _components(previous, self._q))
             row[K.HISTORY] = K.HISTORY_STALE
         row[K.COUNTDOWN] = self.ORTHONORMALIZE_EVERY
-        K.evaluate(self._state, self._params, 0)
+        K.evaluate(self._store.state, self._store.params, self._row)
         self._has_state = True
 
     def apply_contact(self, position, rotation: np.ndarray, linear_velocity,
@@ -240,26 +307,26 @@ class Stepper(FixedStep):
         v = tuple(float(c) for c in linear_velocity)
         w = tuple(float(c) for c in angular_velocity)
         if not _finite(x, v, r, w):
-            step = self._step_count if step is None else step
+            step = self.step_count if step is None else step
             raise IntegrationError(
                 step, f'a contact made the state non-finite at step {step} '
                 f'(t = {step * self._dt:.9g} s): x = {x}, v = {v}, omega = {w}; the body '
                 'keeps its state before the contact')
-        row = self._state[0]
+        row = self._store.state[self._row]
         _write(row, K.X, (x, v, r, w))
         row[K.HISTORY] = K.HISTORY_NONE
-        K.evaluate(self._state, self._params, 0)
+        K.evaluate(self._store.state, self._store.params, self._row)
 
     def rest(self, n: int) -> None:
         """Count ``n`` >= 0 steps spent asleep (the collision world's): the clock advances,
         the state, at rest, does not."""
         if not isinstance(n, int) or isinstance(n, bool) or n < 0:
             raise ValueError(f'n must be an int >= 0, got {n!r}')
-        self._step_count += n
+        self._store.clock[self._row] += n
 
     def restart_history(self) -> None:
         """Forget the previous step (after an impulse: do not extrapolate across it)."""
-        self._state[0, K.HISTORY] = K.HISTORY_NONE
+        self._store.state[self._row, K.HISTORY] = K.HISTORY_NONE
 
     def set_wrench(self, wrench: Wrench) -> None:
         """Hold ``wrench`` from the next step on (zero-order hold)."""
@@ -273,11 +340,13 @@ class Stepper(FixedStep):
         if in_body and self._q is not None:
             force = so3.mul9_vec(self._q9, force, transpose=True)
             torque = so3.mul9_vec(self._q9, torque, transpose=True)
-        set_wrench_params(self._params[0], self._inverse_mass, force, torque, in_body)
+        set_wrench_params(self._store.params[self._row], self._inverse_mass, force, torque,
+                          in_body)
         if self._has_state:
-            K.evaluate(self._state, self._params, 0)
-            if self._state[0, K.HISTORY] != K.HISTORY_NONE:
-                self._state[0, K.HISTORY] = K.HISTORY_STALE
+            state = self._store.state
+            K.evaluate(state, self._store.params, self._row)
+            if state[self._row, K.HISTORY] != K.HISTORY_NONE:
+                state[self._row, K.HISTORY] = K.HISTORY_STALE
 
     def step(self, n: int = 1) -> None:
         """Advance ``n`` >= 0 steps.
@@ -295,27 +364,20 @@ class Stepper(FixedStep):
             raise ValueError(f'n must be an int >= 0, got {n!r}')
         if n == 0:
             return
-        args = (self._params, self._coefficients, self._bodies, n)
-        out = (self._status, self._taken, self._bad, self._work)
-        K.advance(self._state, self._spare, *args, False, *out)
-        if self._status[0] == K.STATUS_OK:
-            self._state, self._spare = self._spare, self._state
-            self._step_count += n
-            return
-        K.advance(self._state, self._spare, *args, True, *out)
-        self._state, self._spare = self._spare, self._state
-        self._step_count += int(self._taken[0])
-        raise self._error(int(self._status[0]))
+        if self._store.advance(self._rows, n):
+            raise self._error()
 
-    def _error(self, status: int) -> IntegrationError:
-        step = self._step_count
-        _, _, v, w = self._row()
+    def _error(self) -> IntegrationError:
+        """The IntegrationError of this body's last failed run (the store's status)."""
+        status = int(self._store.status[self._row])
+        step = self.step_count
+        _, _, v, w = self._row_components()
         if status == K.STATUS_START_UP:
             return IntegrationError(
                 step, f'start-up became non-finite at step {step} '
                 f'(t = {step * self._dt:.9g} s) from v = {v}, omega = {w}')
         if status == K.STATUS_TURN:
-            w1 = self._bad[0]
+            w1 = self._store.bad[self._row]
             what = (f'turns faster than {self.MAX_TURN:g} rad a step '
                     f'(|omega| = {math.sqrt(float(w1 @ w1)):.6g} rad/s): beyond it '
                     "the explicit update of Euler's equations of a body with unequal "

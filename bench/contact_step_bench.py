@@ -1,0 +1,214 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""One body in contact, per step: rb_sim_ros's CollisionWorld next to MuJoCo, same scene, one run.
+
+    python bench/contact_step_bench.py [--quick] [--json out.json]
+
+The scenes a controller test meets, each moving the whole time it is timed (no sleeping):
+
+* ``sliding box``: a 1 m cube (1 kg) sliding at 2 m/s on the ground, mu = 0.4: it stops
+  after v0^2 / (2 mu g) = 0.51 m;
+* ``bouncing ball``: a ball (r = 0.1 m) dropped from 1 m, e = 0.5 (MuJoCo: its default soft
+  contact, which does not bounce the same: the check is only that it lands);
+* ``rolling ball``: a ball rolling down a 20 degree incline from rest, mu = 0.5: it rolls
+  without slipping, a = 5/7 g sin(20 deg);
+* ``tipping cube``: a cube balanced on an edge, tipped by 0.1 rad: it falls flat.
+
+Checks first (exit 1 if one fails): each engine's run against the closed form or the outcome
+above (stopping distance within 2%, landed, rolling acceleration within 2%, lying on a face).
+Then the time per step of each engine, the median of blocks of steps from the same start,
+stepped one step per call (as a node calls them) and, for us, also ``step(10)`` (a node's
+publish period). MuJoCo runs its default solver (Newton) and PGS, both with their default
+iteration caps; dt = 1 ms for both. Ratios rb_sim_ros / MuJoCo Newton are printed.
+
+Writes docs/bench/contact_step_bench.json (or ``--json``; ``--quick`` writes none unless
+asked). Sanity (plausibility, exit 1): every time finite and between 0.1 us and 100 ms a step.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+import sys
+import time
+
+import figures  # a bench module
+import mujoco
+import numpy as np
+
+from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
+from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.core import so3
+from rb_sim_ros.sim.simulation import BodySpec
+
+DT = 1e-3
+G = 9.81
+SLOPE = math.radians(20.0)
+
+
+def _incline_normal() -> tuple[float, float, float]:
+    return (-math.sin(SLOPE), 0.0, math.cos(SLOPE))
+
+
+def scenes() -> dict:
+    """name -> (rb_sim_ros bodies, planes, restitution, friction, MuJoCo XML, steps to run)."""
+    cube_i = (1.0 / 6.0,) * 3
+    ball_i = (0.4 * 1.0 * 0.01,) * 3
+    # A cube on an edge, turned by 45 degrees plus a tip of 0.1 rad about y: its lowest edge
+    # touches the ground when the centre is at 0.5 (cos + sin) of the angle.
+    angle = math.pi / 4 + 0.1
+    edge_rot = so3.exp([0.0, angle, 0.0])
+    edge_pos = np.array([0.0, 0.0, 0.5 * (math.cos(angle) + math.sin(angle))])
+    n = _incline_normal()
+    ball_start = tuple(0.1 * np.array(n))
+    quat = so3.quaternion_xyzw_from_matrix(edge_rot)
+    ground = '<geom type="plane" size="50 50 0.1" friction="{mu} 0.005 0.0001"/>'
+    incline = ('<geom type="plane" size="50 50 0.1" friction="{mu} 0.005 0.0001" '
+               f'zaxis="{n[0]:.17g} {n[1]:.17g} {n[2]:.17g}"/>')
+
+    def xml(world, body):
+        return (f'<mujoco><option timestep="{DT}" gravity="0 0 {-G}"/>'
+                f'<worldbody>{world}{body}</worldbody></mujoco>')
+
+    return {
+        'sliding box': (
+            [BodySpec('b', 1.0, cube_i, initial_position=(0.0, 0.0, 0.5),
+                      initial_linear_velocity=(2.0, 0.0, 0.0), colliders=(Box((1, 1, 1)),))],
+            (Plane((0, 0, 1), 0.0),), 0.0, 0.4,
+            xml(ground.format(mu=0.4), '<body pos="0 0 0.5"><freejoint/><geom type="box" '
+                'size="0.5 0.5 0.5" mass="1" friction="0.4 0.005 0.0001"/></body>'),
+            700, {'qvel': (2.0, 0, 0, 0, 0, 0)}),
+        'bouncing ball': (
+            [BodySpec('b', 1.0, ball_i, initial_position=(0.0, 0.0, 1.0),
+                      colliders=(Sphere(0.1),))],
+            (Plane((0, 0, 1), 0.0),), 0.5, 0.5,
+            xml(ground.format(mu=0.5), '<body pos="0 0 1"><freejoint/><geom type="sphere" '
+                'size="0.1" mass="1"/></body>'),
+            600, {}),
+        'rolling ball': (
+            [BodySpec('b', 1.0, ball_i, initial_position=ball_start, colliders=(Sphere(0.1),))],
+            (Plane(n, 0.0),), 0.0, 0.5,
+            xml(incline.format(mu=0.5), f'<body pos="{ball_start[0]:.17g} 0 '
+                f'{ball_start[2]:.17g}"><freejoint/><geom type="sphere" size="0.1" '
+                'mass="1" friction="0.5 0.005 0.0001"/></body>'),
+            500, {}),
+        'tipping cube': (
+            [BodySpec('b', 1.0, cube_i, initial_position=tuple(edge_pos),
+                      initial_orientation_xyzw=tuple(quat), colliders=(Box((1, 1, 1)),))],
+            (Plane((0, 0, 1), 0.0),), 0.0, 0.5,
+            xml(ground.format(mu=0.5), f'<body pos="{edge_pos[0]:.17g} 0 {edge_pos[2]:.17g}" '
+                f'quat="{quat[3]:.17g} {quat[0]:.17g} {quat[1]:.17g} {quat[2]:.17g}">'
+                '<freejoint/><geom type="box" size="0.5 0.5 0.5" mass="1"/></body>'),
+            1500, {}),
+    }
+
+
+def ours(scene, steps: int, per_call: int = 1) -> tuple[CollisionWorld, list[float]]:
+    bodies, planes, e, mu = scene[:4]
+    world = CollisionWorld(bodies, DT, (0.0, 0.0, -G), restitution=e, friction=mu,
+                           planes=planes, sleep_time=0.0)
+    times = []
+    for _ in range(steps // per_call):
+        t = time.perf_counter()
+        world.step(per_call)
+        times.append((time.perf_counter() - t) / per_call)
+    return world, times
+
+
+def theirs(scene, steps: int, solver) -> tuple[mujoco.MjData, list[float]]:
+    model = mujoco.MjModel.from_xml_string(scene[4])
+    model.opt.solver = solver
+    data = mujoco.MjData(model)
+    for key, value in scene[6].items():
+        getattr(data, key)[:] = value
+    mujoco.mj_forward(model, data)
+    times = []
+    for _ in range(steps):
+        t = time.perf_counter()
+        mujoco.mj_step(model, data)
+        times.append(time.perf_counter() - t)
+    return data, times
+
+
+def check(name: str, world: CollisionWorld, data: mujoco.MjData) -> list[str]:
+    """The closed form or outcome of each scene (module doc), for both engines."""
+    st = world.state('b')
+    x, v = st.position, st.linear_velocity
+    qx, qv = data.qpos[:3], data.qvel[:3]
+    problems = []
+    if name == 'sliding box':
+        expect = 2.0 ** 2 / (2 * 0.4 * G)
+        for who, xx, vv in (('rb_sim_ros', x, v), ('MuJoCo', qx, qv)):
+            if abs(xx[0] - expect) > 0.02 * expect or abs(vv[0]) > 1e-3:
+                problems.append(f'{who}: box stopped at {xx[0]:.4f} m, expected {expect:.4f}')
+    elif name == 'bouncing ball':
+        for who, xx in (('rb_sim_ros', x), ('MuJoCo', qx)):
+            if not 0.05 < xx[2] < 1.0:
+                problems.append(f'{who}: ball at height {xx[2]:.4f} m, not landed')
+    elif name == 'rolling ball':
+        t = world.time
+        expect = 0.5 * 5.0 / 7.0 * G * math.sin(SLOPE) * t * t
+        along = np.array([math.cos(SLOPE), 0.0, math.sin(SLOPE)])
+        start = 0.1 * np.array(_incline_normal())
+        for who, xx in (('rb_sim_ros', x), ('MuJoCo', qx)):
+            moved = -float((xx - start) @ along)
+            if abs(moved - expect) > 0.02 * expect:
+                problems.append(f'{who}: rolled {moved:.4f} m, expected {expect:.4f}')
+    else:
+        for who, xx, r in (('rb_sim_ros', x, st.rotation),
+                           ('MuJoCo', qx, so3.matrix_from_quaternion_xyzw(
+                               (*data.qpos[4:7], data.qpos[3])))):
+            if abs(xx[2] - 0.5) > 0.01 or np.max(np.abs(r[2])) < 0.999:  # a face axis vertical
+                problems.append(f'{who}: cube at height {xx[2]:.4f} m, not lying on a face')
+    return problems
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('--quick', action='store_true', help='the checks, and 1 repeat')
+    parser.add_argument('--repeats', type=int, help='timed runs of each scene (default 5)')
+    parser.add_argument('--json', type=Path, help='write the figures here (default: '
+                        'docs/bench/contact_step_bench.json; --quick: none)')
+    opts = parser.parse_args()
+    repeats = opts.repeats or (1 if opts.quick else 5)
+    problems, rows = [], {}
+    for name, scene in scenes().items():
+        steps = scene[5]
+        world, _ = ours(scene, steps)
+        data, _ = theirs(scene, steps, mujoco.mjtSolver.mjSOL_NEWTON)
+        problems += check(name, world, data)
+        best = {}
+        for _ in range(repeats):
+            cells = {'rb_sim_ros step(1)': ours(scene, steps)[1],
+                     'rb_sim_ros step(10)': ours(scene, steps, 10)[1],
+                     'MuJoCo Newton': theirs(scene, steps, mujoco.mjtSolver.mjSOL_NEWTON)[1],
+                     'MuJoCo PGS': theirs(scene, steps, mujoco.mjtSolver.mjSOL_PGS)[1]}
+            for k, t in cells.items():
+                best[k] = min(best.get(k, math.inf), float(np.median(t)))
+        rows[name] = best
+    if problems:
+        print('checks failed: ' + '; '.join(problems), file=sys.stderr)
+        return 1
+    cols = ['rb_sim_ros step(1)', 'rb_sim_ros step(10)', 'MuJoCo Newton', 'MuJoCo PGS']
+    print('\n| scene (dt = 1 ms, moving) | ' + ' | '.join(f'{c}, us per step' for c in cols)
+          + ' | step(1) / Newton | step(10) / Newton |')
+    print('| --- | ' + ' | '.join('---:' for _ in cols) + ' | ---: | ---: |')
+    for name, r in rows.items():
+        print(f'| {name} | ' + ' | '.join(f'{r[c] * 1e6:.1f}' for c in cols)
+              + f' | {r[cols[0]] / r["MuJoCo Newton"]:.1f}x'
+              f' | {r[cols[1]] / r["MuJoCo Newton"]:.1f}x |')
+    sane = figures.Sanity()
+    for name, r in rows.items():
+        for c, value in r.items():
+            sane.within(f'{name}, {c}', value, 1e-7, 0.1)
+    path = opts.json or (None if opts.quick else figures.DOCS_BENCH / 'contact_step_bench.json')
+    if path:
+        figures.write(path, {'quick': opts.quick, 'repeats': repeats, 'dt': DT,
+                             'seconds_per_step': rows})
+    return sane.report()
+
+
+if __name__ == '__main__':
+    sys.exit(main())

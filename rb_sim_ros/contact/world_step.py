@@ -1,0 +1,541 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The collision world's step as one compiled call: n steps of integrate, detect, solve, write.
+
+``world_steps(w, n)`` takes ``w``, a ``World`` (a named tuple of the world's arrays, built by
+``collision_world.CollisionWorld`` for each call), through ``n`` steps of the order written in
+``collision_world``'s module docstring:
+
+1. the awake bodies take one step of the step kernel (``step_kernel.advance_body``), the ones
+   without colliders too;
+2. the colliders are placed, and paired: sweep and prune on their AABBs (sleepers pair like
+   static colliders; an awake body that reaches a sleeper wakes it, and its whole pile, in this
+   step: they take the step they missed and the pairs are found again), and the planes;
+3. the narrow phase of every pair (``narrow_kernels.collide_pairs``);
+4. the solve (``solver_kernels.solve_arrays``), warm-started from the impulses of the same
+   features at the step before (a sorted array of keys), with the shapes' materials;
+5. the checks of the solve (a non-finite result, or kinetic energy gained), the write-back
+   (``world_kernels.write_contacts``), and sleeping.
+
+It returns early, after the step in which it happened, when something needs Python: a body
+that could not be integrated or whose contacts failed a check (``w.status``: the kind, the
+step, the body; ``w.flagged`` the bodies named). Every other outcome a step can have is handled
+here, so Python runs once per call, not once per body, pair or contact. The warm-start arrays
+and the last step's contacts change size; they are returned.
+
+Plain + - * / sqrt sin cos on float64, no BLAS: compiled and interpreted give the same bits.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+import math
+
+import numpy as np
+
+from rb_sim_ros.contact import broad_phase as bp, narrow_kernels as nk, solver_kernels as sk
+from rb_sim_ros.contact import world_kernels as wk
+from rb_sim_ros.core import step_kernel as K
+from rb_sim_ros.core.jit import kernel
+
+# Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
+FEATURE_BITS = 12
+
+# -- w.config: the world's constants -----------------------------------------------------------
+C_DT, C_G, C_SPECULATIVE, C_SLEEP_STEPS, C_SLEEP_SPEED, C_WARM_START = 0, 1, 2, 3, 4, 5
+C_MIN_TURN, C_GAIN_TOLERANCE, C_MATERIALS = 6, 7, 8
+CONFIG_WIDTH = 9
+
+# -- w.status (int64): what happened, set by world_steps ---------------------------------------
+S_STEP, S_UNCHECKED, S_KIND, S_ERROR_STEP, S_ROW, S_FLAGGED, S_STEPS_DONE = 0, 1, 2, 3, 4, 5, 6
+STATUS_WIDTH = 7
+OK, INTEGRATION, SOLVE_NON_FINITE, SOLVE_ENERGY, WRITE_NON_FINITE = 0, 1, 2, 3, 4
+# w.energy (11): [0:2] the kinetic energies (J) before and after a solve that gained, or [0:9]
+# the x, v, omega a failed write would have given; [9:11] the kinetic energy of the bodies in
+# contact before and after the last solve (0 without contacts).
+SOLVE_BEFORE, SOLVE_AFTER = 9, 10
+ENERGY_WIDTH = 11
+
+# -- w.stats (int64): [0:8] the last step's, [8:16] the totals --------------------------------
+CANDIDATE_PAIRS, PLANE_PAIRS, CONTACTS, ACTIVE, TOUCHED, V_ITER, P_ITER, COLOURS = range(8)
+SLEEPING = 16
+STATS_WIDTH = 17
+
+World = namedtuple('World', [
+    # the store of the moving bodies (step_kernel rows) and their clocks
+    'state', 'spare', 'params', 'coefficients', 'work', 'kstatus', 'taken', 'bad', 'clock',
+    # moving bodies with colliders: their rows, Q of a non-principal body frame, reach (m)
+    'rows', 'q', 'has_q', 'reach', 'inverse_mass',
+    # rows of the moving bodies without colliders (they always step)
+    'free_rows',
+    # colliders (C) then planes (P): kinds, geoms, centres, rotations, materials
+    'kinds', 'geoms', 'centres', 'rotations', 'restitution', 'friction',
+    # colliders only
+    'cbody', 'cowner', 'cstatic', 'dyn', 'local_pos', 'local_rot', 'half', 'half_length',
+    'radius', 'lower', 'upper',
+    # planes
+    'plane_normals', 'plane_points',
+    # per body buffers (the last slot: the static world)
+    'x', 'rot', 'v', 'w', 'margin', 'asleep', 'slow_steps',
+    # solver settings, world constants, status, statistics, flagged bodies, energies
+    'settings', 'config', 'status', 'stats', 'flagged', 'energy'])
+
+
+@kernel
+def world_steps(w, n, warm_keys, warm_normal, warm_tangent):
+    """``n`` steps of the world (see the module doc). Returns the warm-start arrays and the
+    last step's contacts: (warm_keys, warm_normal, warm_tangent, point, normal, depth,
+    normal_impulse, collider_a, collider_b)."""
+    nb = w.rows.shape[0]
+    point, normal = np.zeros((0, 3)), np.zeros((0, 3))
+    depth, impulse = np.zeros(0), np.zeros(0)
+    ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    w.status[S_KIND] = OK
+    w.status[S_STEPS_DONE] = 0
+    for _ in range(n):
+        if w.status[S_UNCHECKED]:
+            # The first step (or the first after a teleport): contacts of the starting state
+            # first, so that a speculative contact already holds for this step's integration.
+            (warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca,
+             cbb) = _collide(w, bool(False), warm_keys, warm_normal, warm_tangent)
+            w.status[S_UNCHECKED] = 0
+            if w.status[S_KIND] != OK:
+                break
+        row = _integrate(w, nb)
+        w.status[S_STEP] += 1
+        w.status[S_STEPS_DONE] += 1
+        if row >= 0:
+            w.status[S_KIND], w.status[S_ROW] = INTEGRATION, row
+            w.status[S_ERROR_STEP] = w.status[S_STEP] - 1
+            break
+        (warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca,
+         cbb) = _collide(w, bool(True), warm_keys, warm_normal, warm_tangent)
+        if w.status[S_KIND] != OK:
+            break
+    return warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca, cbb
+
+
+@kernel
+def _advance_row(w, row):
+    """One step of store row ``row``; True if it failed (then it stays at its state before;
+    the reason in w.kstatus)."""
+    one = int(1)
+    K.advance_body(w.state, w.spare, w.params, w.coefficients, row, one, bool(False),
+                   w.kstatus, w.taken, w.bad, w.work)
+    failed = w.kstatus[row] != K.STATUS_OK
+    if failed:
+        K.advance_body(w.state, w.spare, w.params, w.coefficients, row, one, bool(True),
+                       w.kstatus, w.taken, w.bad, w.work)
+    for c in range(w.state.shape[1]):
+        w.state[row, c] = w.spare[row, c]
+    w.clock[row] += w.taken[row]
+    return failed
+
+
+@kernel
+def _integrate(w, nb):
+    """Every awake body one step, in row order; the first row that failed, or -1 (the others
+    still take their step)."""
+    first = -1
+    count = w.rows.shape[0] + w.free_rows.shape[0]
+    order = np.empty(count, dtype=np.int64)
+    for k in range(nb):
+        order[k] = w.rows[k] if not w.asleep[k] else -1
+    for k in range(w.free_rows.shape[0]):
+        order[nb + k] = w.free_rows[k]
+    order = np.sort(order)
+    for k in range(count):
+        row = order[k]
+        if row < 0:
+            continue
+        if _advance_row(w, row) and first < 0:
+            first = row
+    return first
+
+
+@kernel
+def _read(w, nb):
+    """x, R, v, omega and margins of the bodies; colliders placed (step 2's start)."""
+    wk.read_bodies(w.state, w.rows, w.q, w.has_q, w.x, w.rot, w.v, w.w)
+    wk.speculative_margins(w.v, w.w, w.reach, nb, float(w.config[C_DT]), float(w.config[C_G]),
+                           w.config[C_SPECULATIVE] != 0.0, w.margin)
+    wk.place_colliders(w.dyn, w.cbody, w.x, w.rot, w.local_pos, w.local_rot, w.half,
+                       w.half_length, w.radius, w.margin, w.centres, w.rotations, w.lower,
+                       w.upper)
+
+
+@kernel
+def _collide(w, integrated, warm_keys, warm_normal, warm_tangent):
+    """Steps 2-5 on the bodies' current states; ``integrated``: the awake bodies have taken
+    this step's integration."""
+    nb = w.rows.shape[0]
+    nc = w.cbody.shape[0]
+    step = w.status[S_STEP] - 1 if integrated else w.status[S_STEP]
+    static = np.empty(nc, dtype=np.bool_)
+    while True:
+        _read(w, nb)
+        any_asleep = False
+        for c in range(nc):
+            static[c] = w.cstatic[c] or w.asleep[w.cbody[c]]
+        for k in range(nb):
+            any_asleep = any_asleep or w.asleep[k]
+        pairs = bp.sweep_and_prune(w.lower, w.upper, w.cowner, static, int(-1))
+        if not any_asleep or pairs.shape[0] == 0:
+            break
+        woken = np.zeros(nb + 1, dtype=np.bool_)
+        found = False
+        for k in range(pairs.shape[0]):
+            a, b = w.cbody[pairs[k, 0]], w.cbody[pairs[k, 1]]
+            if w.asleep[a] and not w.asleep[b] and a < nb:
+                woken[a], found = True, True
+            if w.asleep[b] and not w.asleep[a] and b < nb:
+                woken[b], found = True, True
+        if not found:
+            break
+        clock = w.status[S_STEP] - (1 if integrated else 0)
+        for k in range(nb):
+            if woken[k]:
+                w.asleep[k] = False
+                w.slow_steps[k] = 0
+                w.clock[w.rows[k]] = clock  # its clock stood still while asleep
+        if integrated:
+            # Asleep when (1) ran: take that step now, so that they meet the solve as an
+            # awake body would, with this step's gravity and wrench, and read again.
+            for k in range(nb):
+                if woken[k] and _advance_row(w, w.rows[k]):
+                    w.status[S_KIND], w.status[S_ROW] = INTEGRATION, w.rows[k]
+                    w.status[S_ERROR_STEP] = w.clock[w.rows[k]]
+                    return (warm_keys, warm_normal, warm_tangent, np.zeros((0, 3)),
+                            np.zeros((0, 3)), np.zeros(0), np.zeros(0),
+                            np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+    # Planes: the awake moving colliders only.
+    awake = np.empty(w.dyn.shape[0], dtype=np.int64)
+    count = 0
+    for k in range(w.dyn.shape[0]):
+        if not w.asleep[w.cbody[w.dyn[k]]]:
+            awake[count] = w.dyn[k]
+            count += 1
+    planes = w.plane_normals.shape[0]
+    if planes:
+        plane_pairs = bp.plane_candidates(awake[:count], w.cbody, w.rotations, w.half,
+                                          w.half_length, w.radius, w.centres,
+                                          w.plane_normals, w.plane_points, w.margin)
+    else:
+        plane_pairs = np.zeros((0, 2), dtype=np.int64)
+    # 3. The narrow phase of every candidate: collider pairs, then (collider, plane).
+    p1, p2 = pairs.shape[0], plane_pairs.shape[0]
+    pair_a = np.empty(p1 + p2, dtype=np.int64)
+    pair_b = np.empty(p1 + p2, dtype=np.int64)
+    margins = np.empty(p1 + p2)
+    for k in range(p1):
+        pair_a[k], pair_b[k] = pairs[k, 0], pairs[k, 1]
+        margins[k] = w.margin[w.cbody[pairs[k, 0]]] + w.margin[w.cbody[pairs[k, 1]]]
+    for k in range(p2):
+        pair_a[p1 + k], pair_b[p1 + k] = plane_pairs[k, 0], nc + plane_pairs[k, 1]
+        margins[p1 + k] = w.margin[w.cbody[plane_pairs[k, 0]]]
+    rows = (p1 + p2) * nk.MAX_CONTACTS_PER_PAIR
+    point, normal = np.empty((rows, 3)), np.empty((rows, 3))
+    depth = np.empty(rows)
+    feature, source = np.empty(rows, dtype=np.int64), np.empty(rows, dtype=np.int64)
+    m = nk.collide_pairs(pair_a, pair_b, w.kinds, w.geoms, w.centres, w.rotations, margins,
+                         point, normal, depth, feature, source)
+    point, normal, depth = point[:m], normal[:m], depth[:m]
+    stats = w.stats
+    for k in range(8):
+        stats[k] = 0
+    stats[CANDIDATE_PAIRS], stats[PLANE_PAIRS], stats[CONTACTS] = p1, p2, m
+    ca = np.empty(m, dtype=np.int64)
+    cbb = np.empty(m, dtype=np.int64)
+    body_a = np.empty(m, dtype=np.int64)
+    body_b = np.empty(m, dtype=np.int64)
+    keys = np.empty(m, dtype=np.int64)
+    total = max(nc + planes, 1)
+    for k in range(m):
+        ca[k], cbb[k] = pair_a[source[k]], pair_b[source[k]]
+        body_a[k] = w.cbody[ca[k]]
+        body_b[k] = w.cbody[cbb[k]] if cbb[k] < nc else nb
+        keys[k] = (ca[k] * total + cbb[k]) * (1 << FEATURE_BITS) + (
+            feature[k] % (1 << FEATURE_BITS))
+    impulse = np.zeros(m)
+    w.energy[SOLVE_BEFORE] = w.energy[SOLVE_AFTER] = 0.0
+    if m == 0:
+        warm_keys, warm_normal, warm_tangent = _store_warm(
+            w, keys, impulse, np.zeros((0, 3)), warm_keys, warm_normal, warm_tangent)
+        for k in range(nb):
+            w.slow_steps[k] = 0
+        _finish_stats(w, nb)
+        return (warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca, cbb)
+    # 4. The solve: the bodies (the last slot static), warm start, materials.
+    inv_inertia = np.zeros((nb + 1, 9))
+    for k in range(nb):
+        _inverse_inertia_world(w, k, inv_inertia)
+    warm_n, warm_t = np.zeros(m), np.zeros((m, 3))
+    use_warm = w.config[C_WARM_START] != 0.0 and warm_keys.shape[0] > 0
+    if use_warm:
+        _match(keys, warm_keys, warm_normal, warm_tangent, warm_n, warm_t)
+    e, mu = np.empty(m), np.empty(m)
+    for k in range(m):
+        if w.config[C_MATERIALS] != 0.0:
+            fa, fb = float(w.friction[ca[k]]), float(w.friction[cbb[k]])
+            mean = math.sqrt(fa * fb)
+            e[k] = max(float(w.restitution[ca[k]]), float(w.restitution[cbb[k]]))
+            mu[k] = min(mean, max(fa, fb))
+        else:
+            e[k], mu[k] = w.settings[sk.RESTITUTION], w.settings[sk.FRICTION]
+    nn = nb + 1
+    v1, w1 = np.empty((nn, 3)), np.empty((nn, 3))
+    disp, turn = np.empty((nn, 3)), np.empty((nn, 3))
+    tangent, p_impulse = np.empty((m, 3)), np.empty(m)
+    touched = np.empty(nn, dtype=np.bool_)
+    colours, v_iter, p_iter = sk.solve_arrays(
+        body_a, body_b, point, normal, depth, w.x, w.v, w.w, w.inverse_mass, inv_inertia,
+        w.settings, warm_n, warm_t, use_warm, e, mu, v1, w1, disp, turn, impulse, tangent,
+        p_impulse, touched)
+    # 5. Checks, warm start kept, write-back, sleeping.
+    spared = _check_solve(w, nb, body_a, body_b, inv_inertia, v1, w1, disp, turn, step)
+    if w.config[C_WARM_START] != 0.0:
+        warm_keys, warm_normal, warm_tangent = _store_warm(
+            w, keys, impulse, tangent, warm_keys, warm_normal, warm_tangent)
+    write = np.empty(nb, dtype=np.int64)
+    count = 0
+    n_touched = 0
+    for k in range(nb):
+        if touched[k]:
+            n_touched += 1
+            if not spared[k]:
+                write[count] = k
+                count += 1
+    bad = np.zeros(count, dtype=np.bool_)
+    wk.write_contacts(w.state, w.params, w.rows, w.q, w.has_q, write[:count], w.x, w.rot, v1,
+                      w1, disp, turn, float(w.config[C_MIN_TURN]), bad)
+    for k in range(count):
+        if bad[k] and w.status[S_KIND] == OK:
+            w.status[S_KIND], w.status[S_ERROR_STEP] = WRITE_NON_FINITE, step
+            w.status[S_ROW] = write[k]
+            w.flagged[0] = write[k]
+            w.status[S_FLAGGED] = 1
+            for c in range(3):  # what it would have been, for the message
+                w.energy[c] = w.x[write[k], c] + disp[write[k], c]
+                w.energy[3 + c] = v1[write[k], c]
+                w.energy[6 + c] = w1[write[k], c]
+    if w.config[C_SLEEP_STEPS] > 0.0 and integrated:
+        _fall_asleep(w, nb, body_a, body_b, impulse, v1, w1, pairs)
+    active = 0
+    for k in range(m):
+        if impulse[k] > 0.0:
+            active += 1
+    stats[ACTIVE], stats[TOUCHED] = active, n_touched
+    stats[COLOURS], stats[V_ITER], stats[P_ITER] = colours, v_iter, p_iter
+    _finish_stats(w, nb)
+    return (warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca, cbb)
+
+
+@kernel
+def _finish_stats(w, nb):
+    """The totals, and the sleepers counted."""
+    sleeping = 0
+    for k in range(nb):
+        if w.asleep[k]:
+            sleeping += 1
+    w.stats[SLEEPING] = sleeping
+    for k in range(7):
+        w.stats[8 + k] += w.stats[k]
+
+
+@kernel
+def _inverse_inertia_world(w, k, out):
+    """R I_body^-1 R^T of body k (row-major into out[k]), from its principal frame r (the
+    state row) and inverse principal moments: r diag(j) r^T."""
+    row = w.rows[k]
+    jx = float(w.params[row, K.INVERSE_MOMENTS])
+    jy = float(w.params[row, K.INVERSE_MOMENTS + 1])
+    jz = float(w.params[row, K.INVERSE_MOMENTS + 2])
+    for a in range(3):
+        ra0 = float(w.state[row, K.R + 3 * a])
+        ra1 = float(w.state[row, K.R + 3 * a + 1])
+        ra2 = float(w.state[row, K.R + 3 * a + 2])
+        for b in range(3):
+            out[k, 3 * a + b] = (ra0 * jx * float(w.state[row, K.R + 3 * b])
+                                 + ra1 * jy * float(w.state[row, K.R + 3 * b + 1])
+                                 + ra2 * jz * float(w.state[row, K.R + 3 * b + 2]))
+
+
+@kernel
+def _energy(w, k, vel, ang):
+    """Kinetic energy (J) of body k at (vel, ang): 1/2 m v.v + 1/2 w . I w, I = r diag(I_p) r^T
+    (principal moments from the params row)."""
+    row = w.rows[k]
+    vx, vy, vz = float(vel[k, 0]), float(vel[k, 1]), float(vel[k, 2])
+    wx, wy, wz = float(ang[k, 0]), float(ang[k, 1]), float(ang[k, 2])
+    # omega in the principal frame: r^T w
+    total = (vx * vx + vy * vy + vz * vz) / float(w.inverse_mass[k])
+    for j in range(3):
+        b = (float(w.state[row, K.R + j]) * wx + float(w.state[row, K.R + 3 + j]) * wy
+             + float(w.state[row, K.R + 6 + j]) * wz)
+        total += float(w.params[row, K.MOMENTS + j]) * b * b
+    return 0.5 * total
+
+
+@kernel
+def _check_solve(w, nb, body_a, body_b, inv_inertia, v1, w1, disp, turn, step):
+    """The bodies not to write (True): those the solve gave a non-finite value, or, if it gave
+    the bodies more kinetic energy than they had (the last guard, docs/collisions.md "Energy"),
+    the ones whose energy rose, largest gain first. The error is recorded in w.status."""
+    involved = np.zeros(nb + 1, dtype=np.bool_)
+    for k in range(body_a.shape[0]):
+        involved[body_a[k]] = True
+        involved[body_b[k]] = True
+    spared = np.zeros(nb, dtype=np.bool_)
+    flagged = 0
+    for k in range(nb):
+        if not involved[k]:
+            continue
+        total = 0.0
+        for c in range(3):
+            total += (v1[k, c] * 0.0 + w1[k, c] * 0.0 + disp[k, c] * 0.0 + turn[k, c] * 0.0)
+        if total != 0.0:
+            spared[k] = True
+            w.flagged[flagged] = k
+            flagged += 1
+    if flagged:
+        if w.status[S_KIND] == OK:
+            w.status[S_KIND], w.status[S_ERROR_STEP] = SOLVE_NON_FINITE, step
+            w.status[S_FLAGGED] = flagged
+        return spared
+    e0 = np.zeros(nb)
+    e1 = np.zeros(nb)
+    total0, total1 = 0.0, 0.0
+    for k in range(nb):
+        if involved[k]:
+            e0[k] = _energy(w, k, w.v, w.w)
+            e1[k] = _energy(w, k, v1, w1)
+            total0 += e0[k]
+            total1 += e1[k]
+    w.energy[SOLVE_BEFORE], w.energy[SOLVE_AFTER] = total0, total1
+    if total1 <= total0 * (1.0 + float(w.config[C_GAIN_TOLERANCE])) or not (
+            total0 <= 1.7976931348623157e308):
+        return spared
+    gain = np.empty(nb)
+    for k in range(nb):
+        gain[k] = e0[k] - e1[k] if involved[k] else math.inf
+    order = np.argsort(gain, kind='mergesort')  # the largest gain first
+    for k in order:
+        if involved[k] and e1[k] > e0[k]:
+            spared[k] = True
+            w.flagged[flagged] = k
+            flagged += 1
+    if w.status[S_KIND] == OK:
+        w.status[S_KIND], w.status[S_ERROR_STEP] = SOLVE_ENERGY, step
+        w.status[S_FLAGGED] = flagged
+        w.energy[0], w.energy[1] = total0, total1
+    return spared
+
+
+@kernel
+def _match(keys, old_keys, old_normal, old_tangent, normal, tangent):
+    """Impulses of the previous step's contacts with the same keys (0 for new ones)."""
+    count = old_keys.shape[0]
+    for k in range(keys.shape[0]):
+        pos = np.searchsorted(old_keys, keys[k])
+        if pos < count and old_keys[pos] == keys[k]:
+            normal[k] = old_normal[pos]
+            for c in range(3):
+                tangent[k, c] = old_tangent[pos, c]
+
+
+@kernel
+def _store_warm(w, keys, normal, tangent, old_keys, old_normal, old_tangent):
+    """This step's impulses for the next one's warm start, sorted by key, with the kept
+    impulses of contacts between sleepers (or a sleeper and the static world): they are not
+    found while asleep, and a pile that wakes resumes from its resting impulses, not from 0."""
+    nb = w.rows.shape[0]
+    nc = w.cbody.shape[0]
+    total = max(nc + w.plane_normals.shape[0], 1)
+    keep = np.zeros(old_keys.shape[0], dtype=np.bool_)
+    kept = 0
+    any_asleep = False
+    for k in range(nb):
+        any_asleep = any_asleep or w.asleep[k]
+    if any_asleep:
+        for k in range(old_keys.shape[0]):
+            pair = old_keys[k] >> FEATURE_BITS
+            a, b = pair // total, pair % total
+            body_a = w.cbody[a] if a < nc else nb
+            body_b = w.cbody[b] if b < nc else nb
+            if (w.asleep[body_a] or body_a == nb) and (w.asleep[body_b] or body_b == nb):
+                keep[k] = True
+                kept += 1
+    m = keys.shape[0]
+    all_keys = np.empty(m + kept, dtype=np.int64)
+    all_normal = np.empty(m + kept)
+    all_tangent = np.empty((m + kept, 3))
+    for k in range(m):
+        all_keys[k], all_normal[k] = keys[k], normal[k]
+        for c in range(3):
+            all_tangent[k, c] = tangent[k, c]
+    j = m
+    for k in range(old_keys.shape[0]):
+        if keep[k]:
+            all_keys[j], all_normal[j] = old_keys[k], old_normal[k]
+            for c in range(3):
+                all_tangent[j, c] = old_tangent[k, c]
+            j += 1
+    order = np.argsort(all_keys, kind='mergesort')
+    out_keys = np.empty(m + kept, dtype=np.int64)
+    out_normal = np.empty(m + kept)
+    out_tangent = np.empty((m + kept, 3))
+    for k in range(m + kept):
+        out_keys[k], out_normal[k] = all_keys[order[k]], all_normal[order[k]]
+        for c in range(3):
+            out_tangent[k, c] = all_tangent[order[k], c]
+    return out_keys, out_normal, out_tangent
+
+
+@kernel
+def _fall_asleep(w, nb, body_a, body_b, impulse, v1, w1, pairs):
+    """Count the steps each awake body has been slow (every point of its colliders under
+    sleep_speed) while pressed by a contact; bodies that have been so for sleep_time sleep, at
+    exact rest, together with every body near them (the broad phase's pairs, transitively),
+    and only if all of those are ready too: a body never sleeps next to an awake one."""
+    supported = np.zeros(nb + 1, dtype=np.bool_)
+    for k in range(body_a.shape[0]):
+        if impulse[k] > 0.0:
+            supported[body_a[k]] = True
+            supported[body_b[k]] = True
+    sleep_steps = int(w.config[C_SLEEP_STEPS])
+    any_ready = False
+    ready = np.zeros(nb, dtype=np.bool_)
+    for k in range(nb):
+        vx, vy, vz = float(v1[k, 0]), float(v1[k, 1]), float(v1[k, 2])
+        wx, wy, wz = float(w1[k, 0]), float(w1[k, 1]), float(w1[k, 2])
+        speed = math.sqrt(vx * vx + vy * vy + vz * vz) + math.sqrt(
+            wx * wx + wy * wy + wz * wz) * float(w.reach[k])
+        if supported[k] and speed < float(w.config[C_SLEEP_SPEED]) and not w.asleep[k]:
+            w.slow_steps[k] += 1
+        else:
+            w.slow_steps[k] = 0
+        ready[k] = w.slow_steps[k] >= sleep_steps
+        any_ready = any_ready or ready[k]
+    if not any_ready:
+        return
+    # Spread "not ready" along the pairs of moving bodies until nothing changes.
+    blocked = np.zeros(nb + 1, dtype=np.bool_)
+    for k in range(nb):
+        blocked[k] = not ready[k]
+    changed = True
+    while changed:
+        changed = False
+        for k in range(pairs.shape[0]):
+            a, b = w.cbody[pairs[k, 0]], w.cbody[pairs[k, 1]]
+            if a < nb and b < nb and blocked[a] != blocked[b]:
+                blocked[a] = blocked[b] = True
+                changed = True
+    for k in range(nb):
+        if ready[k] and not blocked[k]:
+            row = w.rows[k]
+            for c in range(3):
+                w.state[row, K.V + c] = 0.0
+                w.state[row, K.W + c] = 0.0
+            w.state[row, K.HISTORY] = K.HISTORY_NONE
+            K.evaluate(w.state, w.params, row)
+            w.asleep[k] = True
