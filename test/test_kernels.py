@@ -108,3 +108,10 @@ def test_the_cache_moves_to_the_user_directory_where_the_package_is_read_only(
     assert locator is not None and Path(locator.get_cache_path()) == tmp_path / 'user'
     # Functions outside the package are left to numba's own locators.
     assert jit._SourceHashLocator.from_function(np.add.__call__, __file__) is None
+
+
+def test_numba_cache_dir_moves_the_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path))
+    assert jit.cache_directories() == [tmp_path / 'rb_sim_ros']
+    monkeypatch.delenv('NUMBA_CACHE_DIR')
+    assert jit.cache_directories()[0] == jit.PACKAGE / '__pycache__' / 'numba'

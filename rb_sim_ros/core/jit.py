@@ -15,7 +15,7 @@ serving stale machine code. Our kernels are therefore cached by ``_SourceHashLoc
 stamp, a hash of every module of the layers that hold kernels (core and contact), so any edit
 there recompiles them all. The cache lives in the package's ``__pycache__/numba``; where that
 is read-only (an installed tree) in the user's cache directory
-(``$XDG_CACHE_HOME/rb_sim_ros/numba``).
+(``$XDG_CACHE_HOME/rb_sim_ros/numba``); ``NUMBA_CACHE_DIR`` overrides both.
 """
 
 from __future__ import annotations
@@ -68,7 +68,10 @@ def source_stamp() -> str:
 
 
 def cache_directories() -> list[Path]:
-    """Where the cache may live, in order of preference."""
+    """Where the cache may live, in order of preference: ``$NUMBA_CACHE_DIR/rb_sim_ros`` when
+    that is set (numba's own variable), else the package's, else the user's cache."""
+    if os.environ.get('NUMBA_CACHE_DIR'):
+        return [Path(os.environ['NUMBA_CACHE_DIR']) / 'rb_sim_ros']
     user = Path(os.environ.get('XDG_CACHE_HOME') or Path.home() / '.cache')
     return [PACKAGE / '__pycache__' / 'numba', user / 'rb_sim_ros' / 'numba']
 
