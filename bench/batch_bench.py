@@ -221,8 +221,11 @@ def time_batch(b: dict, seconds: float, repeats: int, wrench: bool = False,
     n = len(b['masses'])
     batch = _batch(b)
     if wrench:
+        # A torque small enough that no body spins past Stepper.MAX_TURN (1 rad a step, where
+        # the batch raises, as Stepper does) in the millions of steps the timing takes.
         rng = np.random.default_rng(4)
-        batch.set_wrench(None, rng.normal(size=(n, 3)), rng.normal(size=(n, 3)), 'world')
+        batch.set_wrench(None, rng.normal(size=(n, 3)), rng.normal(size=(n, 3)) * 1e-3,
+                         'world')
     batch.step(2)  # start-up
     if per_call is None:
         run = batch.step

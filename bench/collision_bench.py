@@ -26,11 +26,11 @@ rb_sim_ros's count of all its contacts, speculative ones included, is given besi
 First the checks, which stop the run (exit 1) if they fail: both engines keep every sphere
 inside the box and above the floor, the heaps agree (mean height of the centres within a
 radius of each other), and (but with --quick) both heaps settled. Then the table and the
-sanity checks of its figures (finite, positive, within orders of magnitude; contact counts
-within 5x of each other). Also where rb_sim_ros spends a step (integrate: the Steppers;
-broad: read the poses, AABBs, sweep and prune; narrow; solve: impulses and position
-correction; write: apply_contact of every touched body), and the same N spheres without
-colliders: what a world that skips the collision pass costs next to the bare Steppers.
+sanity checks of its figures (finite, positive, within orders of magnitude: ratios within
+1e-4..1000, MuJoCo's Newton solver being some 400 times slower than the rest here; contact
+counts within 5x of each other). Also the time of rb_sim_ros's step (one compiled call:
+integrate, broad, narrow, solve, write), and the same N spheres without colliders: what a
+world that skips the collision pass costs next to the bare Steppers.
 Writes docs/bench/collision_bench.json (or ``--json``; --quick: none unless asked).
 """
 
@@ -253,7 +253,7 @@ def sanity(ours: dict, theirs: dict) -> figures.Sanity:
     for name, r in theirs.items():
         s.within(f'MuJoCo {name}: s per step', r['seconds_per_step'], 1e-6, 10.0)
         s.within(f'rb_sim_ros / MuJoCo {name}',
-                 ours['seconds_per_step'] / r['seconds_per_step'], 0.01, 1000.0)
+                 ours['seconds_per_step'] / r['seconds_per_step'], 1e-4, 1000.0)
         s.within(f'contacts with a force, rb_sim_ros / MuJoCo {name}',
                  ours['forced_contacts'] / max(r['forced_contacts'], 1e-9), 0.2, 5.0)
     s.true(f'rb_sim_ros ran at most {ITERATIONS} velocity iterations',

@@ -521,3 +521,13 @@ def test_from_config_and_teleport_checks_before_integrating():
     world.set_state('ball', State((0.0, 0.0, 0.11), None, (0.0, 0.0, -100.0)))
     world.step(1)
     assert world.state('ball').position[2] >= 0.1 - world.settings.slop
+
+
+@pytest.mark.parametrize('name', ['velocity_iterations', 'position_iterations'])
+def test_iteration_counts_beyond_what_the_kernel_reads_are_refused(name):
+    """The solver kernel reads its settings as floats: a count past 2^31 - 1 is refused, not
+    turned into no iterations at all (10**19 once let a ball fall through the floor)."""
+    cs.SolverSettings(**{name: cs.MAX_COUNT})
+    for bad in (cs.MAX_COUNT + 1, 10 ** 19, 10 ** 400):
+        with pytest.raises(ValueError, match=name):
+            cs.SolverSettings(**{name: bad})

@@ -12,6 +12,7 @@ import pytest
 from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core.rigid_body import State, Wrench
+from rb_sim_ros.core.stepper import IntegrationError, step_all, Stepper
 from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, SetPose, SetWrench,
                                        Simulation)
 
@@ -256,3 +257,44 @@ def test_poisoned_solve_interpreted(monkeypatch):
     # b0 kept its state before the contact: integrated, with the speed gravity gave it.
     assert np.all(np.isfinite(w.state('b0').linear_velocity))
     assert w.state('b0').linear_velocity[2] < 0.0 == before.linear_velocity[2]
+
+
+def test_a_sleep_time_beyond_any_run_never_sleeps():
+    """A sleep time too long to ever run out (here 1e17 s) means no sleeping: not a count that
+    overflows into 'everything sleeps now' (a flying ball once froze in mid-air)."""
+    world = CollisionWorld([BodySpec('rest', 1.0, (0.004,) * 3, initial_position=(0.0, 0.0, 0.1),
+                                     colliders=(Sphere(0.1),)),
+                            BodySpec('fly', 1.0, (0.004,) * 3, initial_position=(5.0, 0.0, 3.0),
+                                     initial_linear_velocity=(1.0, 0.0, 0.0),
+                                     colliders=(Sphere(0.1),))],
+                           DT, G, planes=GROUND, sleep_time=1e17)
+    world.step(50)
+    assert world.sleeping == []
+    assert world.state('fly').linear_velocity[0] == 1.0 and world.state('fly').position[2] < 3.0
+
+
+def test_contacts_and_totals_survive_a_failed_step():
+    """A body that cannot be integrated stops the step; the contacts of the step before stay
+    readable, and totals count from wherever the user reset them."""
+    world = CollisionWorld([BodySpec('ball', 1.0, (0.004,) * 3, initial_position=(0.0, 0.0, 0.1),
+                                     colliders=(Sphere(0.1),)),
+                            BodySpec('top', 1.0, (0.1, 0.2, 0.3))],  # no colliders
+                           DT, G, planes=GROUND, sleep_time=0.0)
+    world.step(5)
+    before = world.last_contacts()
+    assert len(before) == 1 and before[0].a == 'ball'
+    world.totals = type(world.totals)()
+    world.step(3)
+    assert world.totals.contacts == 3 and world.last_stats.contacts == 1
+    world.steppers['top'].set_wrench(Wrench(torque=(0.0, 0.0, 1e9)))
+    with pytest.raises(IntegrationError, match="'top'"):
+        world.step(1)
+    assert [(c.a, c.b) for c in world.last_contacts()] == [(c.a, c.b) for c in before]
+
+
+def test_step_all_refuses_a_stepper_listed_twice():
+    from rb_sim_ros.core.rigid_body import RigidBody
+    s = Stepper(RigidBody(1.0, [1.0, 2.0, 3.0]), DT, State(angular_velocity=(0.0, 0.0, 1.0)))
+    with pytest.raises(ValueError, match='twice'):
+        step_all([s, s], 1)
+    assert s.step_count == 0

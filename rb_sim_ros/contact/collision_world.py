@@ -169,7 +169,11 @@ class CollisionWorld:
         self.speculative, self.warm_start = speculative, warm_start
         sleep_time = non_negative('sleep_time', sleep_time)
         # Steps a supported body must stay slow before it sleeps (0: never).
-        self._sleep_steps = math.ceil(sleep_time / self.settings.dt - 1e-9) if sleep_time else 0
+        # (at most 2^52: the kernel reads it back from a float; that is 1.4 million years at
+        # dt = 10 us, never)
+        steps = sleep_time / self.settings.dt - 1e-9
+        self._sleep_steps = (min(math.ceil(steps), 2 ** 52) if steps < 2.0 ** 52 else 2 ** 52
+                             ) if sleep_time else 0
         self._sleep_speed = non_negative('sleep_speed', sleep_speed)
         planes = tuple(planes)
         for i, p in enumerate(planes):
@@ -328,6 +332,7 @@ class CollisionWorld:
             float(self.warm_start), MIN_TURN, GAIN_TOLERANCE, float(self._materials is not None))
         self._status = np.zeros(ws.STATUS_WIDTH, dtype=np.int64)
         self._stats = np.zeros(ws.STATS_WIDTH, dtype=np.int64)
+        self._counted = np.zeros(ws.P_ITER + 1, dtype=np.int64)
         self._flagged = np.zeros(nb, dtype=np.int64)
         self._energy = np.zeros(ws.ENERGY_WIDTH)
         self._wrench_seen = [s.wrench for s in self._moving_steppers]
@@ -395,7 +400,8 @@ class CollisionWorld:
                              self._warm_tangent)
         seconds = time.perf_counter() - t0
         self._warm_keys, self._warm_normal, self._warm_tangent = out[:3]
-        self._last = out[3:]
+        if status[ws.S_COLLIDED]:
+            self._last = out[3:]
         self._step_count = int(status[ws.S_STEP])
         self._unchecked = bool(status[ws.S_UNCHECKED])
         self._account(int(status[ws.S_STEPS_DONE]), seconds)
@@ -430,11 +436,19 @@ class CollisionWorld:
             int(s[ws.CANDIDATE_PAIRS]), int(s[ws.PLANE_PAIRS]), int(s[ws.CONTACTS]),
             int(s[ws.ACTIVE]), int(s[ws.TOUCHED]), int(s[ws.SLEEPING]), int(s[ws.COLOURS]),
             int(s[ws.V_ITER]), int(s[ws.P_ITER]), {'step': seconds / max(steps, 1)})
+        # The kernel counts since construction; the totals add what this call added (so a
+        # user who resets ``totals`` counts from there).
+        counts = s[8:8 + ws.P_ITER + 1].copy()
+        added = counts - self._counted
+        self._counted = counts
         t = self.totals
-        t.candidate_pairs, t.plane_pairs, t.contacts, t.active, t.touched = (
-            int(c) for c in s[8 + ws.CANDIDATE_PAIRS:8 + ws.TOUCHED + 1])
-        t.velocity_iterations = int(s[8 + ws.V_ITER])
-        t.position_iterations = int(s[8 + ws.P_ITER])
+        t.candidate_pairs += int(added[ws.CANDIDATE_PAIRS])
+        t.plane_pairs += int(added[ws.PLANE_PAIRS])
+        t.contacts += int(added[ws.CONTACTS])
+        t.active += int(added[ws.ACTIVE])
+        t.touched += int(added[ws.TOUCHED])
+        t.velocity_iterations += int(added[ws.V_ITER])
+        t.position_iterations += int(added[ws.P_ITER])
         t.seconds['step'] = t.seconds.get('step', 0.0) + seconds
 
     def _error(self) -> IntegrationError:

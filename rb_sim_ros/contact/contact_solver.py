@@ -66,6 +66,10 @@ from rb_sim_ros.contact import solver_kernels as kernels
 ENERGY_TOLERANCE = kernels.ENERGY_TOLERANCE
 
 
+# The largest iteration count (the kernel's settings are floats; 2^31 - 1 converts exactly).
+MAX_COUNT = 2 ** 31 - 1
+
+
 @dataclass(frozen=True)
 class SolverSettings:
     """restitution e in [0, 1]; friction mu >= 0; dt (s); iterations of each Gauss-Seidel
@@ -103,8 +107,10 @@ class SolverSettings:
         _number('torsional_friction', self.torsional_friction, 0.0, math.inf)
         for name in ('velocity_iterations', 'position_iterations', 'batch_threshold'):
             value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-                raise ValueError(f'{name} must be an int >= 0, got {value!r}')
+            # (at most 2^31 - 1: the kernel reads the counts back from floats)
+            if (not isinstance(value, int) or isinstance(value, bool) or value < 0
+                    or value > MAX_COUNT):
+                raise ValueError(f'{name} must be an int in [0, {MAX_COUNT}], got {value!r}')
 
 
 def _number(name, value, low, high, open_low=False):

@@ -48,7 +48,8 @@ CONFIG_WIDTH = 9
 
 # -- w.status (int64): what happened, set by world_steps ---------------------------------------
 S_STEP, S_UNCHECKED, S_KIND, S_ERROR_STEP, S_ROW, S_FLAGGED, S_STEPS_DONE = 0, 1, 2, 3, 4, 5, 6
-STATUS_WIDTH = 7
+S_COLLIDED = 7
+STATUS_WIDTH = 8
 OK, INTEGRATION, SOLVE_NON_FINITE, SOLVE_ENERGY, WRITE_NON_FINITE = 0, 1, 2, 3, 4
 # w.energy (11): [0:2] the kinetic energies (J) before and after a solve that gained, or [0:9]
 # the x, v, omega a failed write would have given; [9:11] the kinetic energy of the bodies in
@@ -85,22 +86,26 @@ World = namedtuple('World', [
 def world_steps(w, n, warm_keys, warm_normal, warm_tangent):
     """``n`` steps of the world (see the module doc). Returns the warm-start arrays and the
     last step's contacts: (warm_keys, warm_normal, warm_tangent, point, normal, depth,
-    normal_impulse, collider_a, collider_b)."""
+    normal_impulse, collider_a, collider_b); w.status[S_COLLIDED] says whether a contact pass
+    ran in this call (else the contacts returned are not the last step's)."""
     nb = w.rows.shape[0]
     point, normal = np.zeros((0, 3)), np.zeros((0, 3))
     depth, impulse = np.zeros(0), np.zeros(0)
     ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     w.status[S_KIND] = OK
     w.status[S_STEPS_DONE] = 0
+    w.status[S_COLLIDED] = 0
     for _ in range(n):
         if w.status[S_UNCHECKED]:
             # The first step (or the first after a teleport): contacts of the starting state
             # first, so that a speculative contact already holds for this step's integration.
+            # A pass that failed leaves it due: the next call checks again.
             (warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca,
              cbb) = _collide(w, bool(False), warm_keys, warm_normal, warm_tangent)
-            w.status[S_UNCHECKED] = 0
+            w.status[S_COLLIDED] = 1
             if w.status[S_KIND] != OK:
                 break
+            w.status[S_UNCHECKED] = 0
         row = _integrate(w, nb)
         w.status[S_STEP] += 1
         w.status[S_STEPS_DONE] += 1
@@ -110,6 +115,7 @@ def world_steps(w, n, warm_keys, warm_normal, warm_tangent):
             break
         (warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca,
          cbb) = _collide(w, bool(True), warm_keys, warm_normal, warm_tangent)
+        w.status[S_COLLIDED] = 1
         if w.status[S_KIND] != OK:
             break
     return warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca, cbb
@@ -200,14 +206,18 @@ def _collide(w, integrated, warm_keys, warm_normal, warm_tangent):
                 w.clock[w.rows[k]] = clock  # its clock stood still while asleep
         if integrated:
             # Asleep when (1) ran: take that step now, so that they meet the solve as an
-            # awake body would, with this step's gravity and wrench, and read again.
+            # awake body would, with this step's gravity and wrench, and read again. If one
+            # fails, the others still take it; the step stops there.
+            failed = -1
             for k in range(nb):
-                if woken[k] and _advance_row(w, w.rows[k]):
-                    w.status[S_KIND], w.status[S_ROW] = INTEGRATION, w.rows[k]
-                    w.status[S_ERROR_STEP] = w.clock[w.rows[k]]
-                    return (warm_keys, warm_normal, warm_tangent, np.zeros((0, 3)),
-                            np.zeros((0, 3)), np.zeros(0), np.zeros(0),
-                            np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+                if woken[k] and _advance_row(w, w.rows[k]) and failed < 0:
+                    failed = w.rows[k]
+            if failed >= 0:
+                w.status[S_KIND], w.status[S_ROW] = INTEGRATION, failed
+                w.status[S_ERROR_STEP] = w.clock[failed]
+                return (warm_keys, warm_normal, warm_tangent, np.zeros((0, 3)),
+                        np.zeros((0, 3)), np.zeros(0), np.zeros(0),
+                        np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
     # Planes: the awake moving colliders only.
     awake = np.empty(w.dyn.shape[0], dtype=np.int64)
     count = 0

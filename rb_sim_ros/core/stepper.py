@@ -55,7 +55,11 @@ def step_all(steppers, n: int) -> None:
     if n == 0:
         return
     stores: dict[int, tuple[BodyStore, list]] = {}
+    seen = set()
     for s in steppers:
+        if id(s) in seen:  # its row twice would make a run of all rows miss one
+            raise ValueError('step_all: a stepper is listed twice')
+        seen.add(id(s))
         stores.setdefault(id(s._store), (s._store, []))[1].append(s)
     failed = {}
     for store, group in stores.values():
@@ -379,7 +383,7 @@ class Stepper(FixedStep):
         if status == K.STATUS_TURN:
             w1 = self._store.bad[self._row]
             what = (f'turns faster than {self.MAX_TURN:g} rad a step '
-                    f'(|omega| = {math.sqrt(float(w1 @ w1)):.6g} rad/s): beyond it '
+                    f'(|omega| = {math.hypot(*(float(c) for c in w1)):.6g} rad/s): beyond it '
                     "the explicit update of Euler's equations of a body with unequal "
                     'moments is unstable (reduce dt)')
         else:
