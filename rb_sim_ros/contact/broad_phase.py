@@ -20,10 +20,10 @@ import math
 
 import numpy as np
 
-from rb_sim_ros.core.jit import kernel
+from rb_sim_ros.core.jit import inline_kernel
 
 
-@kernel
+@inline_kernel
 def sweep_and_prune(lower, upper, group, static, axis):
     """Pairs (P, 2) of indices i < j whose boxes [lower, upper] (each (N, 3), m) overlap on all
     three axes (closed intervals: touching counts), but for pairs of one ``group`` (N,) (the
@@ -79,7 +79,7 @@ def sweep_and_prune(lower, upper, group, static, axis):
     return out
 
 
-@kernel
+@inline_kernel
 def plane_candidates(colliders, body, rotations, half, half_length, radius, centres,
                      plane_normals, plane_points, margin):
     """Pairs (P, 2) of (collider, plane), sorted, where collider ``colliders[k]`` comes within

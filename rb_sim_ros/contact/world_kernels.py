@@ -24,10 +24,10 @@ import math
 import numpy as np
 
 from rb_sim_ros.core import step_kernel as K
-from rb_sim_ros.core.jit import kernel
+from rb_sim_ros.core.jit import inline_kernel
 
 
-@kernel
+@inline_kernel
 def read_bodies(state, rows, q, has_q, x, rot, v, w):
     """x (m), R (9, row-major, body to world: the principal-frame r times Q^T where the body
     frame is not principal), v (m/s), omega (rad/s) of the bodies ``rows`` of ``state``, into
@@ -51,7 +51,7 @@ def read_bodies(state, rows, q, has_q, x, rot, v, w):
                 rot[k, c] = state[i, K.R + c]
 
 
-@kernel
+@inline_kernel
 def speculative_margins(v, w, reach, count, dt, g, speculative, margin):
     """margin[k] = (|v_k| + |omega_k| reach_k) dt + g dt^2 for k < count (m), 0 for the static
     slot(s) after them and for every body when not ``speculative``."""
@@ -67,7 +67,7 @@ def speculative_margins(v, w, reach, count, dt, g, speculative, margin):
         margin[k] = speed * dt + g * dt * dt
 
 
-@kernel
+@inline_kernel
 def place_colliders(colliders, body, x, rot, local_pos, local_rot, half, half_length, radius,
                     margin, centres, rotations, lower, upper):
     """World centre (m), rotation (9) and AABB [lower, upper] of each collider of
@@ -90,7 +90,7 @@ def place_colliders(colliders, body, x, rot, local_pos, local_rot, half, half_le
                 upper)
 
 
-@kernel
+@inline_kernel
 def extents(c, rotations, half, half_length, radius, widen, centres, lower, upper):
     """The AABB of collider c at its world pose, widened by ``widen`` (m)."""
     hx, hy, hz = float(half[c, 0]), float(half[c, 1]), float(half[c, 2])
@@ -104,7 +104,7 @@ def extents(c, rotations, half, half_length, radius, widen, centres, lower, uppe
         upper[c, a] = float(centres[c, a]) + e
 
 
-@kernel
+@inline_kernel
 def write_contacts(state, params, rows, q, has_q, bodies, x, rot, velocity, angular_velocity,
                    displacement, rotation, min_turn, failed):
     """The solver's result into the step kernel's rows of ``bodies`` (indices into x, rot,
@@ -155,7 +155,7 @@ def write_contacts(state, params, rows, q, has_q, bodies, x, rot, velocity, angu
         K.evaluate(state, params, i)
 
 
-@kernel
+@inline_kernel
 def rodrigues(px, py, pz, e):
     """exp([p]) = I + A [p] + B [p]^2 into e (9, row-major): the step kernel's half-angle form
     (A = sin t / t, B = (1 - cos t) / t^2 without cancellation)."""
@@ -171,7 +171,7 @@ def rodrigues(px, py, pz, e):
     e[6], e[7], e[8] = bxz - ca * py, byz + ca * px, 1.0 - cb * (xx2 + yy2)
 
 
-@kernel
+@inline_kernel
 def mul3(a, b):
     """A B of two 3x3 matrices as 9 row-major values (written out, no BLAS)."""
     out = np.empty(9)

@@ -36,7 +36,7 @@ import numpy as np
 from rb_sim_ros.contact import broad_phase as bp, narrow_kernels as nk, solver_kernels as sk
 from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.core import step_kernel as K
-from rb_sim_ros.core.jit import kernel
+from rb_sim_ros.core.jit import inline_kernel, kernel
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
 FEATURE_BITS = 12
@@ -95,33 +95,30 @@ def world_steps(w, n, warm_keys, warm_normal, warm_tangent):
     w.status[S_KIND] = OK
     w.status[S_STEPS_DONE] = 0
     w.status[S_COLLIDED] = 0
-    for _ in range(n):
-        if w.status[S_UNCHECKED]:
-            # The first step (or the first after a teleport): contacts of the starting state
-            # first, so that a speculative contact already holds for this step's integration.
-            # A pass that failed leaves it due: the next call checks again.
-            (warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca,
-             cbb) = _collide(w, bool(False), warm_keys, warm_normal, warm_tangent)
-            w.status[S_COLLIDED] = 1
-            if w.status[S_KIND] != OK:
+    while w.status[S_STEPS_DONE] < n:
+        # The first step (or the first after a teleport) collides before it integrates: the
+        # contacts of the starting state, so that a speculative contact already holds for
+        # this step's integration. A pass that fails leaves it due: the next call checks
+        # again. (One call site of each stage: they are compiled inline.)
+        integrated = w.status[S_UNCHECKED] == 0
+        if integrated:
+            row = _integrate(w, nb)
+            w.status[S_STEP] += 1
+            w.status[S_STEPS_DONE] += 1
+            if row >= 0:
+                w.status[S_KIND], w.status[S_ROW] = INTEGRATION, row
+                w.status[S_ERROR_STEP] = w.status[S_STEP] - 1
                 break
-            w.status[S_UNCHECKED] = 0
-        row = _integrate(w, nb)
-        w.status[S_STEP] += 1
-        w.status[S_STEPS_DONE] += 1
-        if row >= 0:
-            w.status[S_KIND], w.status[S_ROW] = INTEGRATION, row
-            w.status[S_ERROR_STEP] = w.status[S_STEP] - 1
-            break
         (warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca,
-         cbb) = _collide(w, bool(True), warm_keys, warm_normal, warm_tangent)
+         cbb) = _collide(w, integrated, warm_keys, warm_normal, warm_tangent)
         w.status[S_COLLIDED] = 1
         if w.status[S_KIND] != OK:
             break
+        w.status[S_UNCHECKED] = 0
     return warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca, cbb
 
 
-@kernel
+@inline_kernel
 def _advance_row(w, row):
     """One step of store row ``row``; True if it failed (then it stays at its state before;
     the reason in w.kstatus)."""
@@ -138,7 +135,7 @@ def _advance_row(w, row):
     return failed
 
 
-@kernel
+@inline_kernel
 def _integrate(w, nb):
     """Every awake body one step, in row order; the first row that failed, or -1 (the others
     still take their step)."""
@@ -159,7 +156,7 @@ def _integrate(w, nb):
     return first
 
 
-@kernel
+@inline_kernel
 def _read(w, nb):
     """x, R, v, omega and margins of the bodies; colliders placed (step 2's start)."""
     wk.read_bodies(w.state, w.rows, w.q, w.has_q, w.x, w.rot, w.v, w.w)
@@ -170,7 +167,7 @@ def _read(w, nb):
                        w.upper)
 
 
-@kernel
+@inline_kernel
 def _collide(w, integrated, warm_keys, warm_normal, warm_tangent):
     """Steps 2-5 on the bodies' current states; ``integrated``: the awake bodies have taken
     this step's integration."""
@@ -340,7 +337,7 @@ def _collide(w, integrated, warm_keys, warm_normal, warm_tangent):
     return (warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca, cbb)
 
 
-@kernel
+@inline_kernel
 def _finish_stats(w, nb):
     """The totals, and the sleepers counted."""
     sleeping = 0
@@ -352,7 +349,7 @@ def _finish_stats(w, nb):
         w.stats[8 + k] += w.stats[k]
 
 
-@kernel
+@inline_kernel
 def _inverse_inertia_world(w, k, out):
     """R I_body^-1 R^T of body k (row-major into out[k]), from its principal frame r (the
     state row) and inverse principal moments: r diag(j) r^T."""
@@ -370,7 +367,7 @@ def _inverse_inertia_world(w, k, out):
                                  + ra2 * jz * float(w.state[row, K.R + 3 * b + 2]))
 
 
-@kernel
+@inline_kernel
 def _energy(w, k, vel, ang):
     """Kinetic energy (J) of body k at (vel, ang): 1/2 m v.v + 1/2 w . I w, I = r diag(I_p) r^T
     (principal moments from the params row)."""
@@ -386,7 +383,7 @@ def _energy(w, k, vel, ang):
     return 0.5 * total
 
 
-@kernel
+@inline_kernel
 def _check_solve(w, nb, body_a, body_b, inv_inertia, v1, w1, disp, turn, step):
     """The bodies not to write (True): those the solve gave a non-finite value, or, if it gave
     the bodies more kinetic energy than they had (the last guard, docs/collisions.md "Energy"),
@@ -453,7 +450,7 @@ def _match(keys, old_keys, old_normal, old_tangent, normal, tangent):
                 tangent[k, c] = old_tangent[pos, c]
 
 
-@kernel
+@inline_kernel
 def _store_warm(w, keys, normal, tangent, old_keys, old_normal, old_tangent):
     """This step's impulses for the next one's warm start, sorted by key, with the kept
     impulses of contacts between sleepers (or a sleeper and the static world): they are not
@@ -501,7 +498,7 @@ def _store_warm(w, keys, normal, tangent, old_keys, old_normal, old_tangent):
     return out_keys, out_normal, out_tangent
 
 
-@kernel
+@inline_kernel
 def _fall_asleep(w, nb, body_a, body_b, impulse, v1, w1, pairs):
     """Count the steps each awake body has been slow (every point of its colliders under
     sleep_speed) while pressed by a contact; bodies that have been so for sleep_time sleep, at

@@ -40,6 +40,13 @@ def kernel(function):
     return numba.njit(**_OPTIONS)(function)
 
 
+def inline_kernel(function):
+    """Compile ``function`` into each kernel that calls it (numba's inline='always'): for the
+    stages of a step that take the world's arrays as one named tuple, which a call would
+    otherwise pass member by member, with a reference count for each."""
+    return numba.njit(inline='always', **_OPTIONS)(function)
+
+
 def parallel_kernel(function):
     """Compile ``function`` with ``numba.prange`` loops run on every core: only for loops over
     independent bodies, never across a sweep whose order matters."""
