@@ -99,6 +99,11 @@ def _ms(seconds: float, digits: int = 1) -> str:
     return f'{seconds * 1e3:.{digits}f}'
 
 
+def _ms_auto(seconds: float) -> str:
+    """ms with 1 decimal from 5 ms up, 3 below (0.425, not 0.4)."""
+    return _ms(seconds, 1 if seconds >= 5e-3 else 3)
+
+
 def _row(rows, **match):
     return next(r for r in rows if all(r.get(k) == v for k, v in match.items()))
 
@@ -115,9 +120,9 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     full = 'full inertia, body-frame wrench'
     one, ten, amort = (cost[('rb_sim_ros eq27', full, c)]
                        for c in ('step(1)', 'step(10)', 'amortised'))
-    step_text = f'{one:.1f} / {ten:.1f} / {amort:.1f} us'
+    step_text = f'{one:.2f} / {ten:.2f} / {amort:.2f} us'
     q.append((readme, 'cost of one step', step_text))
-    q.append((readme, '**Fast**', f'{one:.1f} us'))
+    q.append((readme, '**Fast**', f'{amort * 1e3:.0f} ns'))
 
     skip = load('skip_bench', folder)
     general = _row(skip['rows'], key='general')
@@ -149,6 +154,9 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((coll, sleeping, f'then {min(scene[-3:]):.1f} to {max(scene[-3:]):.1f} in the last '
               'three seconds'))
     q.append((coll, '#Benchmark: 1000 spheres', f'{scene[0]:.2f} sim seconds per wall'))
+    off = node['scene_sleeping_off']['sim_over_wall']
+    q.append((readme, 'collision demo through the node', f'{min(off):.0f}x / {scene[0]:.0f}x'))
+    q.append((coll, '#Sleeping', f'{min(off):.0f} to {max(off):.0f} with sleeping off'))
 
     col = load('collision_bench', folder)
     ours, mj = col['rb_sim_ros'], col['mujoco']
@@ -163,6 +171,7 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((readme, '#Collisions', f'{_ms(ours["seconds_per_step"])} ms a step'))
     q.append((readme, '#Collisions', f'{ratio_like:.1f}x MuJoCo'))
     q.append((readme, '#Collisions', f'{ratio_cg:.1f}x its CG'))
+    q.append((readme, '**Fast**', f'{ratio_cg:.1f}x its'))
     q.append((readme, '#Collisions', f'takes {1 / ratio_default:.0f} times as long as ours'))
     bench = '#Benchmark: 1000 spheres'
     for anchor, r, cap in [('| rb_sim_ros CollisionWorld', ours, 10)] + [
@@ -173,7 +182,7 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((coll, '| rb_sim_ros CollisionWorld', f'PGS; {ours["contacts"]:.0f} contacts'))
     q.append((coll, bench, f'{ratio_like:.1f}x the time of MuJoCo'))
     q.append((coll, bench, f'{ratio_cg:.1f}x that of its CG'))
-    q.append((coll, bench, f'{ratio_default:.2f}x that of its default'))
+    q.append((coll, bench, f'{1 / ratio_default:.0f} times as long as ours'))
     total = sum(ours['phases'].values())
     for phase, sec in ours['phases'].items():
         q.append((coll, f'| {phase} ', f'| {_ms(sec)} | {sec / total:.0%} |'))
@@ -187,7 +196,7 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     awake, asleep, mj_awake, mj_asleep = (rest[k] for k in ('awake', 'asleep', 'mujoco',
                                                             'mujoco_sleeping'))
     q.append((readme, '200 boxes at rest',
-              f'{_ms(awake["seconds_per_step"])} / {_ms(asleep["seconds_per_step"], 3)} '
+              f'{_ms_auto(awake["seconds_per_step"])} / {_ms(asleep["seconds_per_step"], 3)} '
               f'({_ms(mj_awake["seconds_per_step"], 3)} / '
               f'{_ms(mj_asleep["seconds_per_step"], 3)})'))
     for anchor, r in (('| rb_sim_ros, sleeping off |', awake),
@@ -195,7 +204,7 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
                       ('| MuJoCo mj_step (Newton, sleeping off) |', mj_awake),
                       ('| MuJoCo mj_step (Newton, sleeping) |', mj_asleep)):
         digits = 1 if r['seconds_per_step'] > 5e-3 else 3
-        drop = (f'{_ms(r["drop_seconds_per_step"], 1)} |' if 'drop_seconds_per_step' in r
+        drop = (f'{_ms_auto(r["drop_seconds_per_step"])} |' if 'drop_seconds_per_step' in r
                 else '- |')
         q.append((coll, anchor, f'| {_ms(r["seconds_per_step"], digits)} | {r["contacts"]} | '
                   f'{r["drift"] * 1e3:.2f} | {drop}'))
@@ -208,11 +217,11 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((coll, '#Sleeping', f'wakes {asleep["awake_after_drop"]} of '
               f'{2 * rest["side"] ** 2 + 1} bodies'))
     demo = rest['demo_scene']
-    q.append((coll, '#Sleeping', f'costs {_ms(demo["moving_seconds_per_step"])} ms per step in '
-              'its first'))
+    q.append((coll, '#Sleeping', f'costs {_ms_auto(demo["moving_seconds_per_step"])} ms per step '
+              'in its first'))
     q.append((coll, '#Sleeping', f'{_ms(demo["asleep_seconds_per_step"], 3)} ms from 4 to 5 s'))
-    q.append((coll, bench, f'costs {_ms(demo["moving_seconds_per_step"])} ms per step'))
-    q.append((readme, '#Collisions', f'from {_ms(demo["moving_seconds_per_step"])} ms'))
+    q.append((coll, bench, f'costs {_ms_auto(demo["moving_seconds_per_step"])} ms per step'))
+    q.append((readme, '#Collisions', f'from {_ms_auto(demo["moving_seconds_per_step"])} ms'))
     q.append((readme, '#Collisions', f'to {_ms(demo["asleep_seconds_per_step"], 3)} ms'))
 
     cases = load('collision_cases', folder)
@@ -244,6 +253,18 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
               f'{big_start["peak_memory_mb"]:.0f} MB'))
     q.append((readme, '#What bad input gets', f'{life["stop_clean"]} of {life["stop_runs"]} '
               f'runs at `real_time_factor:=0` within {max(life["stop_exit_s"]):.2f} s'))
+    first = life['first_start_s']
+    q.append((readme, 'first node start', f'{first["cold"]:.0f} s / {first["warm"]:.1f} s'))
+    q.append((readme, '#The engine', f'{first["cold"]:.0f} s'))
+
+    contact = load('contact_step_bench', folder)['seconds_per_step']
+    names = ('sliding box', 'bouncing ball', 'rolling ball', 'tipping cube')
+    ours = ' / '.join(f'{contact[n]["rb_sim_ros step(10)"] * 1e6:.1f}' for n in names)
+    theirs = ' / '.join(f'{contact[n]["MuJoCo Newton"] * 1e6:.1f}' for n in names)
+    q.append((readme, 'one body in contact', f'{ours} us ({theirs} us)'))
+    ratios = [contact[n]['rb_sim_ros step(10)'] / contact[n]['MuJoCo Newton'] for n in names]
+    q.append((readme, '#Collisions', f'{min(ratios):.1f}x to {max(ratios):.1f}x'))
+    q.append((readme, '**Fast**', f'costs {ratios[0]:.1f}x'))
 
     q.append((readme, '#Many bodies', f'{big["batch_free_ns"]:.0f} ns per body-step'))
     q.append((readme, '#Many bodies', f'{big["batch_free_one_step_per_call_ns"]:.0f} ns'))

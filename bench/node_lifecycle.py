@@ -54,7 +54,9 @@ def _vm_hwm_mb(pid: int) -> float:
 def startup(n: int, tmp: Path, scene: Path | None = None,
             cache: Path | None = None) -> tuple[float, float]:
     """Seconds to the first poses and peak memory (MB) of a node on ``n`` free bodies, or on
-    ``scene`` (n: its body count); ``cache``: the kernels' compilation cache to use."""
+    ``scene`` (n: its body count); ``cache``: the kernels' compilation cache to use, and then
+    the poses waited for are the first of a step taken (sim time > 0: the node publishes the
+    starting poses before its first step, which compiles what it needs)."""
     if scene is None:
         scene = tmp / f'bodies_{n}.yaml'
         scene.write_text('bodies:\n' + ''.join(
@@ -72,7 +74,10 @@ def startup(n: int, tmp: Path, scene: Path | None = None,
                              '-p', f'scene_file:={scene}'], env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
-        if not probe.spin_until(lambda: got or proc.poll() is not None, 600.0) or not got:
+        def stepped(m):
+            return cache is None or m.header.stamp.sec > 0 or m.header.stamp.nanosec > 0
+        if not probe.spin_until(lambda: any(stepped(m) for m in got) or proc.poll() is not None,
+                                600.0) or not got:
             raise RuntimeError(f'{n} bodies: no poses ({proc.poll()})')
         seconds = time.monotonic() - t0
         memory = _vm_hwm_mb(proc.pid)

@@ -13,7 +13,9 @@ node's per-second sim/wall ratios) at dt = 1 ms and 100 Hz output, for a moving 
 non-diagonal inertia tensor, spinning at (1, 2, 3) rad/s and moving at 1 m/s: the whole step
 runs), with no subscriber and with one that takes every pose, and for the default body at
 rest (which the stepper does not integrate at all: for scale only). Last, second by second,
-a scene (``--scene``, default the collision demo, whose bodies settle and sleep).
+a scene (``--scene``, default the collision demo, whose bodies settle and sleep), and the same
+scene with sleeping off (every body integrated and every contact solved at every step: the
+cost while things move).
 
 Checks: the last pose the subscriber received of the moving body agrees (1e-9) with a
 ``Stepper`` stepped offline to its stamp; every figure is finite and plausible (fractions in
@@ -32,6 +34,7 @@ import random
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -40,6 +43,7 @@ from geometry_msgs.msg import PoseStamped, Wrench, WrenchStamped
 import numpy as np
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
+import yaml
 
 from rb_sim_ros import RigidBody, State, Stepper
 from rb_sim_ros.ros.simulator_node import APPLIED_QOS
@@ -269,7 +273,19 @@ def main() -> int:
                  for r in ((1000.0,) if opts.quick else (100.0, 1000.0))]
         fastest = [measure_fastest(env, probe, 100.0, seconds, listen, body)
                    for body, listen in cases]
-        scene = None if opts.quick else measure_scene(env, probe, opts.scene, seconds)
+        scene = awake = None
+        if not opts.quick:
+            scene = measure_scene(env, probe, opts.scene, seconds)
+            # The same scene with sleeping off: every body integrated and every contact solved
+            # at every step, the cost while things move.
+            with tempfile.TemporaryDirectory() as d:
+                text = Path(opts.scene).read_text()
+                data = yaml.safe_load(text)
+                data.setdefault('contact', {})['sleep_time'] = 0.0
+                no_sleep = Path(d) / Path(opts.scene).name
+                no_sleep.write_text(yaml.safe_dump(data))
+                awake = measure_scene(env, probe, str(no_sleep), seconds)
+                awake['scene'] = scene['scene'] + ' (contact: sleep_time 0)'
     finally:
         probe.close()
     print(f'{"publish":>8} {"late ticks":>11} {"lateness p50":>13} {"p99":>8} {"CPU/core":>9} '
@@ -291,13 +307,16 @@ def main() -> int:
               'each wall second: ' + ', '.join(f'{r:.2f}' for r in scene['sim_over_wall'])
               + ' (bodies asleep: ' + ', '.join(str(n) for n in scene['sleeping_bodies'])
               + ')')
+        print('the same, sleeping off: ' + ', '.join(f'{r:.2f}' for r in awake['sim_over_wall']))
         scene['scene'] = str(Path(scene['scene']).resolve().relative_to(figures.ROOT)) \
             if Path(scene['scene']).resolve().is_relative_to(figures.ROOT) else scene['scene']
+        awake['scene'] = scene['scene'] + ' (contact: sleep_time 0)'
     sane = sanity(rates, fastest, scene)
     path = opts.json or (None if opts.quick else figures.DOCS_BENCH / 'node_timing.json')
     if path:
         figures.write(path, {'quick': opts.quick, 'seconds': seconds, 'samples': samples,
-                             'rates': rates, 'fastest': fastest, 'scene': scene})
+                             'rates': rates, 'fastest': fastest, 'scene': scene,
+                             'scene_sleeping_off': awake})
     return sane.report()
 
 

@@ -60,7 +60,7 @@ def cost(s: dict) -> list[str]:
             f'`stepper.step({s["step_cost_steps"]})`, minimum of {s["repeats"]} runs, divided by '
             'the steps (dt = 1 ms). Each case was first checked against DOP853 after 1 s. '
             'MuJoCo: `mj_step(model, data, nstep)` on one free body, for scale (C against '
-            'pure Python).', '', step_cost.table(rows), '',
+            'Python compiled by numba).', '', step_cost.table(rows), '',
             f'Issue 2’s goal, <= {step_cost.GOAL_US:g} us per step: '
             f'**{"met" if met else "not met"}** ({min(ours):.2f}-{max(ours):.2f} us).', '']
 
@@ -285,8 +285,8 @@ def findings(s: dict) -> list[str]:
     out = ['## Findings', '']
     ours = [r['us_per_step'] for r in s['step_cost'] if r['method'].startswith('rb_sim_ros')]
     out.append(f'- One step of rb_sim_ros costs {min(ours):.2f}-{max(ours):.2f} us amortised '
-               f'over step({s["step_cost_steps"]}) (goal <= {step_cost.GOAL_US:g} us), pure '
-               'Python; a call per step costs more (step(1) and step(10), as the node steps: '
+               f'over step({s["step_cost_steps"]}) (goal <= {step_cost.GOAL_US:g} us), compiled '
+               '(numba); a call per step costs more (step(1) and step(10), as the node steps: '
                '`python bench/step_cost.py`, docs/bench/step_cost.json). MuJoCo’s mj_step on '
                'one free body, for scale, is in the table below.')
     # At dt = 1 ms: eq27 against MuJoCo's first-order integrators.
