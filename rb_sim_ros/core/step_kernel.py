@@ -157,12 +157,8 @@ def rotation_step(dt, rn, rp, rc, tiny, r00, r01, r02, r10, r11, r12, r20, r21, 
     e00, e01, e02 = 1.0 - cb * (yy2 + zz2), bxy - az_, bxz + ay_
     e10, e11, e12 = bxy + az_, 1.0 - cb * (xx2 + zz2), byz - ax_
     e20, e21, e22 = bxz - ay_, byz + ax_, 1.0 - cb * (xx2 + yy2)
-    return (e00 * r00 + e01 * r10 + e02 * r20, e00 * r01 + e01 * r11 + e02 * r21,
-            e00 * r02 + e01 * r12 + e02 * r22,
-            e10 * r00 + e11 * r10 + e12 * r20, e10 * r01 + e11 * r11 + e12 * r21,
-            e10 * r02 + e11 * r12 + e12 * r22,
-            e20 * r00 + e21 * r10 + e22 * r20, e20 * r01 + e21 * r11 + e22 * r21,
-            e20 * r02 + e21 * r12 + e22 * r22)
+    return mul33(e00, e01, e02, e10, e11, e12, e20, e21, e22,
+                 r00, r01, r02, r10, r11, r12, r20, r21, r22)
 
 
 @kernel
@@ -177,12 +173,21 @@ def orthonormalize(r00, r01, r02, r10, r11, r12, r20, r21, r22):
     s12 = r01 * r02 + r11 * r12 + r21 * r22
     m00, m11, m22 = 0.5 * (3.0 - s00), 0.5 * (3.0 - s11), 0.5 * (3.0 - s22)
     m01, m02, m12 = -0.5 * s01, -0.5 * s02, -0.5 * s12
-    return (r00 * m00 + r01 * m01 + r02 * m02, r00 * m01 + r01 * m11 + r02 * m12,
-            r00 * m02 + r01 * m12 + r02 * m22,
-            r10 * m00 + r11 * m01 + r12 * m02, r10 * m01 + r11 * m11 + r12 * m12,
-            r10 * m02 + r11 * m12 + r12 * m22,
-            r20 * m00 + r21 * m01 + r22 * m02, r20 * m01 + r21 * m11 + r22 * m12,
-            r20 * m02 + r21 * m12 + r22 * m22)
+    return mul33(r00, r01, r02, r10, r11, r12, r20, r21, r22,
+                 m00, m01, m02, m01, m11, m12, m02, m12, m22)
+
+
+@kernel
+def mul33(a00, a01, a02, a10, a11, a12, a20, a21, a22,
+          b00, b01, b02, b10, b11, b12, b20, b21, b22):
+    """A B of two 3x3 matrices given as 9 row-major floats each, written out (no BLAS):
+    (A B)_ij = a_i0 b_0j + a_i1 b_1j + a_i2 b_2j, summed left to right."""
+    return (a00 * b00 + a01 * b10 + a02 * b20, a00 * b01 + a01 * b11 + a02 * b21,
+            a00 * b02 + a01 * b12 + a02 * b22,
+            a10 * b00 + a11 * b10 + a12 * b20, a10 * b01 + a11 * b11 + a12 * b21,
+            a10 * b02 + a11 * b12 + a12 * b22,
+            a20 * b00 + a21 * b10 + a22 * b20, a20 * b01 + a21 * b11 + a22 * b21,
+            a20 * b02 + a21 * b12 + a22 * b22)
 
 
 @kernel
