@@ -415,6 +415,17 @@ class CollisionWorld:
         (docs/collisions.md, "Energy")."""
         return float(self._energy[ws.SOLVE_BEFORE]), float(self._energy[ws.SOLVE_AFTER])
 
+    def warm_up(self) -> None:
+        """Compile (or load from the cache) every kernel a step of this world runs, without
+        taking a step: ``world_steps`` for 0 steps, and the bodies' own step kernel."""
+        for s in self._all_steppers[:1]:
+            s._store.warm_up()
+        if self.enabled:
+            status = self._status
+            status[ws.S_STEP], status[ws.S_UNCHECKED] = self._step_count, int(self._unchecked)
+            ws.world_steps(self._world(), 0, self._warm_keys, self._warm_normal,
+                           self._warm_tangent)
+
     def _world(self) -> ws.World:
         """The world's arrays for the step kernel (the store's, as they are now)."""
         st = self._store

@@ -82,6 +82,7 @@ class SimulatorNode(Node):
         self._scene = load_scene(values['scene_file']) if values['scene_file'] else None
         self.config = _config(values, self._scene)
         self.sim = Simulation(self.config)
+        self.sim.warm_up()  # compiles on a clean install: before the clock, not in a period
         self._v = values
         self._pending: collections.deque = collections.deque()
         self._lock = threading.Lock()  # the step loop against service and parameter callbacks
