@@ -33,15 +33,16 @@ def sweep_and_prune(lower, upper, group, static, axis):
     count = lower.shape[0]
     if count < 2:
         return np.zeros((0, 2), dtype=np.int64)
-    best = -1.0 if axis < 0 else math.inf
-    for a in range(3):
-        lo_min, lo_max = math.inf, -math.inf
-        for i in range(count):
-            value = float(lower[i, a])
-            lo_min = min(lo_min, value)
-            lo_max = max(lo_max, value)
-        if lo_max - lo_min > best:
-            axis, best = a, lo_max - lo_min
+    if axis < 0:
+        axis, best = 0, -1.0
+        for a in range(3):
+            lo_min, lo_max = math.inf, -math.inf
+            for i in range(count):
+                value = float(lower[i, a])
+                lo_min = min(lo_min, value)
+                lo_max = max(lo_max, value)
+            if lo_max - lo_min > best:
+                axis, best = a, lo_max - lo_min
     keys = np.empty(count)
     for i in range(count):
         keys[i] = lower[i, axis]

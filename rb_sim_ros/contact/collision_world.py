@@ -317,8 +317,9 @@ class CollisionWorld:
         self._centres = self._all_centres[:nc]
         self._rotations9 = self._all_rotations[:nc]
         self._rotations = self._rotations9.reshape(-1, 3, 3)
-        self._free_rows = np.array([s._row for s in self._all_steppers
-                                    if s._row not in set(self._rows.tolist())], dtype=np.int64)
+        self._step_rows = np.array(sorted(s._row for s in self._all_steppers), dtype=np.int64)
+        self._body_of_row = np.full(len(self._store), -1, dtype=np.int64)
+        self._body_of_row[self._rows] = np.arange(nb)
         st = self.settings
         self._settings_array = contact_solver.settings_array(st)
         materials = self._materials or (np.full(nc + npl, st.restitution),
@@ -394,10 +395,8 @@ class CollisionWorld:
                 self._slow_steps[changed] = 0
                 self._wake(changed, self._step_count)
         status = self._status
-        status[ws.S_STEP], status[ws.S_UNCHECKED] = self._step_count, int(self._unchecked)
         t0 = time.perf_counter()
-        out = ws.world_steps(self._world(), n, self._warm_keys, self._warm_normal,
-                             self._warm_tangent)
+        out = self._call(n)
         seconds = time.perf_counter() - t0
         self._warm_keys, self._warm_normal, self._warm_tangent = out[:3]
         if status[ws.S_COLLIDED]:
@@ -421,10 +420,14 @@ class CollisionWorld:
         for s in self._all_steppers[:1]:
             s._store.warm_up()
         if self.enabled:
-            status = self._status
-            status[ws.S_STEP], status[ws.S_UNCHECKED] = self._step_count, int(self._unchecked)
-            ws.world_steps(self._world(), 0, self._warm_keys, self._warm_normal,
-                           self._warm_tangent)
+            self._call(0)
+
+    def _call(self, n: int):
+        """``world_steps`` for n steps from the world's clock and arrays as they are now."""
+        self._status[ws.S_STEP] = self._step_count
+        self._status[ws.S_UNCHECKED] = int(self._unchecked)
+        return ws.world_steps(self._world(), n, self._warm_keys, self._warm_normal,
+                              self._warm_tangent)
 
     def _world(self) -> ws.World:
         """The world's arrays for the step kernel (the store's, as they are now)."""
@@ -432,13 +435,13 @@ class CollisionWorld:
         return ws.World(
             st.state, st.spare, st.params, st.coefficients, st.work, st.status, st.taken,
             st.bad, st.clock, self._rows, self._q, self._has_q, self._reach,
-            self._inverse_mass, self._free_rows, self._kinds, self._geoms, self._all_centres,
-            self._all_rotations, self._restitution, self._friction, self._cbody, self._cowner,
-            self._cstatic, self._cdyn, self._local_pos, self._local_rot9, self._half,
-            self._half_length, self._radius, self._lower, self._upper, self._plane_normals,
-            self._plane_points, self._x, self._rot, self._v, self._w, self._margin,
-            self._asleep, self._slow_steps, self._settings_array, self._config, self._status,
-            self._stats, self._flagged, self._energy)
+            self._inverse_mass, self._step_rows, self._body_of_row, self._kinds, self._geoms,
+            self._all_centres, self._all_rotations, self._restitution, self._friction,
+            self._cbody, self._cowner, self._cstatic, self._cdyn, self._local_pos,
+            self._local_rot9, self._half, self._half_length, self._radius, self._lower,
+            self._upper, self._plane_normals, self._plane_points, self._x, self._rot, self._v,
+            self._w, self._margin, self._asleep, self._slow_steps, self._settings_array,
+            self._config, self._status, self._stats, self._flagged, self._energy)
 
     def _account(self, steps: int, seconds: float) -> None:
         """last_stats from the kernel's statistics of the last step; totals summed."""

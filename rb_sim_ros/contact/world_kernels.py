@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from rb_sim_ros.core import step_kernel as K
+from rb_sim_ros.core import so3, step_kernel as K
 from rb_sim_ros.core.jit import inline_kernel
 
 
@@ -114,16 +114,15 @@ def write_contacts(state, params, rows, q, has_q, bodies, x, rot, velocity, angu
     1/2 w . I w); v and omega of the velocity pass. The history restarts (no extrapolation
     across an impulse), the accelerations are evaluated at the new state. A body whose new
     state would not be finite is not written: failed[m] says so."""
-    r = np.empty(9)
-    e = np.empty(9)
     new = np.empty(18)
     for m in range(bodies.shape[0]):
         k = bodies[m]
         i = rows[k]
         failed[m] = False
         px, py, pz = float(rotation[k, 0]), float(rotation[k, 1]), float(rotation[k, 2])
-        for c in range(9):
-            r[c] = rot[k, c]
+        r = (float(rot[k, 0]), float(rot[k, 1]), float(rot[k, 2]), float(rot[k, 3]),
+             float(rot[k, 4]), float(rot[k, 5]), float(rot[k, 6]), float(rot[k, 7]),
+             float(rot[k, 8]))
         wx, wy, wz = (float(angular_velocity[k, 0]), float(angular_velocity[k, 1]),
                       float(angular_velocity[k, 2]))
         t2 = px * px + py * py + pz * pz
@@ -131,12 +130,14 @@ def write_contacts(state, params, rows, q, has_q, bodies, x, rot, velocity, angu
             failed[m] = True
             continue
         if t2 > min_turn * min_turn:
-            rodrigues(px, py, pz, e)
-            r = mul3(e, r)
+            e = K.exp_so3(px, py, pz, so3.TINY_ANGLE_SQ)
+            r = K.mul33(*e, *r)
             wx, wy, wz = (e[0] * wx + e[1] * wy + e[2] * wz, e[3] * wx + e[4] * wy + e[5] * wz,
                           e[6] * wx + e[7] * wy + e[8] * wz)
         if has_q[k]:  # to the principal frame: r Q
-            r = mul3(r, q[k])
+            r = K.mul33(*r, float(q[k, 0]), float(q[k, 1]), float(q[k, 2]), float(q[k, 3]),
+                        float(q[k, 4]), float(q[k, 5]), float(q[k, 6]), float(q[k, 7]),
+                        float(q[k, 8]))
         for c in range(3):
             new[c] = float(x[k, c]) + float(displacement[k, c])
             new[3 + c] = velocity[k, c]
@@ -153,30 +154,3 @@ def write_contacts(state, params, rows, q, has_q, bodies, x, rot, velocity, angu
             state[i, K.X + c] = new[c]
         state[i, K.HISTORY] = K.HISTORY_NONE
         K.evaluate(state, params, i)
-
-
-@inline_kernel
-def rodrigues(px, py, pz, e):
-    """exp([p]) = I + A [p] + B [p]^2 into e (9, row-major): the step kernel's half-angle form
-    (A = sin t / t, B = (1 - cos t) / t^2 without cancellation)."""
-    xx2, yy2, zz2 = px * px, py * py, pz * pz
-    t2 = xx2 + yy2 + zz2 + 1e-300
-    t = math.sqrt(t2)
-    s = math.sin(0.5 * t)
-    ca = 2.0 * s * math.cos(0.5 * t) / t
-    cb = 2.0 * s * s / t2
-    bxy, bxz, byz = cb * px * py, cb * px * pz, cb * py * pz
-    e[0], e[1], e[2] = 1.0 - cb * (yy2 + zz2), bxy - ca * pz, bxz + ca * py
-    e[3], e[4], e[5] = bxy + ca * pz, 1.0 - cb * (xx2 + zz2), byz - ca * px
-    e[6], e[7], e[8] = bxz - ca * py, byz + ca * px, 1.0 - cb * (xx2 + yy2)
-
-
-@inline_kernel
-def mul3(a, b):
-    """A B of two 3x3 matrices as 9 row-major values (written out, no BLAS)."""
-    out = np.empty(9)
-    for i in range(3):
-        for j in range(3):
-            out[3 * i + j] = (float(a[3 * i]) * float(b[j]) + float(a[3 * i + 1]) * float(b[3 + j])
-                              + float(a[3 * i + 2]) * float(b[6 + j]))
-    return out

@@ -67,8 +67,9 @@ World = namedtuple('World', [
     'state', 'spare', 'params', 'coefficients', 'work', 'kstatus', 'taken', 'bad', 'clock',
     # moving bodies with colliders: their rows, Q of a non-principal body frame, reach (m)
     'rows', 'q', 'has_q', 'reach', 'inverse_mass',
-    # rows of the moving bodies without colliders (they always step)
-    'free_rows',
+    # the store rows of every moving body, ascending, and of each row its index among the
+    # moving bodies with colliders (-1 without: it never sleeps)
+    'step_rows', 'body_of_row',
     # colliders (C) then planes (P): kinds, geoms, centres, rotations, materials
     'kinds', 'geoms', 'centres', 'rotations', 'restitution', 'friction',
     # colliders only
@@ -88,7 +89,6 @@ def world_steps(w, n, warm_keys, warm_normal, warm_tangent):
     last step's contacts: (warm_keys, warm_normal, warm_tangent, point, normal, depth,
     normal_impulse, collider_a, collider_b); w.status[S_COLLIDED] says whether a contact pass
     ran in this call (else the contacts returned are not the last step's)."""
-    nb = w.rows.shape[0]
     point, normal = np.zeros((0, 3)), np.zeros((0, 3))
     depth, impulse = np.zeros(0), np.zeros(0)
     ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
@@ -102,7 +102,7 @@ def world_steps(w, n, warm_keys, warm_normal, warm_tangent):
         # again. (One call site of each stage: they are compiled inline.)
         integrated = w.status[S_UNCHECKED] == 0
         if integrated:
-            row = _integrate(w, nb)
+            row = _integrate(w)
             w.status[S_STEP] += 1
             w.status[S_STEPS_DONE] += 1
             if row >= 0:
@@ -136,20 +136,14 @@ def _advance_row(w, row):
 
 
 @inline_kernel
-def _integrate(w, nb):
+def _integrate(w):
     """Every awake body one step, in row order; the first row that failed, or -1 (the others
     still take their step)."""
     first = -1
-    count = w.rows.shape[0] + w.free_rows.shape[0]
-    order = np.empty(count, dtype=np.int64)
-    for k in range(nb):
-        order[k] = w.rows[k] if not w.asleep[k] else -1
-    for k in range(w.free_rows.shape[0]):
-        order[nb + k] = w.free_rows[k]
-    order = np.sort(order)
-    for k in range(count):
-        row = order[k]
-        if row < 0:
+    for j in range(w.step_rows.shape[0]):
+        row = w.step_rows[j]
+        k = w.body_of_row[row]
+        if k >= 0 and w.asleep[k]:
             continue
         if _advance_row(w, row) and first < 0:
             first = row

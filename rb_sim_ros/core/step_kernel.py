@@ -137,12 +137,21 @@ def accelerations(p, i, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz,
 def rotation_step(dt, rn, rp, rc, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22,
                   wx, wy, wz, bx, by, bz, bpx, bpy, bpz):
     """R_{n+1} of eq. (27), last line: exp([p]) R with p = omega dt + rn beta + rp beta_prev
-    + rc (beta x omega). exp([p]) = I + A [p] + B [p]^2 (Rodrigues) with A = sin(t)/t and
-    B = (1 - cos t)/t^2 in half-angle form, t^2 lifted by TINY_ANGLE_SQ (see so3): no branch
-    on the angle. A non-finite angle gives nan (Python's sin would raise; numba's gives nan)."""
+    + rc (beta x omega), exp by ``exp_so3``."""
     px = wx * dt + rn * bx + rp * bpx + rc * (by * wz - bz * wy)
     py = wy * dt + rn * by + rp * bpy + rc * (bz * wx - bx * wz)
     pz = wz * dt + rn * bz + rp * bpz + rc * (bx * wy - by * wx)
+    e00, e01, e02, e10, e11, e12, e20, e21, e22 = exp_so3(px, py, pz, tiny)
+    return mul33(e00, e01, e02, e10, e11, e12, e20, e21, e22,
+                 r00, r01, r02, r10, r11, r12, r20, r21, r22)
+
+
+@kernel
+def exp_so3(px, py, pz, tiny):
+    """exp([p]) as 9 row-major floats: I + A [p] + B [p]^2 (Rodrigues) with A = sin(t)/t and
+    B = (1 - cos t)/t^2 in half-angle form, t^2 lifted by ``tiny`` (so3.TINY_ANGLE_SQ): no
+    branch on the angle. A non-finite angle gives nan (Python's sin would raise; numba's gives
+    nan)."""
     xx2, yy2, zz2 = px * px, py * py, pz * pz
     t2 = xx2 + yy2 + zz2 + tiny
     if t2 <= 1.7976931348623157e308:
@@ -154,11 +163,9 @@ def rotation_step(dt, rn, rp, rc, tiny, r00, r01, r02, r10, r11, r12, r20, r21, 
         ca = cb = math.nan
     bxy, bxz, byz = cb * px * py, cb * px * pz, cb * py * pz
     ax_, ay_, az_ = ca * px, ca * py, ca * pz
-    e00, e01, e02 = 1.0 - cb * (yy2 + zz2), bxy - az_, bxz + ay_
-    e10, e11, e12 = bxy + az_, 1.0 - cb * (xx2 + zz2), byz - ax_
-    e20, e21, e22 = bxz - ay_, byz + ax_, 1.0 - cb * (xx2 + yy2)
-    return mul33(e00, e01, e02, e10, e11, e12, e20, e21, e22,
-                 r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    return (1.0 - cb * (yy2 + zz2), bxy - az_, bxz + ay_,
+            bxy + az_, 1.0 - cb * (xx2 + zz2), byz - ax_,
+            bxz - ay_, byz + ax_, 1.0 - cb * (xx2 + yy2))
 
 
 @kernel

@@ -278,9 +278,10 @@ class Simulation:
         changing nothing: the node calls it while it starts, so that its first step is not
         also the one that compiles (48 s on a clean install for a collision scene)."""
         if self.world is not None:
-            self.world.warm_up()
-        for s in self._moving[:1]:
-            s._store.warm_up()
+            self.world.warm_up()  # its bodies' store too
+        else:
+            for s in self._moving[:1]:
+                s._store.warm_up()
 
     def run(self, n: int) -> None:
         """Advance every moving body n steps. If one goes non-finite the others still advance
