@@ -21,15 +21,17 @@ HERE = Path(__file__).resolve().parent
 
 def _fingerprints(disable_jit: bool) -> dict:
     env = dict(os.environ, NUMBA_DISABLE_JIT='1' if disable_jit else '0')
-    out = subprocess.run([sys.executable, str(HERE / 'kernel_fingerprint.py'), 'batch', 'demo',
-                          'heap'], env=env, capture_output=True, text=True, timeout=900)
+    cases = ['batch', 'demo', 'heap', 'high_order']
+    out = subprocess.run([sys.executable, str(HERE / 'kernel_fingerprint.py'), *cases], env=env,
+                         capture_output=True, text=True, timeout=900)
     assert out.returncode == 0, out.stderr[-3000:]
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def test_compiled_and_interpreted_paths_give_the_same_bits():
-    """1000 batch bodies, the collision demo (1.5 s, a wrench change) and the 1000-sphere heap
-    (3 steps): compiled, and interpreted with NUMBA_DISABLE_JIT=1, the same states to the bit."""
+    """1000 batch bodies, the collision demo (1.5 s, a wrench change), the 1000-sphere heap
+    (3 steps) and the lie3 / lie4 runs: compiled, and interpreted with NUMBA_DISABLE_JIT=1, the
+    same states to the bit."""
     compiled, interpreted = _fingerprints(False), _fingerprints(True)
     assert compiled.pop('compiled') is True and interpreted.pop('compiled') is False
     assert compiled == interpreted
@@ -122,7 +124,7 @@ def test_warm_up_compiles_and_changes_nothing():
     without it, to the bit (collision demo, with a body without colliders too)."""
     from rb_sim_ros.sim.scene import load_scene
     from rb_sim_ros.sim.simulation import Config, Simulation
-    gravity, bodies, contact = load_scene(str(HERE.parent / 'scenes' / 'collisions.yaml'))
+    gravity, bodies, contact, _ = load_scene(str(HERE.parent / 'scenes' / 'collisions.yaml'))
     config = Config(gravity=gravity, bodies=tuple(bodies), contact=contact)
     warmed, cold = Simulation(config), Simulation(config)
     warmed.warm_up()

@@ -3,6 +3,7 @@
 """Recordings of the real node over DDS, read by rosbags and re-simulated bit for bit."""
 
 import copy
+import json
 import math
 import os
 from pathlib import Path
@@ -14,6 +15,7 @@ import pytest
 from rosbags.highlevel import AnyReader
 from std_srvs.srv import Empty, SetBool, Trigger
 
+from rb_sim_ros.core import multistep
 from rb_sim_ros.recording import RecordingReader
 from rb_sim_ros.ros import replay
 from rb_sim_ros.ros.simulator_node import APPLIED_QOS
@@ -59,13 +61,17 @@ def _drive(probe, n_wrenches=4):
     return poses
 
 
-def test_a_recorded_run_replays_bit_for_bit(start_sim, probe, installed, ros_env, tmp_path):
+@pytest.mark.parametrize('integrator', sorted(multistep.METHODS))
+def test_a_recorded_run_replays_bit_for_bit(start_sim, probe, installed, ros_env, tmp_path,
+                                            integrator):
     f = tmp_path / 'run.mcap'
     sim = start_sim('-p', f'record:={f}', '-p', 'inertia:=[0.2, 0.3, 0.45]',
-                    '-p', 'initial_angular_velocity:=[0.3, 1.0, -0.2]')
+                    '-p', 'initial_angular_velocity:=[0.3, 1.0, -0.2]',
+                    '-p', f'integrator:={integrator}')
     _drive(probe)
     assert sim.stop(signal.SIGINT) == 0
     rec = RecordingReader(str(f))
+    assert json.loads(rec.metadata['rb_sim_ros']['config'])['integrator'] == integrator
     assert not rec.truncated
     n = sum(1 for _ in rec.messages())
     assert _rosbags_count(f) == n  # the independent reader decodes every message
@@ -242,7 +248,7 @@ def test_pause_survives_in_recordings(start_sim, probe, installed, ros_env, tmp_
 def test_a_scene_recording_replays_bit_for_bit(start_sim, probe, installed, ros_env,
                                                tmp_path):
     scene = tmp_path / 'scene.yaml'
-    scene.write_text('gravity: [0, 0, -9.81]\nbodies:\n'
+    scene.write_text('gravity: [0, 0, -9.81]\nintegrator: lie4\nbodies:\n'
                      '  - {name: a, mass: 2.0, inertia: [[0.2, 0.01, 0], [0.01, 0.3, 0], '
                      '[0, 0, 0.4]], angular_velocity: [0.1, 0.2, 0.3]}\n'
                      '  - {name: b, shape: cylinder, radius: 0.1, length: 0.5, density: 800, '
@@ -260,6 +266,8 @@ def test_a_scene_recording_replays_bit_for_bit(start_sim, probe, installed, ros_
     probe.wait_for(lambda: len(poses) > n + 5, what='more poses')
     sim.stop()
     rec = RecordingReader(str(f))
+    # the scene's integrator (the node's parameter left empty)
+    assert json.loads(rec.metadata['rb_sim_ros']['config'])['integrator'] == 'lie4'
     assert {'/a/pose', '/b/odom', '/rb_sim/input/a/wrench'} <= set(rec.channels)
     assert not any(t.startswith('/wall/') for t in rec.channels)  # a static body: nothing
     result = _replay(installed, ros_env, '--verify', str(f))

@@ -17,7 +17,7 @@ EXAMPLE = SCENES / 'example.yaml'
 
 
 def test_example_scene_loads():
-    gravity, bodies, contact = load_scene(str(EXAMPLE))
+    gravity, bodies, contact, _ = load_scene(str(EXAMPLE))
     assert gravity == (0.0, 0.0, -9.81)
     assert [b.name for b in bodies] == ['satellite', 'crate', 'ball', 'pillar']
     crate = bodies[1]
@@ -27,7 +27,7 @@ def test_example_scene_loads():
 
 
 def test_collision_scene_loads_colliders_and_contact_settings():
-    gravity, bodies, contact = load_scene(str(SCENES / 'collisions.yaml'))
+    gravity, bodies, contact, _ = load_scene(str(SCENES / 'collisions.yaml'))
     assert contact == ContactSettings(restitution=0.5, friction=0.6, rolling_resistance=0.002)
     by_name = {b.name: b for b in bodies}
     assert by_name['ball'].colliders == (Sphere(0.1),)           # 'shape': the body's own
@@ -48,6 +48,17 @@ def test_own_shape_with_a_material(tmp_path):
     puck = load_scene(str(f)).bodies[0]
     assert puck.colliders == (Box((0.1, 0.1, 0.02), friction=0.05, restitution=0.3),
                               Sphere(0.01, position=(0.0, 0.0, 0.02)))
+
+
+def test_integrator_key(tmp_path):
+    f = tmp_path / 'scene.yaml'
+    f.write_text('integrator: lie4\nbodies:\n  - {name: a, mass: 1, inertia: [1, 1, 1]}\n')
+    assert load_scene(str(f)).integrator == 'lie4'
+    assert load_scene(str(EXAMPLE)).integrator is None  # absent: the node's
+    for bad in ('rk4', '[lie4]', '4'):
+        f.write_text(f'integrator: {bad}\nbodies:\n  - {{name: a, mass: 1, inertia: [1, 1, 1]}}\n')
+        with pytest.raises(SceneError, match=r'scene.yaml: integrator: must be one of'):
+            load_scene(str(f))
 
 
 def test_contact_settings_default_when_absent():

@@ -44,7 +44,7 @@ HARDENING = 'test/test_node_hardening.py::'
 
 # Eq. (14) of the report as printed: R_{n+1} = (exp([w + (4 b - b_prev)/6 dt] dt)
 # - ([b][w] + [w][b]) dt^3 / 12) R_n, i.e. no (b x w) term in the rotation vector and the
-# symmetric matrix b w^T + w b^T - 2 (b . w) I subtracted (rc = rotation_cross dt^3).
+# symmetric matrix b w^T + w b^T - 2 (b . w) I subtracted (rc = cross[0] dt^3).
 _EQ14 = """\
     e00, e01, e02, e10, e11, e12, e20, e21, e22 = exp_so3(px, py, pz, tiny)
     bw14 = bx * wx + by * wy + bz * wz
@@ -130,7 +130,8 @@ MUTANTS = [
      [CONVERGENCE + 'test_local_orders_from_exact_history'],
      'eq. (14) as printed instead of the last line of eq. (27)'),
     ('cross-term-sign', 'rb_sim_ros/core/multistep.py',
-     [('rotation_cross=1.0 / 12.0,', 'rotation_cross=-1.0 / 12.0,')],
+     [("    cross=(1.0 / 12.0, 0.0),\n    description='Adams",
+       "    cross=(-1.0 / 12.0, 0.0),\n    description='Adams")],
      [CONVERGENCE + 'test_local_orders_from_exact_history'],
      '(omega x beta) instead of (beta x omega) in eq. (27)'),
     ('stale-history', 'rb_sim_ros/core/stepper.py',

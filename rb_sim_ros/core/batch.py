@@ -272,7 +272,7 @@ class BatchStepper(FixedStep):
         self._n, self._chunk_size = n, chunk_size
         self._masses, self._inertias = masses, inertias
         self._inverse_mass = 1.0 / masses
-        self._state, self._params, self._work = K.new_arrays(n)
+        self._state, self._params, self._work = K.new_arrays(n, self._method.steps)
         self._spare = np.zeros_like(self._state)
         self._status = np.zeros(n, dtype=np.int64)
         self._taken = np.zeros(n, dtype=np.int64)

@@ -15,8 +15,12 @@ not used (see ../shared/seed/NOTES.md): with eq. (27) the local error of R is O(
 Local errors are O(dt^3) for v and omega and O(dt^4) for x and R; globally the method is
 second order.
 
-The method is data: a ``Multistep`` holds the coefficients of a_n and a_{n-1} in each update,
-so another explicit method of this family is another table, not another function.
+The method is data: a ``Multistep`` holds the weights of a_n, a_{n-1}, ... in each update, so
+another explicit method of this family is another table, not another function. ``lie3`` and
+``lie4`` are its members of orders 3 and 4 (k = 3, 4 accelerations; derivation, start-up and
+stability in docs/integrators.md): Adams-Bashforth of order k for v and omega, the matching
+position formula for x, and R by the exponential of a rotation vector that keeps the Magnus
+commutator terms order k needs, (dt^3/12) beta x omega (eq. (27)'s) and (dt^4/24) beta' x omega.
 """
 
 from __future__ import annotations
@@ -28,55 +32,76 @@ from rb_sim_ros.core import so3, step_kernel
 
 @dataclass(frozen=True)
 class Multistep:
-    """Coefficients of one explicit two-step method of the form above.
+    """Coefficients of one explicit method of the family above, with k = ``steps`` >= 2
+    accelerations (a_n, a_{n-1}, ..., a_{n-k+1}; beta likewise), each a tuple of k weights:
 
-    velocity_now, velocity_prev: weights of a_n, a_{n-1} (and beta) in v and omega, times dt.
-    position_now, position_prev: weights of a_n, a_{n-1} in x, times dt^2.
-    rotation_now, rotation_prev: weights of beta_n, beta_{n-1} in the rotation vector, times dt^2.
-    rotation_cross: weight of beta_n x omega_n in the rotation vector, times dt^3.
+    velocity: of a_{n-j} (and beta_{n-j}) in v and omega, times dt.
+    position: of a_{n-j} in x, times dt^2.
+    rotation: of beta_{n-j} in the rotation vector, times dt^2.
+    cross: of beta_{n-j} in (sum_j cross_j beta_{n-j}) x omega_n in the rotation vector, times
+        dt^3 (the commutator term of the Magnus expansion and, from k = 3, its derivative).
     order: global order of accuracy; local_orders: (v and omega, x and R) one-step orders.
     """
 
     name: str
     order: int
     local_orders: tuple[int, int]
-    velocity_now: float
-    velocity_prev: float
-    position_now: float
-    position_prev: float
-    rotation_now: float
-    rotation_prev: float
-    rotation_cross: float
+    velocity: tuple[float, ...]
+    position: tuple[float, ...]
+    rotation: tuple[float, ...]
+    cross: tuple[float, ...]
     description: str = ''
+
+    @property
+    def steps(self) -> int:
+        """How many accelerations a step takes (the history is steps - 1 states)."""
+        return len(self.velocity)
 
 
 # The report's method: eq. (11), (12), (13) and the last line of eq. (27).
 EQ27 = Multistep(
     name='eq27', order=2, local_orders=(3, 4),
-    velocity_now=1.5, velocity_prev=-0.5,
-    position_now=4.0 / 6.0, position_prev=-1.0 / 6.0,
-    rotation_now=4.0 / 6.0, rotation_prev=-1.0 / 6.0, rotation_cross=1.0 / 12.0,
+    velocity=(1.5, -0.5), position=(4.0 / 6.0, -1.0 / 6.0), rotation=(4.0 / 6.0, -1.0 / 6.0),
+    cross=(1.0 / 12.0, 0.0),
     description='Adams-Bashforth 2 for v, omega; eq. (13) for x; eq. (27) exponential for R')
 
 # Eq. (27) without its dt^2 correction: what the NOTES measured as local order 3 for R.
 # Kept to show (in the tests and benchmarks) what the correction buys; not a default.
 EQ27_NO_CROSS = Multistep(
     name='eq27-no-cross', order=2, local_orders=(3, 3),
-    velocity_now=1.5, velocity_prev=-0.5,
-    position_now=4.0 / 6.0, position_prev=-1.0 / 6.0,
-    rotation_now=4.0 / 6.0, rotation_prev=-1.0 / 6.0, rotation_cross=0.0,
+    velocity=(1.5, -0.5), position=(4.0 / 6.0, -1.0 / 6.0), rotation=(4.0 / 6.0, -1.0 / 6.0),
+    cross=(0.0, 0.0),
     description='eq27 without the (beta x omega) dt^2/12 term')
 
 # One-step Taylor method (no history): v += a dt, x += v dt + a dt^2/2, R = exp((w + b dt/2) dt) R.
 # First order globally; the cheap baseline of the benchmarks.
 TAYLOR1 = Multistep(
     name='taylor1', order=1, local_orders=(2, 3),
-    velocity_now=1.0, velocity_prev=0.0,
-    position_now=0.5, position_prev=0.0,
-    rotation_now=0.5, rotation_prev=0.0, rotation_cross=0.0,
+    velocity=(1.0, 0.0), position=(0.5, 0.0), rotation=(0.5, 0.0), cross=(0.0, 0.0),
     description='single-step Taylor: explicit Euler for v, omega; second order terms for x, R')
 
-METHODS = {m.name: m for m in (EQ27, EQ27_NO_CROSS, TAYLOR1)}
+# Orders 3 and 4 (docs/integrators.md): Adams-Bashforth of order k for v and omega; for x and
+# the rotation vector the integral of the interpolated a (beta) against (1 - s); the Magnus
+# commutator (dt^3/12) beta_n x omega_n + (dt^4/24) beta_n' x omega_n, beta_n' by differences.
+LIE3 = Multistep(
+    name='lie3', order=3, local_orders=(4, 5),
+    velocity=(23.0 / 12.0, -16.0 / 12.0, 5.0 / 12.0),
+    position=(19.0 / 24.0, -10.0 / 24.0, 3.0 / 24.0),
+    rotation=(19.0 / 24.0, -10.0 / 24.0, 3.0 / 24.0),
+    cross=(7.0 / 48.0, -4.0 / 48.0, 1.0 / 48.0),
+    description='Lie Adams-Bashforth 3: AB3 for v, omega; exponential of a Magnus rotation '
+                'vector for R')
+
+LIE4 = Multistep(
+    name='lie4', order=4, local_orders=(5, 5),
+    velocity=(55.0 / 24.0, -59.0 / 24.0, 37.0 / 24.0, -9.0 / 24.0),
+    position=(323.0 / 360.0, -264.0 / 360.0, 159.0 / 360.0, -38.0 / 360.0),
+    rotation=(323.0 / 360.0, -264.0 / 360.0, 159.0 / 360.0, -38.0 / 360.0),
+    cross=(23.0 / 144.0, -18.0 / 144.0, 9.0 / 144.0, -2.0 / 144.0),
+    description='Lie Adams-Bashforth 4: AB4 for v, omega; exponential of a Magnus rotation '
+                'vector for R')
+
+METHODS = {m.name: m for m in (EQ27, EQ27_NO_CROSS, TAYLOR1, LIE3, LIE4)}
 
 
 def method_by_name(name: str) -> Multistep:

@@ -56,10 +56,18 @@ PARAM_WIDTH = 22
 FORCE_IN_BODY, TORQUE_IN_BODY, TORQUE_FREE, ISOTROPIC, FORCE_FREE, SPECIALIZE = (
     1, 2, 4, 8, 16, 32)
 
+# History slots of methods with k > 2 accelerations (lie3, lie4): the state j steps back,
+# j = 1 .. k - 1, laid out as X .. B; slot 1 is XP (above), slots 2, 3 follow HISTORY. A store's
+# row is ``state_width(k)`` wide.
+SLOT_WIDTH = 24
+MAX_STEPS = 4
+
 # -- coefficients --------------------------------------------------------------------------------
-# [0:8] the method (dt, vn, vp, pn, pp, rn, rp, rc), [8:16] the start-up's TAYLOR1,
-# [16] TINY_ANGLE_SQ, [17] ORTHONORMALIZE_EVERY.
-COEFFICIENTS = 18
+# [0:8] a two-step method (dt, vn, vp, pn, pp, rn, rp, rc), [8:16] the start-up's TAYLOR1,
+# [16] TINY_ANGLE_SQ, [17] ORTHONORMALIZE_EVERY, [18] the method's k (STEPS), then its weights
+# padded to MAX_STEPS: velocity x dt, position x dt^2, rotation x dt^2, cross x dt^3.
+STEPS, C_VELOCITY, C_POSITION, C_ROTATION, C_CROSS = 18, 19, 23, 27, 31
+COEFFICIENTS = 35
 
 # -- status --------------------------------------------------------------------------------------
 STATUS_OK, STATUS_NON_FINITE, STATUS_TURN, STATUS_START_UP = 0, 1, 2, 3
@@ -69,14 +77,43 @@ WORK_FULL, WORK_TRANSLATION, WORK_START_UP = 0, 1, 2
 WORK_WIDTH = 3
 
 
+def state_width(steps: int) -> int:
+    """The width of a state row for a method of ``steps`` accelerations."""
+    return STATE_WIDTH + max(steps - 2, 0) * SLOT_WIDTH
+
+
+def slot_column(j: int) -> int:
+    """The column of history slot j >= 1 (the state j steps back) in a state row (``_slot``
+    in the kernels)."""
+    return XP if j == 1 else STATE_WIDTH + (j - 2) * SLOT_WIDTH
+
+
 def method_coefficients(method, dt: float) -> list[float]:
-    """The 8 coefficients of a ``multistep.Multistep`` times powers of dt, as make_step has
-    them: dt, velocity (now, prev) dt, position (now, prev) dt^2, rotation (now, prev) dt^2,
-    cross dt^3."""
-    return [dt, method.velocity_now * dt, method.velocity_prev * dt,
-            method.position_now * dt * dt, method.position_prev * dt * dt,
-            method.rotation_now * dt * dt, method.rotation_prev * dt * dt,
-            method.rotation_cross * dt * dt * dt]
+    """The 8 coefficients of a two-step ``multistep.Multistep`` times powers of dt, as
+    make_step has them: dt, velocity (now, prev) dt, position (now, prev) dt^2, rotation
+    (now, prev) dt^2, cross dt^3."""
+    if method.steps != 2 or method.cross[1] != 0.0:
+        raise ValueError(f"{method.name} is not a two-step method of eq. (27)'s form")
+    return [dt, method.velocity[0] * dt, method.velocity[1] * dt,
+            method.position[0] * dt * dt, method.position[1] * dt * dt,
+            method.rotation[0] * dt * dt, method.rotation[1] * dt * dt,
+            method.cross[0] * dt * dt * dt]
+
+
+def coefficients(method, taylor1, dt: float, tiny: float, every: int) -> np.ndarray:
+    """The kernel's coefficients (the layout above) of ``method``, with ``taylor1`` (the
+    two-step form of the start-up), the angle lift and the orthonormalisation period."""
+    k = method.steps
+    if not 2 <= k <= MAX_STEPS:
+        raise ValueError(f'{method.name}: {k} accelerations a step, the kernel takes 2 to '
+                         f'{MAX_STEPS}')
+    head = method_coefficients(method, dt) if k == 2 else [dt] + [0.0] * 7
+    pad = [0.0] * (MAX_STEPS - k)
+    return np.array(head + method_coefficients(taylor1, dt) + [tiny, float(every), float(k)]
+                    + [c * dt for c in method.velocity] + pad
+                    + [c * dt * dt for c in method.position] + pad
+                    + [c * dt * dt for c in method.rotation] + pad
+                    + [c * dt * dt * dt for c in method.cross] + pad)
 
 
 @kernel
@@ -253,6 +290,9 @@ def _finite(*values):
 @kernel
 def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
     """n steps of body i from row i of ``src`` into row i of ``dst`` (see the module)."""
+    if c[STEPS] > 2.0:
+        advance_body_k(src, dst, p, c, i, n, checked, status, taken, bad, work)
+        return
     dt, vn, vp, pn, pp = float(c[0]), float(c[1]), float(c[2]), float(c[3]), float(c[4])
     rn, rp, rc = float(c[5]), float(c[6]), float(c[7])
     tiny, every = float(c[16]), int(c[17])
@@ -392,6 +432,301 @@ def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
 
 
 @kernel
+def _cross(ax, ay, az, bx, by, bz):
+    """a x b."""
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+
+
+@kernel
+def _dexpinv(ux, uy, uz, wx, wy, wz):
+    """dexp^-1 of the rotation vector u applied to w, to second order in u (what a
+    fourth-order RKMK step needs): w - (u x w) / 2 + u x (u x w) / 12."""
+    cx, cy, cz = _cross(ux, uy, uz, wx, wy, wz)
+    dx, dy, dz = _cross(ux, uy, uz, cx, cy, cz)
+    return (wx - 0.5 * cx + dx / 12.0, wy - 0.5 * cy + dy / 12.0,
+            wz - 0.5 * cz + dz / 12.0)
+
+
+@kernel
+def _turned(ux, uy, uz, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22):
+    """exp([u]) R, 9 row-major floats."""
+    e00, e01, e02, e10, e11, e12, e20, e21, e22 = exp_so3(ux, uy, uz, tiny)
+    return mul33(e00, e01, e02, e10, e11, e12, e20, e21, e22,
+                 r00, r01, r02, r10, r11, r12, r20, r21, r22)
+
+
+@kernel
+def rkmk4_step(p, i, h, tiny, xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21,
+               r22, wx, wy, wz):
+    """One step of h (s, negative: back in time) of the classical fourth-order Runge-Kutta
+    method in Munthe-Kaas form on SO(3) x R^9 (R = exp([u]) R_0, u' = dexp^-1_u(omega)): the
+    start-up of the methods with k > 2. Returns (x, v, R, omega), 18 floats."""
+    hh = 0.5 * h
+    a1x, a1y, a1z, b1x, b1y, b1z = accelerations(
+        p, i, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, vx, vy, vz, bool(False))
+    # stage 2: u = h/2 K1 (K1 = omega_0)
+    u2x, u2y, u2z = hh * wx, hh * wy, hh * wz
+    s00, s01, s02, s10, s11, s12, s20, s21, s22 = _turned(
+        u2x, u2y, u2z, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    w2x, w2y, w2z = wx + hh * b1x, wy + hh * b1y, wz + hh * b1z
+    v2x, v2y, v2z = vx + hh * a1x, vy + hh * a1y, vz + hh * a1z
+    a2x, a2y, a2z, b2x, b2y, b2z = accelerations(
+        p, i, s00, s01, s02, s10, s11, s12, s20, s21, s22, w2x, w2y, w2z, v2x, v2y, v2z,
+        bool(False))
+    k2x, k2y, k2z = _dexpinv(u2x, u2y, u2z, w2x, w2y, w2z)
+    # stage 3: u = h/2 K2
+    u3x, u3y, u3z = hh * k2x, hh * k2y, hh * k2z
+    s00, s01, s02, s10, s11, s12, s20, s21, s22 = _turned(
+        u3x, u3y, u3z, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    w3x, w3y, w3z = wx + hh * b2x, wy + hh * b2y, wz + hh * b2z
+    v3x, v3y, v3z = vx + hh * a2x, vy + hh * a2y, vz + hh * a2z
+    a3x, a3y, a3z, b3x, b3y, b3z = accelerations(
+        p, i, s00, s01, s02, s10, s11, s12, s20, s21, s22, w3x, w3y, w3z, v3x, v3y, v3z,
+        bool(False))
+    k3x, k3y, k3z = _dexpinv(u3x, u3y, u3z, w3x, w3y, w3z)
+    # stage 4: u = h K3
+    u4x, u4y, u4z = h * k3x, h * k3y, h * k3z
+    s00, s01, s02, s10, s11, s12, s20, s21, s22 = _turned(
+        u4x, u4y, u4z, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    w4x, w4y, w4z = wx + h * b3x, wy + h * b3y, wz + h * b3z
+    v4x, v4y, v4z = vx + h * a3x, vy + h * a3y, vz + h * a3z
+    a4x, a4y, a4z, b4x, b4y, b4z = accelerations(
+        p, i, s00, s01, s02, s10, s11, s12, s20, s21, s22, w4x, w4y, w4z, v4x, v4y, v4z,
+        bool(False))
+    k4x, k4y, k4z = _dexpinv(u4x, u4y, u4z, w4x, w4y, w4z)
+    h6 = h / 6.0
+    q00, q01, q02, q10, q11, q12, q20, q21, q22 = _turned(
+        h6 * (wx + 2.0 * k2x + 2.0 * k3x + k4x), h6 * (wy + 2.0 * k2y + 2.0 * k3y + k4y),
+        h6 * (wz + 2.0 * k2z + 2.0 * k3z + k4z), tiny,
+        r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    return (xx + h6 * (vx + 2.0 * v2x + 2.0 * v3x + v4x),
+            xy + h6 * (vy + 2.0 * v2y + 2.0 * v3y + v4y),
+            xz + h6 * (vz + 2.0 * v2z + 2.0 * v3z + v4z),
+            vx + h6 * (a1x + 2.0 * a2x + 2.0 * a3x + a4x),
+            vy + h6 * (a1y + 2.0 * a2y + 2.0 * a3y + a4y),
+            vz + h6 * (a1z + 2.0 * a2z + 2.0 * a3z + a4z),
+            q00, q01, q02, q10, q11, q12, q20, q21, q22,
+            wx + h6 * (b1x + 2.0 * b2x + 2.0 * b3x + b4x),
+            wy + h6 * (b1y + 2.0 * b2y + 2.0 * b3y + b4y),
+            wz + h6 * (b1z + 2.0 * b2z + 2.0 * b3z + b4z))
+
+
+@kernel
+def _slot(j):
+    """``slot_column``, compiled."""
+    return XP if j == 1 else STATE_WIDTH + (j - 2) * SLOT_WIDTH
+
+
+@kernel
+def _evaluate_ring(p, i, ring, e):
+    """a and beta of ring entry e (a state laid out as X .. B) at its R, omega, v."""
+    a0, a1, a2, b0, b1, b2 = accelerations(
+        p, i, float(ring[e, R]), float(ring[e, R + 1]), float(ring[e, R + 2]),
+        float(ring[e, R + 3]), float(ring[e, R + 4]), float(ring[e, R + 5]),
+        float(ring[e, R + 6]), float(ring[e, R + 7]), float(ring[e, R + 8]),
+        float(ring[e, W]), float(ring[e, W + 1]), float(ring[e, W + 2]),
+        float(ring[e, V]), float(ring[e, V + 1]), float(ring[e, V + 2]), bool(False))
+    ring[e, A], ring[e, A + 1], ring[e, A + 2] = a0, a1, a2
+    ring[e, B], ring[e, B + 1], ring[e, B + 2] = b0, b1, b2
+
+
+@kernel
+def evaluate_history(state, params, i, k):
+    """a and beta, under the held wrench, of the k - 1 states kept in the history slots of
+    body i (``Stepper.set_state`` with the exact states before)."""
+    ring = np.empty((1, SLOT_WIDTH))
+    for j in range(1, k):
+        at = _slot(j)
+        for col in range(SLOT_WIDTH):
+            ring[0, col] = state[i, at + col]
+        _evaluate_ring(params, i, ring, 0)
+        for col in range(A, B + 3):
+            state[i, at + col] = ring[0, col]
+
+
+@kernel
+def _start_up_ring(p, i, k, dt, tiny, ring):
+    """The k - 1 states before the current one (ring[0]) by RKMK4 steps back in time under
+    the held wrench, each with its accelerations: the state j steps back into ring[k - j]."""
+    r = ring
+    xx, xy, xz = float(r[0, X]), float(r[0, X + 1]), float(r[0, X + 2])
+    vx, vy, vz = float(r[0, V]), float(r[0, V + 1]), float(r[0, V + 2])
+    r00, r01, r02 = float(r[0, R]), float(r[0, R + 1]), float(r[0, R + 2])
+    r10, r11, r12 = float(r[0, R + 3]), float(r[0, R + 4]), float(r[0, R + 5])
+    r20, r21, r22 = float(r[0, R + 6]), float(r[0, R + 7]), float(r[0, R + 8])
+    wx, wy, wz = float(r[0, W]), float(r[0, W + 1]), float(r[0, W + 2])
+    for j in range(1, k):
+        (xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+         wx, wy, wz) = rkmk4_step(p, i, -dt, tiny, xx, xy, xz, vx, vy, vz, r00, r01, r02,
+                                  r10, r11, r12, r20, r21, r22, wx, wy, wz)
+        _put(ring, k - j, xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+             wx, wy, wz)
+        _evaluate_ring(p, i, ring, k - j)
+
+
+@kernel
+def _put(ring, e, xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+         wx, wy, wz):
+    """x, v, R, omega into ring entry e."""
+    ring[e, X], ring[e, X + 1], ring[e, X + 2] = xx, xy, xz
+    ring[e, V], ring[e, V + 1], ring[e, V + 2] = vx, vy, vz
+    ring[e, R], ring[e, R + 1], ring[e, R + 2] = r00, r01, r02
+    ring[e, R + 3], ring[e, R + 4], ring[e, R + 5] = r10, r11, r12
+    ring[e, R + 6], ring[e, R + 7], ring[e, R + 8] = r20, r21, r22
+    ring[e, W], ring[e, W + 1], ring[e, W + 2] = wx, wy, wz
+
+
+@kernel
+def advance_body_k(src, dst, p, c, i, n, checked, status, taken, bad, work):
+    """``advance_body`` for a method of k = c[STEPS] > 2 accelerations (lie3, lie4): the same
+    stages, checks and skips, with the k - 1 states before the current one as the history
+    (slots 1 .. k - 1 of the row), started (``_start_up_ring``) when there is none and
+    again under a new wrench. While stepping, the k states are a ring: step m is in
+    ring[m % k]."""
+    k = int(c[STEPS])
+    dt = float(c[0])
+    tiny, every = float(c[16]), int(c[17])
+    flags = int(p[i, FLAGS])
+    max_turn_sq = float(p[i, MAX_TURN_SQ])
+    width = src.shape[1]
+    status[i] = STATUS_OK
+    taken[i] = 0
+    if n <= 0:
+        for col in range(width):
+            dst[i, col] = src[i, col]
+        return
+    ring = np.empty((MAX_STEPS, SLOT_WIDTH))
+    for col in range(SLOT_WIDTH):
+        ring[0, col] = src[i, col]
+    # 1. The history: the state j steps back in ring[k - j]. Under a new wrench (STALE) it
+    # starts again: evaluated again at the kept states, it would be the old wrench's path
+    # under the new law, O(dt) off in omega, and the order would fall to 2
+    # (docs/integrators.md).
+    if float(src[i, HISTORY]) != HISTORY_VALID:
+        _start_up_ring(p, i, k, dt, tiny, ring)
+        work[i, WORK_START_UP] += 1
+    else:
+        for j in range(1, k):
+            at = _slot(j)
+            for col in range(SLOT_WIDTH):
+                ring[k - j, col] = src[i, at + col]
+    if checked:
+        total = 0.0
+        for e in range(1, k):
+            for col in range(A, B + 3):
+                total += ring[e, col] * 0.0
+        if total != 0.0:
+            for col in range(width):
+                dst[i, col] = src[i, col]
+            status[i] = STATUS_START_UP
+            return
+    # 2. The skips (every state of the history at rest in that sense).
+    frozen_rotation = False
+    if flags & SPECIALIZE:
+        frozen_rotation = (flags & TORQUE_FREE) != 0
+        frozen_translation = (flags & FORCE_FREE) != 0
+        for e in range(k):
+            for col in range(3):
+                if ring[e, W + col] != 0.0 or ring[e, B + col] != 0.0:
+                    frozen_rotation = False
+                if ring[e, V + col] != 0.0 or ring[e, A + col] != 0.0:
+                    frozen_translation = False
+        if frozen_rotation and frozen_translation:  # at rest, unforced: nothing moves
+            for col in range(width):
+                dst[i, col] = src[i, col]
+            for j in range(1, k):
+                at = _slot(j)
+                for col in range(SLOT_WIDTH):
+                    dst[i, at + col] = src[i, col]  # the steps before are this one
+            dst[i, HISTORY] = HISTORY_VALID
+            taken[i] = n
+            return
+    # 3. The steps.
+    countdown = int(src[i, COUNTDOWN])
+    top = 0
+    good = 0
+    for _ in range(n):
+        g = ring
+        xx, xy, xz = float(g[top, X]), float(g[top, X + 1]), float(g[top, X + 2])
+        vx, vy, vz = float(g[top, V]), float(g[top, V + 1]), float(g[top, V + 2])
+        wx, wy, wz = float(g[top, W]), float(g[top, W + 1]), float(g[top, W + 2])
+        nx0, nx1, nx2 = xx + vx * dt, xy + vy * dt, xz + vz * dt
+        nv0, nv1, nv2 = vx, vy, vz
+        nw0, nw1, nw2 = wx, wy, wz
+        px, py, pz = wx * dt, wy * dt, wz * dt
+        sx, sy, sz = 0.0, 0.0, 0.0
+        for j in range(k):
+            e = (top - j + k) % k
+            cv, cp = float(c[C_VELOCITY + j]), float(c[C_POSITION + j])
+            cr, cc = float(c[C_ROTATION + j]), float(c[C_CROSS + j])
+            ax, ay, az = float(g[e, A]), float(g[e, A + 1]), float(g[e, A + 2])
+            bx, by, bz = float(g[e, B]), float(g[e, B + 1]), float(g[e, B + 2])
+            nx0, nx1, nx2 = nx0 + cp * ax, nx1 + cp * ay, nx2 + cp * az
+            nv0, nv1, nv2 = nv0 + cv * ax, nv1 + cv * ay, nv2 + cv * az
+            if not frozen_rotation:
+                nw0, nw1, nw2 = nw0 + cv * bx, nw1 + cv * by, nw2 + cv * bz
+                px, py, pz = px + cr * bx, py + cr * by, pz + cr * bz
+                sx, sy, sz = sx + cc * bx, sy + cc * by, sz + cc * bz
+        r00, r01, r02 = float(g[top, R]), float(g[top, R + 1]), float(g[top, R + 2])
+        r10, r11, r12 = float(g[top, R + 3]), float(g[top, R + 4]), float(g[top, R + 5])
+        r20, r21, r22 = float(g[top, R + 6]), float(g[top, R + 7]), float(g[top, R + 8])
+        if frozen_rotation:
+            q00, q01, q02, q10, q11, q12, q20, q21, q22 = (r00, r01, r02, r10, r11, r12,
+                                                           r20, r21, r22)
+        else:
+            cx, cy, cz = _cross(sx, sy, sz, wx, wy, wz)
+            q00, q01, q02, q10, q11, q12, q20, q21, q22 = _turned(
+                px + cx, py + cy, pz + cz, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22)
+        work[i, WORK_TRANSLATION if frozen_rotation else WORK_FULL] += 1
+        if checked:
+            code = STATUS_OK
+            if not _finite(nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12,
+                           q20, q21, q22, nw0, nw1, nw2):
+                code = STATUS_NON_FINITE
+            elif not (nw0 * nw0 + nw1 * nw1 + nw2 * nw2 <= max_turn_sq):
+                code = STATUS_TURN
+            if code != STATUS_OK:
+                status[i] = code
+                bad[i, 0], bad[i, 1], bad[i, 2] = nw0, nw1, nw2
+                break
+        countdown -= 1
+        if countdown <= 0 and not frozen_rotation:
+            q00, q01, q02, q10, q11, q12, q20, q21, q22 = orthonormalize(
+                q00, q01, q02, q10, q11, q12, q20, q21, q22)
+            countdown = every
+        top = (top + 1) % k
+        _put(ring, top, nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12, q20, q21,
+             q22, nw0, nw1, nw2)
+        a0, a1, a2, b0, b1, b2 = accelerations(
+            p, i, q00, q01, q02, q10, q11, q12, q20, q21, q22, nw0, nw1, nw2, nv0, nv1, nv2,
+            frozen_rotation)
+        ring[top, A], ring[top, A + 1], ring[top, A + 2] = a0, a1, a2
+        ring[top, B], ring[top, B + 1], ring[top, B + 2] = b0, b1, b2
+        good += 1
+    taken[i] = good
+    if good == 0:  # the first step failed: none taken, the row as it was
+        for col in range(width):
+            dst[i, col] = src[i, col]
+        return
+    for col in range(SLOT_WIDTH):
+        dst[i, col] = ring[top, col]
+    for j in range(1, k):
+        at, e = _slot(j), (top - j + k) % k
+        for col in range(SLOT_WIDTH):
+            dst[i, at + col] = ring[e, col]
+    dst[i, COUNTDOWN] = countdown
+    dst[i, HISTORY] = HISTORY_VALID
+    if not checked:
+        total = 0.0
+        for col in range(W + 3):  # x, v, R, omega
+            total += ring[top, col] * 0.0
+        w2 = ring[top, W] * ring[top, W] + ring[top, W + 1] * ring[top, W + 1] + (
+            ring[top, W + 2] * ring[top, W + 2])
+        if not (total == 0.0 and w2 <= max_turn_sq):
+            status[i] = STATUS_NON_FINITE  # somewhere in the run: a checked run finds where
+
+
+@kernel
 def advance(src, dst, params, coefficients, bodies, n, checked, status, taken, bad, work):
     """n steps of each body listed in ``bodies`` (int64 indices), one after the other."""
     for k in range(bodies.shape[0]):
@@ -417,7 +752,8 @@ def copy_rows(dst, src, rows):
             dst[i, c] = src[i, c]
 
 
-def new_arrays(count: int):
-    """(state, params, work) for ``count`` bodies, zeroed; R to be written by the caller."""
-    return (np.zeros((count, STATE_WIDTH)), np.zeros((count, PARAM_WIDTH)),
+def new_arrays(count: int, steps: int = 2):
+    """(state, params, work) for ``count`` bodies of a method of ``steps`` accelerations,
+    zeroed; R to be written by the caller."""
+    return (np.zeros((count, state_width(steps))), np.zeros((count, PARAM_WIDTH)),
             np.zeros((count, WORK_WIDTH), dtype=np.int64))

@@ -28,7 +28,7 @@ method's own error and deterministic.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -114,7 +114,7 @@ class BodyStore:
     def __init__(self, count: int, dt: float, method: multistep.Multistep) -> None:
         self.dt, self.method = dt, method
         self.coefficients = coefficients(method, dt, Stepper.ORTHONORMALIZE_EVERY)
-        self.state, self.params, self.work = K.new_arrays(count)
+        self.state, self.params, self.work = K.new_arrays(count, method.steps)
         self.spare = np.zeros_like(self.state)
         self.status = np.zeros(count, dtype=np.int64)
         self.taken = np.zeros(count, dtype=np.int64)
@@ -288,20 +288,32 @@ class Stepper(FixedStep):
         return x, r, v, w
 
     # -- write -----------------------------------------------------------------------------
-    def set_state(self, state: State, previous: State | None = None) -> None:
+    def set_state(self, state: State, previous: State | Sequence[State] | None = None) -> None:
         """Jump to ``state`` (world frame). The history restarts (start-up on the next step)
-        unless ``previous``, the exact state one dt earlier, is given."""
+        unless ``previous`` is given: the exact states one dt, 2 dt, ... earlier, as many as
+        the method keeps (``method.steps - 1``; one may be given as a State)."""
         if not isinstance(state, State):
             raise ValueError(f'state must be a State, got {state!r}')
-        if previous is not None and not isinstance(previous, State):
-            raise ValueError(f'previous must be a State or None, got {previous!r}')
+        if isinstance(previous, State):
+            previous = (previous,)
+        keep = self._method.steps - 1
+        if previous is not None and (
+                not isinstance(previous, (list, tuple)) or len(previous) != keep
+                or not all(isinstance(s, State) for s in previous)):
+            raise ValueError(f'previous must be None or {keep} State(s), newest first '
+                             f'({self._method.name} keeps {keep}), got {previous!r}')
         row = self._store.state[self._row]
         _write(row, K.X, _components(state, self._q))
         if previous is None:
             row[K.HISTORY] = K.HISTORY_NONE
         else:
-            _write(row, K.XP, _components(previous, self._q))
-            row[K.HISTORY] = K.HISTORY_STALE
+            for j, before in enumerate(previous, 1):
+                _write(row, K.slot_column(j), _components(before, self._q))
+            if keep == 1:  # eq. (27)'s form: evaluated when it steps, under its wrench then
+                row[K.HISTORY] = K.HISTORY_STALE
+            else:
+                K.evaluate_history(self._store.state, self._store.params, self._row, keep + 1)
+                row[K.HISTORY] = K.HISTORY_VALID
         row[K.COUNTDOWN] = self.ORTHONORMALIZE_EVERY
         K.evaluate(self._store.state, self._store.params, self._row)
         self._has_state = True
@@ -404,11 +416,10 @@ class Stepper(FixedStep):
 
 
 def coefficients(method: multistep.Multistep, dt: float, every: int) -> np.ndarray:
-    """The kernel's coefficients: the method's and the start-up's (TAYLOR1), times powers of
-    dt, the angle lift and the orthonormalisation period."""
-    return np.array(K.method_coefficients(method, dt)
-                    + K.method_coefficients(multistep.TAYLOR1, dt)
-                    + [so3.TINY_ANGLE_SQ, float(every)])
+    """The kernel's coefficients (``step_kernel.coefficients``): the method's and eq27's
+    start-up's (TAYLOR1), times powers of dt, the angle lift and the orthonormalisation
+    period."""
+    return K.coefficients(method, multistep.TAYLOR1, dt, so3.TINY_ANGLE_SQ, every)
 
 
 def set_body_params(p: np.ndarray, moments, gravity, linear_damping: float,

@@ -109,10 +109,9 @@ def _frame_id(name: str, v: Any) -> None:
 
 
 def _integrator(name: str, v: Any) -> None:
-    if not isinstance(v, str):
-        raise ValueError(f'{name} must be a string, one of {sorted(multistep.METHODS)}, '
+    if not isinstance(v, str) or (v and v not in multistep.METHODS):
+        raise ValueError(f'{name} must be one of {sorted(multistep.METHODS)} or empty, '
                          f'got {v!r}')
-    multistep.method_by_name(v)
 
 
 @dataclass(frozen=True)
@@ -129,8 +128,10 @@ PARAMS = (
           True, _within(1e-9, 10.0, '1e-9 and 10 s')),
     Param('publish_rate', 100.0, 'Rate (Hz, sim time) of pose/twist/odom/clock. 1/(rate*dt) '
           'must be a whole number of physics steps.', True, _positive),
-    Param('integrator', multistep.EQ27.name,
-          f'Integration method: one of {sorted(multistep.METHODS)}.', True, _integrator),
+    Param('integrator', '',
+          f'Integration method: one of {sorted(multistep.METHODS)}; empty: the scene '
+          f"file's integrator, else {multistep.EQ27.name} (docs/integrators.md).", True,
+          _integrator),
     Param('mass', 1.0, 'Body mass (kg).', True, _positive),
     Param('inertia', [0.1, 0.1, 0.1], 'Body-frame inertia about the centre of mass (kg m^2): '
           '3 principal moments, or 9 row-major components of a symmetric tensor.', True,

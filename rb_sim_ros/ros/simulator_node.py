@@ -41,6 +41,7 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from std_srvs.srv import Empty, SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
+from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import ZERO_WRENCH
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.ros import node_params, ros_arguments, ros_messages
@@ -462,8 +463,10 @@ def _config(v: dict, scene=None) -> Config:
         raise ValueError(f"publish_rate {v['publish_rate']} Hz must divide 1/dt = "
                          f"{1.0 / v['dt']:.9g} Hz into a whole number of steps >= 1")
     contact = ContactSettings()
+    integrator = v['integrator'] or multistep.EQ27.name
     if scene is not None:
-        gravity, bodies, contact = scene
+        gravity, bodies, contact = scene.gravity, scene.bodies, scene.contact
+        integrator = v['integrator'] or scene.integrator or integrator
     else:
         gravity = (0.0, 0.0, 0.0)
         bodies = (BodySpec(name='body', mass=float(v['mass']),
@@ -476,7 +479,7 @@ def _config(v: dict, scene=None) -> Config:
                            initial_angular_velocity=tuple(
                                float(c) for c in v['initial_angular_velocity'])),)
     return Config(dt=float(v['dt']), steps_per_publish=int(round(steps)),
-                  integrator=v['integrator'], gravity=gravity, bodies=bodies, contact=contact)
+                  integrator=integrator, gravity=gravity, bodies=bodies, contact=contact)
 
 
 def _open_recorder(node: SimulatorNode, values: dict):

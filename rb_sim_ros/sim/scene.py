@@ -55,11 +55,12 @@ import sys
 from typing import Any, NamedTuple, NoReturn
 
 from rb_sim_ros.contact.collision_shapes import Box, Plane, shape_from_dict, Sphere
+from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import RigidBody
 from rb_sim_ros.sim import safe_yaml
 from rb_sim_ros.sim.simulation import BodySpec, ContactSettings
 
-TOP_KEYS = {'gravity', 'contact', 'bodies'}
+TOP_KEYS = {'gravity', 'contact', 'bodies', 'integrator'}
 BODY_KEYS = {'name', 'mass', 'inertia', 'shape', 'size', 'radius', 'length', 'density',
              'position', 'orientation', 'linear_velocity', 'angular_velocity', 'linear_damping',
              'angular_damping', 'static', 'colliders'}
@@ -92,11 +93,13 @@ class SceneError(ValueError):
 
 
 class Scene(NamedTuple):
-    """What a scene file holds: gravity (m/s^2, world), the bodies, the contact settings."""
+    """What a scene file holds: gravity (m/s^2, world), the bodies, the contact settings and
+    the integrator it asks for (a name of multistep.METHODS; None: the node's)."""
 
     gravity: tuple[float, float, float]
     bodies: tuple[BodySpec, ...]
     contact: ContactSettings
+    integrator: str | None = None
 
 
 def _show(value: Any) -> str:
@@ -419,6 +422,11 @@ def load_scene(path: str) -> Scene:
         raise SceneError(f'{path}: bodies: {len(bodies)} bodies, more than MAX_BODIES = '
                          f'{MAX_BODIES}')
     contact = _contact(path, data.get('contact', {}))
+    integrator = data.get('integrator')
+    if integrator is not None and (not isinstance(integrator, str)
+                                   or integrator not in multistep.METHODS):
+        raise SceneError(f'{path}: integrator: must be one of {sorted(multistep.METHODS)}, got '
+                         f'{_show(integrator)}')
     specs = []
     first: dict[str, int] = {}
     for i, b in enumerate(bodies):
@@ -427,4 +435,4 @@ def load_scene(path: str) -> Scene:
             raise SceneError(f"{path}: body {i} ('{spec.name}'): name: used twice (body "
                              f'{first[spec.name]} has it too)')
         specs.append(spec)
-    return Scene(gravity, tuple(specs), contact)
+    return Scene(gravity, tuple(specs), contact, integrator)

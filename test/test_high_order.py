@@ -1,0 +1,177 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""lie3 and lie4, the higher-order members of Proof 3's family: orders measured by halving dt
+against a DOP853 reference at 1e-13 (as test_convergence does for eq27), their start-up, and
+what their history must do across a change of the held wrench."""
+
+import math
+
+import numpy as np
+import pytest
+
+from rb_sim_ros import RigidBody, State, Stepper, Wrench
+from rb_sim_ros.core import multistep, so3, step_kernel
+from rb_sim_ros.core.batch import BatchStepper
+import reference
+from test_convergence import (_errors, _global_errors, _orders, BODY, FORCE, SCHEDULE, START,
+                              TORQUE)
+
+
+def _one_step_errors(method, dts, frame='body'):
+    """Errors of one step from the exact history (the k - 1 states before, from the
+    reference) at t0, for each dt."""
+    k = multistep.METHODS[method].steps
+    t0 = 0.5
+    schedule = [(0.0, FORCE, TORQUE, frame)]
+    errors = []
+    for dt in dts:
+        times = [t0 - j * dt for j in range(k - 1, 0, -1)] + [t0, t0 + dt]
+        states = reference.solve(BODY, START, schedule, t0 + dt, times=times)
+        before, now, after = states[:k - 1][::-1], states[k - 1], states[k]
+        s = Stepper(BODY, dt, now, Wrench(FORCE, TORQUE, frame), method=method)
+        s.set_state(now, previous=before)
+        s.step(1)
+        errors.append(_errors(s.state, after))
+    return errors
+
+
+@pytest.mark.parametrize('method, expected', [
+    # v, omega: Adams-Bashforth k, local O(dt^(k+1)); x: the integral against (1 - s) of
+    # the same interpolant, O(dt^(k+2)); R: the Magnus terms kept, O(dt^5) for both.
+    ('lie3', {'v': 4, 'w': 4, 'x': 5, 'R': 5}),
+    ('lie4', {'v': 5, 'w': 5, 'x': 6, 'R': 5}),
+])
+def test_local_orders_from_exact_history(method, expected):
+    orders = _orders(_one_step_errors(method, (0.08, 0.04, 0.02, 0.01)))
+    for q, order in expected.items():
+        assert orders[q][-1] == pytest.approx(order, abs=0.25), (q, orders)
+
+
+def test_local_order_of_R_needs_the_derivative_term():
+    """Without the (dt^4/24) beta' x omega term (lie3 with eq. (27)'s cross weights) R's
+    local order falls from 5 to 4: the test above can tell."""
+    lie3 = multistep.LIE3
+    plain = multistep.Multistep('lie3-plain-cross', 3, (4, 4), lie3.velocity, lie3.position,
+                                lie3.rotation, (1.0 / 12.0, 0.0, 0.0))
+    multistep.METHODS[plain.name] = plain
+    try:
+        orders = _orders(_one_step_errors(plain.name, (0.08, 0.04, 0.02, 0.01)))
+    finally:
+        del multistep.METHODS[plain.name]
+    assert orders['R'][-1] == pytest.approx(4.0, abs=0.25), orders
+
+
+@pytest.mark.parametrize('method, order', [('lie3', 3), ('lie4', 4)])
+def test_global_order_with_a_constant_wrench(method, order):
+    """From a start-up (no history), 2 s under a body-frame wrench on an asymmetric body."""
+    orders = _orders(_global_errors([(0.0, FORCE, TORQUE, 'body')], 2.0,
+                                    (1 / 64, 1 / 128, 1 / 256), method=method))
+    for q in 'xvwR':
+        assert orders[q][-1] == pytest.approx(order, abs=0.15), (q, orders)
+
+
+@pytest.mark.parametrize('method, order', [('lie3', 3), ('lie4', 4)])
+def test_global_order_with_a_wrench_change_every_eighth_of_a_second(method, order):
+    orders = _orders(_global_errors(SCHEDULE, 2.0, (1 / 64, 1 / 128, 1 / 256), method=method))
+    for q in 'xvwR':
+        assert orders[q][-1] == pytest.approx(order, abs=0.15), (q, orders)
+
+
+def _keep_old_history(stepper):
+    """A naive multistep: the accelerations of the old wrench kept across the change."""
+    row = stepper._store.state[stepper._row]
+    if row[step_kernel.HISTORY] == step_kernel.HISTORY_STALE:
+        row[step_kernel.HISTORY] = step_kernel.HISTORY_VALID
+
+
+def _re_evaluate_kept_states(stepper):
+    """eq27's way (NOTES.md 2): the kept states' accelerations evaluated again under the
+    new wrench, instead of a new start-up."""
+    store, row = stepper._store, stepper._row
+    if store.state[row, step_kernel.HISTORY] == step_kernel.HISTORY_STALE:
+        step_kernel.evaluate_history(store.state, store.params, row, stepper.method.steps)
+        store.state[row, step_kernel.HISTORY] = step_kernel.HISTORY_VALID
+
+
+def test_what_stale_history_would_do_to_lie4():
+    """The old wrench's accelerations: first order. Evaluated again at the kept states (the
+    old wrench's path, O(dt) off the new one's in omega): second order, not fourth."""
+    dts = (1 / 64, 1 / 128, 1 / 256)
+    naive = _orders(_global_errors(SCHEDULE, 2.0, dts, tamper=_keep_old_history,
+                                   method='lie4'))
+    kept = _orders(_global_errors(SCHEDULE, 2.0, dts, tamper=_re_evaluate_kept_states,
+                                  method='lie4'))
+    assert naive['w'][-1] == pytest.approx(1.0, abs=0.2), naive
+    assert kept['w'][-1] == pytest.approx(2.0, abs=0.2), kept
+
+
+def test_start_up_finds_the_states_before_to_fifth_order():
+    """The start-up (RKMK4 steps back in time under the held wrench): after one step of lie4
+    from a state without history, the slots hold the start and the states 1 and 2 steps
+    before it; those are the reference's to O(dt^5) (one RKMK4 step: local order 5). The
+    rows hold R of the principal frame, R Q."""
+    t0 = 0.5
+    errors = []
+    for dt in (0.04, 0.02, 0.01):
+        states = reference.solve(BODY, START, [(0.0, FORCE, TORQUE, 'body')], t0,
+                                 times=[t0 - 2 * dt, t0 - dt, t0])
+        s = Stepper(BODY, dt, states[2], Wrench(FORCE, TORQUE, 'body'), method='lie4')
+        s.step(1)
+        row = s._store.state[s._row]
+        got = []
+        for j, ref in ((2, states[1]), (3, states[0])):
+            at = step_kernel.slot_column(j)
+            rot = row[at + step_kernel.R:at + step_kernel.R + 9].reshape(3, 3) @ s._q.T
+            omega = row[at + step_kernel.W:at + step_kernel.W + 3]
+            got.append(so3.angle_between(so3.orthonormalize(rot), ref.rotation)
+                       + float(np.linalg.norm(omega - ref.angular_velocity)))
+        errors.append(max(got))
+    slopes = [math.log2(a / b) for a, b in zip(errors, errors[1:])]
+    assert slopes[-1] == pytest.approx(5.0, abs=0.3), (errors, slopes)
+
+
+def test_previous_must_be_as_many_states_as_the_method_keeps():
+    s = Stepper(BODY, 0.01, START, method='lie4')
+    with pytest.raises(ValueError, match='previous must be None or 3 State'):
+        s.set_state(START, previous=START)
+    with pytest.raises(ValueError, match='previous must be None or 3 State'):
+        s.set_state(START, previous=[START, START, 'x'])
+    s.set_state(START, previous=[START, START, START])
+    with pytest.raises(ValueError, match='two-step'):
+        multistep.make_step(multistep.LIE4, 0.01)
+
+
+def test_isotropic_body_under_constant_torque_is_exact_to_rounding_in_omega():
+    """omega is linear in t under a constant torque on a sphere: Adams-Bashforth of any
+    order integrates it exactly, from the start-up on (it is exact for a polynomial)."""
+    sphere = RigidBody(1.0, [0.7, 0.7, 0.7])
+    torque = np.array([0.3, -0.5, 0.4])
+    w0 = np.array([1.0, 2.0, -0.5])
+    for method in ('lie3', 'lie4'):
+        s = Stepper(sphere, 0.01, State(angular_velocity=w0), Wrench(torque=torque),
+                    method=method)
+        s.step(200)
+        assert np.allclose(s.state.angular_velocity, w0 + torque / 0.7 * 2.0,
+                           rtol=0, atol=1e-12)
+
+
+def test_batch_and_steppers_agree_bit_for_bit():
+    """BatchStepper runs the same kernel rows as Stepper: lie4, with a wrench change."""
+    rng = np.random.default_rng(1)
+    n = 5
+    moments = [np.sort(rng.uniform(0.5, 1.5, 3)) for _ in range(n)]
+    w0 = rng.normal(size=(n, 3))
+    b = BatchStepper(np.ones(n), np.array([np.diag(m) for m in moments]), 0.01,
+                     angular_velocities=w0, method='lie4')
+    ones = [Stepper(RigidBody(1.0, np.diag(m)), 0.01, State(angular_velocity=w), method='lie4')
+            for m, w in zip(moments, w0)]
+    torque = rng.normal(size=3)
+    b.step(7)
+    b.set_wrench(None, torque=torque, frame='body')
+    b.step(9)
+    for s in ones:
+        s.step(7)
+        s.set_wrench(Wrench(torque=torque, frame='body'))
+        s.step(9)
+    assert np.array_equal(b.angular_velocities(),
+                          np.array([s.state.angular_velocity for s in ones]))
