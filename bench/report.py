@@ -369,9 +369,61 @@ def findings(s: dict) -> list[str]:
     return out + ['']
 
 
+TARGETS = (1e-3, 1e-6, 1e-9)
+
+
+def methods_table(s: dict) -> list[str]:
+    """Per method of ours, the figures of the integrators issue: per scene the cheapest way to
+    each target against MuJoCo RK4's, then the Dzhanibekov period, the fast-spin limit and
+    the long run's drifts."""
+    out = ['## rb_sim_ros against MuJoCo RK4, method by method', '',
+           'Cheapest measured wall time per simulated second to a final orientation error of '
+           + ' / '.join(f'{t:g}' for t in TARGETS) + ' rad on each work-precision scene: the '
+           'best of rb_sim_ros (which method) over MuJoCo RK4 (x: ratio; "-": not reached in '
+           'the dt swept).', '',
+           '| scene | ' + ' | '.join(f'to {t:g} rad: ours (method) / RK4' for t in TARGETS)
+           + ' |', '| --- |' + ' --- |' * len(TARGETS)]
+    for name, scene in s['work_precision'].items():
+        m = scene['methods']
+        cells = []
+        for target in TARGETS:
+            ours = {k: wp.cheapest(v['points'], target) for k, v in m.items()
+                    if k.startswith('rb_sim_ros')}
+            ours = {k: v for k, v in ours.items() if v is not None}
+            rk4 = wp.cheapest(m['MuJoCo RK4']['points'], target)
+            if not ours:
+                cells.append(f'- / {_e(rk4)}')
+                continue
+            best = min(ours, key=ours.get)
+            ratio = f' = {ours[best] / rk4:.2g}x' if rk4 else ' (RK4: -)'
+            cells.append(f'{_e(ours[best])} ({best.split()[-1]}) / {_e(rk4)}{ratio}')
+        out.append(f'| {name} | ' + ' | '.join(cells) + ' |')
+    st = s['stress']
+    flips = {r['method']: r for r in st['dzhanibekov']['rows'] if r['dt'] == 1e-3}
+    limits = st['fast_spin']['limits']
+    lr = st['long_run']
+    out += ['', f'Stress, each method: the Dzhanibekov period at dt = 1 ms (relative error), '
+            'the largest omega*dt still within 1e-2 rad over 10 revolutions (fast spin), and '
+            f'the drifts after {lr["steps"]:.0e} torque-free steps at dt = {lr["dt"]:g} s.', '',
+            '| method | Dzhanibekov period error | fast spin: accurate up to omega*dt | '
+            'energy drift | world angular momentum drift |', '| --- | ---: | ---: | ---: | ---: |']
+    for name in limits:
+        flip = flips.get(name, {})
+        period = (f'{flip["relative_error"]:+.1e}' if 'relative_error' in flip else '-')
+        spin = limits[name]['accurate_up_to']
+        d = lr['methods'].get(name, {})
+        energy = f'{d["energy_drift"][-1]:+.1e}' if d.get('energy_drift') else '-'
+        momentum = f'{d["momentum_drift"][-1]:.1e}' if d.get('momentum_drift') else '-'
+        if d.get('diverged'):
+            energy = momentum = 'diverged'
+        out.append(f'| {name} | {period} | {spin if spin else "-"} | {energy} | {momentum} |')
+    return out + ['']
+
+
 def render(s: dict) -> str:
     st = s['stress']
-    lines = (header(s) + findings(s) + cost(s) + references_table(s) + work_precision(s)
+    lines = (header(s) + findings(s) + methods_table(s) + cost(s) + references_table(s)
+             + work_precision(s)
              + ['## Stress', ''] + dzhanibekov(st['dzhanibekov']) + extreme(st['extreme_inertia'])
              + fast_spin(st['fast_spin']) + long_run(st['long_run']) + blow_up(st['blow_up']))
     return '\n'.join(lines)

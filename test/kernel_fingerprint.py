@@ -111,12 +111,13 @@ def heap() -> str:
 
 
 def high_order() -> str:
-    """lie3 and lie4: 200 batch bodies with start-up, wrench changes in both frames and a
-    rotated inertia, and the collision demo on lie4 for 0.6 s (contacts restart histories)."""
+    """lie3, lie4, flow2 and flow4: 200 batch bodies with start-up, wrench changes in both
+    frames and a rotated inertia, and the collision demo on lie4 and on flow4 for 0.6 s
+    (contacts restart histories and invariants)."""
     rng = np.random.default_rng(5)
     n = 200
     out = []
-    for method in ('lie3', 'lie4'):
+    for method in ('lie3', 'lie4', 'flow2', 'flow4'):
         inertias = [np.diag(np.sort(rng.uniform(0.5, 1.0, 3))) for _ in range(n)]
         q = so3.exp(rng.normal(size=3))
         inertias[1] = q @ inertias[1] @ q.T
@@ -130,10 +131,13 @@ def high_order() -> str:
         b.step(20)
         out.extend(_batch_reads(b))
     gravity, bodies, contact, _ = load_scene(str(SCENES / 'collisions.yaml'))
-    sim = Simulation(Config(gravity=gravity, bodies=tuple(bodies), contact=contact,
-                            integrator='lie4'))
-    sim.run(600)
-    return _digest(*out) + _sim_digest(sim, [b.name for b in bodies])
+    digest = _digest(*out)
+    for method in ('lie4', 'flow4'):
+        sim = Simulation(Config(gravity=gravity, bodies=tuple(bodies), contact=contact,
+                                integrator=method))
+        sim.run(600)
+        digest += _sim_digest(sim, [b.name for b in bodies])
+    return digest
 
 
 CASES = {'batch': batch, 'demo': demo, 'heap': heap, 'high_order': high_order}

@@ -242,7 +242,7 @@ class BatchStepper(FixedStep):
                  chunk_size: int = CHUNK_SIZE, specialize: bool = True) -> None:
         self._dt = check_dt(dt)
         self._method = multistep.METHODS.get(method, method) if isinstance(method, str) else method
-        if not isinstance(self._method, multistep.Multistep):
+        if not isinstance(self._method, (multistep.Multistep, multistep.Splitting)):
             raise ValueError(f'method must be a Multistep or one of {sorted(multistep.METHODS)},'
                              f' got {method!r}')
         try:

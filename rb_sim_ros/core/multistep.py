@@ -101,10 +101,41 @@ LIE4 = Multistep(
     description='Lie Adams-Bashforth 4: AB4 for v, omega; exponential of a Magnus rotation '
                 'vector for R')
 
-METHODS = {m.name: m for m in (EQ27, EQ27_NO_CROSS, TAYLOR1, LIE3, LIE4)}
+
+@dataclass(frozen=True)
+class Splitting:
+    """The exact torque-free flow (``free_flow``) composed with kicks of the wrench: one
+    step of dt is, for each weight w in turn, a kick of w dt / 2, the free flow of w dt
+    (and x += v w dt), a kick of w dt / 2 (Strang). A kick holds R and changes v and the
+    angular momentum by the wrench, damping solved exactly. No history: ``steps`` is 1.
+    weights: (1,) is Strang, order 2; the triple jump (w1, w0, w1) is order 4."""
+
+    name: str
+    order: int
+    weights: tuple[float, ...]
+    description: str = ''
+
+    @property
+    def steps(self) -> int:
+        return 1
 
 
-def method_by_name(name: str) -> Multistep:
+# Strang splitting: exact for a torque-free body at any dt (energy and |L| to rounding).
+FLOW2 = Splitting(
+    name='flow2', order=2, weights=(1.0,),
+    description='exact torque-free flow between half kicks of the wrench (Strang)')
+
+_CBRT2 = 2.0 ** (1.0 / 3.0)
+# Yoshida's triple jump of Strang steps: order 4, still exact torque-free.
+FLOW4 = Splitting(
+    name='flow4', order=4,
+    weights=(1.0 / (2.0 - _CBRT2), -_CBRT2 / (2.0 - _CBRT2), 1.0 / (2.0 - _CBRT2)),
+    description='exact torque-free flow and kicks, composed to order 4 (triple jump)')
+
+METHODS = {m.name: m for m in (EQ27, EQ27_NO_CROSS, TAYLOR1, LIE3, LIE4, FLOW2, FLOW4)}
+
+
+def method_by_name(name: str) -> Multistep | Splitting:
     """The method called ``name``; ValueError lists the known ones."""
     try:
         return METHODS[name]

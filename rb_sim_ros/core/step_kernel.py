@@ -38,7 +38,9 @@ import math
 
 import numpy as np
 
+from rb_sim_ros.core.free_flow import free_flow, invariants
 from rb_sim_ros.core.jit import kernel, parallel_kernel, prange
+from rb_sim_ros.core.rotation_kernels import exp_so3, mul33, orthonormalize
 
 # -- state row ---------------------------------------------------------------------------------
 X, V, R, W, A, B = 0, 3, 6, 15, 18, 21
@@ -67,6 +69,10 @@ MAX_STEPS = 4
 # [16] TINY_ANGLE_SQ, [17] ORTHONORMALIZE_EVERY, [18] the method's k (STEPS), then its weights
 # padded to MAX_STEPS: velocity x dt, position x dt^2, rotation x dt^2, cross x dt^3.
 STEPS, C_VELOCITY, C_POSITION, C_ROTATION, C_CROSS = 18, 19, 23, 27, 31
+# A splitting (STEPS = 1): its weights from C_WEIGHTS, C_WEIGHT_COUNT of them. Its rows
+# keep the invariants of the free flow (free_flow.invariants) where others keep history.
+C_WEIGHTS, C_WEIGHT_COUNT = 19, 23
+FLOW_E_LO, FLOW_E_HI = XP, XP + 1
 COEFFICIENTS = 35
 
 # -- status --------------------------------------------------------------------------------------
@@ -104,6 +110,13 @@ def coefficients(method, taylor1, dt: float, tiny: float, every: int) -> np.ndar
     """The kernel's coefficients (the layout above) of ``method``, with ``taylor1`` (the
     two-step form of the start-up), the angle lift and the orthonormalisation period."""
     k = method.steps
+    if k == 1:  # a splitting of the free flow
+        weights = list(method.weights)
+        if not 1 <= len(weights) <= 4:
+            raise ValueError(f'{method.name}: 1 to 4 weights, got {len(weights)}')
+        head = [dt] + [0.0] * 7 + method_coefficients(taylor1, dt) + [tiny, float(every), 1.0]
+        return np.array(head + weights + [0.0] * (4 - len(weights)) + [float(len(weights))]
+                        + [0.0] * 11)
     if not 2 <= k <= MAX_STEPS:
         raise ValueError(f'{method.name}: {k} accelerations a step, the kernel takes 2 to '
                          f'{MAX_STEPS}')
@@ -184,57 +197,6 @@ def rotation_step(dt, rn, rp, rc, tiny, r00, r01, r02, r10, r11, r12, r20, r21, 
 
 
 @kernel
-def exp_so3(px, py, pz, tiny):
-    """exp([p]) as 9 row-major floats: I + A [p] + B [p]^2 (Rodrigues) with A = sin(t)/t and
-    B = (1 - cos t)/t^2 in half-angle form, t^2 lifted by ``tiny`` (so3.TINY_ANGLE_SQ): no
-    branch on the angle. A non-finite angle gives nan (Python's sin would raise; numba's gives
-    nan)."""
-    xx2, yy2, zz2 = px * px, py * py, pz * pz
-    t2 = xx2 + yy2 + zz2 + tiny
-    if t2 <= 1.7976931348623157e308:
-        t = math.sqrt(t2)
-        s = math.sin(0.5 * t)
-        ca = 2.0 * s * math.cos(0.5 * t) / t
-        cb = 2.0 * s * s / t2
-    else:
-        ca = cb = math.nan
-    bxy, bxz, byz = cb * px * py, cb * px * pz, cb * py * pz
-    ax_, ay_, az_ = ca * px, ca * py, ca * pz
-    return (1.0 - cb * (yy2 + zz2), bxy - az_, bxz + ay_,
-            bxy + az_, 1.0 - cb * (xx2 + zz2), byz - ax_,
-            bxz - ay_, byz + ax_, 1.0 - cb * (xx2 + yy2))
-
-
-@kernel
-def orthonormalize(r00, r01, r02, r10, r11, r12, r20, r21, r22):
-    """One Newton step of the polar decomposition, R (3 I - R^T R) / 2: from a matrix within
-    ~1e-8 of SO(3) to within ~1e-16. (so3.orthonormalize_components, written out.)"""
-    s00 = r00 * r00 + r10 * r10 + r20 * r20
-    s11 = r01 * r01 + r11 * r11 + r21 * r21
-    s22 = r02 * r02 + r12 * r12 + r22 * r22
-    s01 = r00 * r01 + r10 * r11 + r20 * r21
-    s02 = r00 * r02 + r10 * r12 + r20 * r22
-    s12 = r01 * r02 + r11 * r12 + r21 * r22
-    m00, m11, m22 = 0.5 * (3.0 - s00), 0.5 * (3.0 - s11), 0.5 * (3.0 - s22)
-    m01, m02, m12 = -0.5 * s01, -0.5 * s02, -0.5 * s12
-    return mul33(r00, r01, r02, r10, r11, r12, r20, r21, r22,
-                 m00, m01, m02, m01, m11, m12, m02, m12, m22)
-
-
-@kernel
-def mul33(a00, a01, a02, a10, a11, a12, a20, a21, a22,
-          b00, b01, b02, b10, b11, b12, b20, b21, b22):
-    """A B of two 3x3 matrices given as 9 row-major floats each, written out (no BLAS):
-    (A B)_ij = a_i0 b_0j + a_i1 b_1j + a_i2 b_2j, summed left to right."""
-    return (a00 * b00 + a01 * b10 + a02 * b20, a00 * b01 + a01 * b11 + a02 * b21,
-            a00 * b02 + a01 * b12 + a02 * b22,
-            a10 * b00 + a11 * b10 + a12 * b20, a10 * b01 + a11 * b11 + a12 * b21,
-            a10 * b02 + a11 * b12 + a12 * b22,
-            a20 * b00 + a21 * b10 + a22 * b20, a20 * b01 + a21 * b11 + a22 * b21,
-            a20 * b02 + a21 * b12 + a22 * b22)
-
-
-@kernel
 def multistep_step(dt, vn, vp, pn, pp, rn, rp, rc, tiny, rotate,
                    xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
                    wx, wy, wz, ax, ay, az, bx, by, bz, apx, apy, apz, bpx, bpy, bpz):
@@ -292,6 +254,9 @@ def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
     """n steps of body i from row i of ``src`` into row i of ``dst`` (see the module)."""
     if c[STEPS] > 2.0:
         advance_body_k(src, dst, p, c, i, n, checked, status, taken, bad, work)
+        return
+    if c[STEPS] == 1.0:
+        advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work)
         return
     dt, vn, vp, pn, pp = float(c[0]), float(c[1]), float(c[2]), float(c[3]), float(c[4])
     rn, rp, rc = float(c[5]), float(c[6]), float(c[7])
@@ -690,8 +655,8 @@ def advance_body_k(src, dst, p, c, i, n, checked, status, taken, bad, work):
                 bad[i, 0], bad[i, 1], bad[i, 2] = nw0, nw1, nw2
                 break
         countdown -= 1
-        if countdown <= 0 and not frozen_rotation:
-            q00, q01, q02, q10, q11, q12, q20, q21, q22 = orthonormalize(
+        if not frozen_rotation and countdown <= 0:
+            (q00, q01, q02, q10, q11, q12, q20, q21, q22) = orthonormalize(
                 q00, q01, q02, q10, q11, q12, q20, q21, q22)
             countdown = every
         top = (top + 1) % k
@@ -724,6 +689,130 @@ def advance_body_k(src, dst, p, c, i, n, checked, status, taken, bad, work):
             ring[top, W + 2] * ring[top, W + 2])
         if not (total == 0.0 and w2 <= max_turn_sq):
             status[i] = STATUS_NON_FINITE  # somewhere in the run: a checked run finds where
+
+
+@kernel
+def _kick(p, i, h, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz):
+    """A kick of the splitting methods: time h (s, any sign) with R held, v under the force
+    (and gravity) and the angular momentum under the torque, linear and angular damping
+    solved exactly (v' = f - c v: v + (1 - e^(-c h)) (f / c - v)). Returns v, omega."""
+    flags = int(p[i, FLAGS])
+    c_lin, c_ang = float(p[i, LINEAR_DAMPING]), float(p[i, ANGULAR_DAMPING])
+    if not (flags & FORCE_FREE) or c_lin != 0.0:
+        fx, fy, fz, _, _, _ = accelerations(p, i, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+                                            0.0, 0.0, 0.0, 0.0, 0.0, 0.0, bool(True))
+        if c_lin == 0.0:
+            vx, vy, vz = vx + h * fx, vy + h * fy, vz + h * fz
+        else:
+            e = -math.expm1(-c_lin * h)
+            vx, vy, vz = (vx + e * (fx / c_lin - vx), vy + e * (fy / c_lin - vy),
+                          vz + e * (fz / c_lin - vz))
+    if (flags & TORQUE_FREE) and c_ang == 0.0:
+        return vx, vy, vz, wx, wy, wz
+    ix, iy, iz = float(p[i, MOMENTS]), float(p[i, MOMENTS + 1]), float(p[i, MOMENTS + 2])
+    tx, ty, tz = float(p[i, TORQUE]), float(p[i, TORQUE + 1]), float(p[i, TORQUE + 2])
+    if not (flags & TORQUE_IN_BODY):  # world torque to the principal frame: R^T tau
+        tx, ty, tz = (r00 * tx + r10 * ty + r20 * tz, r01 * tx + r11 * ty + r21 * tz,
+                      r02 * tx + r12 * ty + r22 * tz)
+    mx = ix * (r00 * wx + r10 * wy + r20 * wz)
+    my = iy * (r01 * wx + r11 * wy + r21 * wz)
+    mz = iz * (r02 * wx + r12 * wy + r22 * wz)
+    if c_ang == 0.0:
+        mx, my, mz = mx + h * tx, my + h * ty, mz + h * tz
+    else:
+        e = -math.expm1(-c_ang * h)
+        mx, my, mz = (mx + e * (tx / c_ang - mx), my + e * (ty / c_ang - my),
+                      mz + e * (tz / c_ang - mz))
+    bx, by, bz = mx / ix, my / iy, mz / iz
+    return (vx, vy, vz, r00 * bx + r01 * by + r02 * bz, r10 * bx + r11 * by + r12 * bz,
+            r20 * bx + r21 * by + r22 * bz)
+
+
+@kernel
+def advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work):
+    """``advance_body`` for a splitting method (c[STEPS] = 1, multistep.Splitting): each step
+    is, for each weight w, a kick of w dt / 2, the exact free flow of w dt with x += v w dt,
+    a kick of w dt / 2. No history, no start-up, no turn limit (the free flow is exact at
+    any rate); the end state is checked finite, and step by step when ``checked``."""
+    dt = float(c[0])
+    tiny = float(c[16])
+    count = int(c[C_WEIGHT_COUNT])
+    width = src.shape[1]
+    status[i] = STATUS_OK
+    taken[i] = 0
+    for col in range(width):
+        dst[i, col] = src[i, col]
+    if n <= 0:
+        return
+    s = src
+    ix, iy, iz = float(p[i, MOMENTS]), float(p[i, MOMENTS + 1]), float(p[i, MOMENTS + 2])
+    xx, xy, xz = float(s[i, X]), float(s[i, X + 1]), float(s[i, X + 2])
+    vx, vy, vz = float(s[i, V]), float(s[i, V + 1]), float(s[i, V + 2])
+    r00, r01, r02 = float(s[i, R]), float(s[i, R + 1]), float(s[i, R + 2])
+    r10, r11, r12 = float(s[i, R + 3]), float(s[i, R + 4]), float(s[i, R + 5])
+    r20, r21, r22 = float(s[i, R + 6]), float(s[i, R + 7]), float(s[i, R + 8])
+    wx, wy, wz = float(s[i, W]), float(s[i, W + 1]), float(s[i, W + 2])
+    countdown = int(s[i, COUNTDOWN])
+    flags = int(p[i, FLAGS])
+    # The invariants stay as stored while no torque acts: a torque-free body keeps them
+    # exactly, step after step; they are read again after a state was written (no history).
+    torqued = not ((flags & TORQUE_FREE) and float(p[i, ANGULAR_DAMPING]) == 0.0)
+    if float(s[i, HISTORY]) == HISTORY_VALID:
+        e_lo, e_hi = float(s[i, FLOW_E_LO]), float(s[i, FLOW_E_HI])
+    else:
+        e_lo, e_hi = invariants(ix, iy, iz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+                                wx, wy, wz)
+    good = 0
+    for _ in range(n):
+        ne_lo, ne_hi = e_lo, e_hi
+        nx0, nx1, nx2, nv0, nv1, nv2 = xx, xy, xz, vx, vy, vz
+        q00, q01, q02, q10, q11, q12, q20, q21, q22 = r00, r01, r02, r10, r11, r12, r20, r21, r22
+        nw0, nw1, nw2 = wx, wy, wz
+        for j in range(count):
+            h = float(c[C_WEIGHTS + j]) * dt
+            nv0, nv1, nv2, nw0, nw1, nw2 = _kick(p, i, 0.5 * h, nv0, nv1, nv2, q00, q01, q02,
+                                                 q10, q11, q12, q20, q21, q22, nw0, nw1, nw2)
+            nx0, nx1, nx2 = nx0 + h * nv0, nx1 + h * nv1, nx2 + h * nv2
+            if torqued:
+                ne_lo, ne_hi = invariants(ix, iy, iz, q00, q01, q02, q10, q11, q12, q20, q21,
+                                          q22, nw0, nw1, nw2)
+            (q00, q01, q02, q10, q11, q12, q20, q21, q22, nw0, nw1, nw2) = free_flow(
+                ix, iy, iz, ne_lo, ne_hi, q00, q01, q02, q10, q11, q12, q20, q21, q22, nw0,
+                nw1, nw2, h, tiny)
+            nv0, nv1, nv2, nw0, nw1, nw2 = _kick(p, i, 0.5 * h, nv0, nv1, nv2, q00, q01, q02,
+                                                 q10, q11, q12, q20, q21, q22, nw0, nw1, nw2)
+        work[i, WORK_FULL] += 1
+        if checked and not _finite(nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11,
+                                   q12, q20, q21, q22, nw0, nw1, nw2):
+            status[i] = STATUS_NON_FINITE
+            bad[i, 0], bad[i, 1], bad[i, 2] = nw0, nw1, nw2
+            break
+        # R pulled back to SO(3) every step: it costs little beside the flow, and a drift
+        # of R off SO(3) would move L = R m, which the flow keeps otherwise.
+        (q00, q01, q02, q10, q11, q12, q20, q21, q22) = orthonormalize(
+            q00, q01, q02, q10, q11, q12, q20, q21, q22)
+        xx, xy, xz, vx, vy, vz = nx0, nx1, nx2, nv0, nv1, nv2
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = q00, q01, q02, q10, q11, q12, q20, q21, q22
+        wx, wy, wz = nw0, nw1, nw2
+        e_lo, e_hi = ne_lo, ne_hi
+        good += 1
+    taken[i] = good
+    if good == 0:
+        return
+    d = dst
+    d[i, X], d[i, X + 1], d[i, X + 2] = xx, xy, xz
+    d[i, V], d[i, V + 1], d[i, V + 2] = vx, vy, vz
+    d[i, R], d[i, R + 1], d[i, R + 2] = r00, r01, r02
+    d[i, R + 3], d[i, R + 4], d[i, R + 5] = r10, r11, r12
+    d[i, R + 6], d[i, R + 7], d[i, R + 8] = r20, r21, r22
+    d[i, W], d[i, W + 1], d[i, W + 2] = wx, wy, wz
+    d[i, COUNTDOWN] = countdown
+    d[i, FLOW_E_LO], d[i, FLOW_E_HI] = e_lo, e_hi
+    d[i, HISTORY] = HISTORY_VALID
+    evaluate(dst, p, i)  # a and beta at the new state, for the readers of accelerations
+    if not checked and not _finite(xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12,
+                                   r20, r21, r22, wx, wy, wz):
+        status[i] = STATUS_NON_FINITE  # somewhere in the run: a checked run finds where
 
 
 @kernel

@@ -205,7 +205,7 @@ class Stepper(FixedStep):
         angular_damping = rate('angular_damping', angular_damping)
         self._method = (multistep.method_by_name(method) if isinstance(method, str)
                         else method)
-        if not isinstance(self._method, multistep.Multistep):
+        if not isinstance(self._method, (multistep.Multistep, multistep.Splitting)):
             raise ValueError(f'method must be a Multistep or its name, got {method!r}')
         self._body = body
         self._inverse_mass = 1.0 / body.mass

@@ -1,0 +1,356 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The exact torque-free motion of a rigid body, for any step: Jacobi elliptic functions for
+the body-frame angular momentum, Carlson's elliptic integrals for the attitude.
+
+``free_flow`` takes (R, omega) of a body with principal moments I (R of the principal frame,
+omega world frame) through time h of torque-free motion. Derivation in
+docs/integrators.md ("The exact free flow"); in short:
+
+* the body-frame angular momentum m = I (R^T omega) keeps |m|^2 = G^2 and m . I^-1 m = H.
+  With the axes ordered (p, q, r) so that m_r never changes sign (r the axis of largest
+  moment if G^2 >= H I_mid, else of the smallest), m_p = a cn(u), m_q = b sn(u),
+  m_r = c dn(u), u = u0 + lambda t (Landau-Lifshitz section 37), parameter k^2 < 1;
+* R(t) m(t) = L, the world angular momentum, for all t: R(t) = R(0) P^T B(0)^T Rz(dphi)
+  B(t) P, B(t) the rotation taking m(t) to G e_z (two Euler angles of m), P the axes'
+  order, dphi the precession about L, dphi = G / (I_p lambda) [Phi(u1) - Phi(u0)],
+  Phi(u) = F(am u) + (n + gamma) J(am u) by Carlson's R_F and R_J. L is kept to rounding
+  whatever dphi's error;
+* a symmetric body (two moments equal) has the closed form exp(h [L] / I_t) R exp(h nu
+  [e_s]); a steady rotation about a principal axis, exp(h [omega]) R.
+
+Plain + - * / sqrt sin cos on float64 in a data-dependent but deterministic number of
+iterations: compiled and interpreted give the same bits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rb_sim_ros.core.jit import kernel
+from rb_sim_ros.core.rotation_kernels import exp_so3, mul33
+
+# Carlson's duplication stops when the arguments agree to these; the series after it then
+# has an error below 1e-16 (Carlson 1995; Numerical Recipes 3rd ed., 6.12).
+_RF_TOL, _RJ_TOL, _RC_TOL = 0.0025, 0.0015, 0.0012
+_MAX_DUPLICATIONS = 60
+# The AGM of sncndn stops when a and b agree to this (its error is about its square).
+_SNCNDN_TOL = 1e-8
+
+
+@kernel
+def carlson_rf(x, y, z):
+    """R_F(x, y, z), x, y, z >= 0, at most one 0 (DLMF 19.16.1)."""
+    mu, dx, dy, dz = 1.0, 0.0, 0.0, 0.0
+    for _ in range(_MAX_DUPLICATIONS):
+        sx, sy, sz = math.sqrt(x), math.sqrt(y), math.sqrt(z)
+        lam = sx * (sy + sz) + sy * sz
+        x, y, z = 0.25 * (x + lam), 0.25 * (y + lam), 0.25 * (z + lam)
+        mu = (x + y + z) / 3.0
+        dx, dy, dz = (mu - x) / mu, (mu - y) / mu, (mu - z) / mu
+        if max(abs(dx), abs(dy), abs(dz)) < _RF_TOL:
+            break
+    e2 = dx * dy - dz * dz
+    e3 = dx * dy * dz
+    return (1.0 + (e2 / 24.0 - 0.1 - 3.0 / 44.0 * e3) * e2 + e3 / 14.0) / math.sqrt(mu)
+
+
+@kernel
+def carlson_rc(x, y):
+    """R_C(x, y) = R_F(x, y, y), x >= 0, y > 0 (DLMF 19.2.17)."""
+    ave, s = 1.0, 0.0
+    for _ in range(_MAX_DUPLICATIONS):
+        lam = 2.0 * math.sqrt(x) * math.sqrt(y) + y
+        x, y = 0.25 * (x + lam), 0.25 * (y + lam)
+        ave = (x + y + y) / 3.0
+        s = (y - ave) / ave
+        if abs(s) <= _RC_TOL:
+            break
+    return (1.0 + s * s * (0.3 + s * (1.0 / 7.0 + s * (0.375 + s * 9.0 / 22.0)))) / (
+        math.sqrt(ave))
+
+
+@kernel
+def carlson_rj(x, y, z, p):
+    """R_J(x, y, z, p), x, y, z >= 0 (at most one 0), p > 0 (DLMF 19.16.2)."""
+    c1, c2, c3, c4 = 3.0 / 14.0, 1.0 / 3.0, 3.0 / 22.0, 3.0 / 26.0
+    c5, c6, c7, c8 = 0.75 * c3, 1.5 * c4, 0.5 * c2, c3 + c3
+    total, fac = 0.0, 1.0
+    ave, dx, dy, dz, dp = 1.0, 0.0, 0.0, 0.0, 0.0
+    for _ in range(_MAX_DUPLICATIONS):
+        sx, sy, sz = math.sqrt(x), math.sqrt(y), math.sqrt(z)
+        lam = sx * (sy + sz) + sy * sz
+        alpha = p * (sx + sy + sz) + sx * sy * sz
+        alpha = alpha * alpha
+        beta = p * (p + lam) * (p + lam)
+        total += fac * carlson_rc(alpha, beta)
+        fac *= 0.25
+        x, y, z, p = 0.25 * (x + lam), 0.25 * (y + lam), 0.25 * (z + lam), 0.25 * (p + lam)
+        ave = 0.2 * (x + y + z + p + p)
+        dx, dy, dz, dp = (ave - x) / ave, (ave - y) / ave, (ave - z) / ave, (ave - p) / ave
+        if max(abs(dx), abs(dy), abs(dz), abs(dp)) <= _RJ_TOL:
+            break
+    ea = dx * (dy + dz) + dy * dz
+    eb = dx * dy * dz
+    ec = dp * dp
+    ed = ea - 3.0 * ec
+    ee = eb + 2.0 * dp * (ea - ec)
+    return 3.0 * total + fac * (1.0 + ed * (-c1 + c5 * ed - c6 * ee) + eb * (c7 + dp * (
+        -c8 + dp * c4)) + dp * ea * (c2 - dp * c3) - c2 * dp * ec) / (ave * math.sqrt(ave))
+
+
+@kernel
+def sncndn(u, mc):
+    """Jacobi sn, cn, dn of u for parameter m = 1 - mc, 0 <= mc <= 1, by the descending
+    Landen (AGM) transformation (Numerical Recipes 3rd ed., 6.12)."""
+    if mc == 0.0:
+        cn = 1.0 / math.cosh(u)
+        return math.tanh(u), cn, cn
+    em = np.empty(16)
+    en = np.empty(16)
+    a, dn, c = 1.0, 1.0, 1.0
+    emc = mc
+    last = 0
+    for i in range(16):
+        last = i
+        em[i] = a
+        emc = math.sqrt(emc)
+        en[i] = emc
+        c = 0.5 * (a + emc)
+        if abs(a - emc) <= _SNCNDN_TOL * a:
+            break
+        emc *= a
+        a = c
+    u *= c
+    sn, cn = math.sin(u), math.cos(u)
+    if sn != 0.0:
+        a = cn / sn
+        c *= a
+        for ii in range(last, -1, -1):
+            b = em[ii]
+            a *= c
+            c *= dn
+            dn = (en[ii] + a) / (b + a)
+            a = c / b
+        a = 1.0 / math.sqrt(c * c + 1.0)
+        sn = a if sn >= 0.0 else -a
+        cn = c * sn
+    return sn, cn, dn
+
+
+@kernel
+def _phi(s, c, k2, n, ng):
+    """F(phi) + ng J(phi) at sin(phi) = s, cos(phi) = c >= 0, |phi| <= pi/2: the integral of
+    (1 + gamma sn^2) / (1 - n sn^2) du from 0 to the u of amplitude phi (ng = n + gamma),
+    J(phi) = integral of sin^2 / ((1 - n sin^2) Delta) = s^3 R_J(c^2, D^2, 1, 1 - n s^2) / 3."""
+    d2 = 1.0 - k2 * s * s
+    f = s * carlson_rf(c * c, d2, 1.0)
+    if ng == 0.0 or s == 0.0:
+        return f
+    return f + ng * s * s * s * carlson_rj(c * c, d2, 1.0, 1.0 - n * s * s) / 3.0
+
+
+@kernel
+def _steady(r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, h, tiny):
+    """A body whose omega stays put (steady rotation, or isotropic): exp(h [omega]) R."""
+    e00, e01, e02, e10, e11, e12, e20, e21, e22 = exp_so3(wx * h, wy * h, wz * h, tiny)
+    q = mul33(e00, e01, e02, e10, e11, e12, e20, e21, e22,
+              r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    return q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], wx, wy, wz
+
+
+@kernel
+def _from_body(q00, q01, q02, q10, q11, q12, q20, q21, q22, mx, my, mz, ix, iy, iz):
+    """omega in the world frame from R (principal) and the body-frame momentum: R (m / I)."""
+    bx, by, bz = mx / ix, my / iy, mz / iz
+    return (q00 * bx + q01 * by + q02 * bz, q10 * bx + q11 * by + q12 * bz,
+            q20 * bx + q21 * by + q22 * bz)
+
+
+@kernel
+def _symmetric(ix, iy, iz, axis, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz,
+               mx, my, mz, h, tiny):
+    """Two moments equal, ``axis`` the other one (0, 1, 2): R(h) = exp(h [L] / I_t) R
+    exp(h nu [e_s]), nu = m_s (1 / I_s - 1 / I_t); m(h) = exp(-h nu [e_s]) m."""
+    if axis == 0:
+        i_s, i_t, m_s = ix, iy, mx
+    elif axis == 1:
+        i_s, i_t, m_s = iy, iz, my
+    else:
+        i_s, i_t, m_s = iz, ix, mz
+    nu = m_s * (1.0 / i_s - 1.0 / i_t)
+    lx = r00 * mx + r01 * my + r02 * mz
+    ly = r10 * mx + r11 * my + r12 * mz
+    lz = r20 * mx + r21 * my + r22 * mz
+    g = h / i_t
+    e00, e01, e02, e10, e11, e12, e20, e21, e22 = exp_so3(lx * g, ly * g, lz * g, tiny)
+    a = mul33(e00, e01, e02, e10, e11, e12, e20, e21, e22,
+              r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    sx = h * nu if axis == 0 else 0.0
+    sy = h * nu if axis == 1 else 0.0
+    sz = h * nu if axis == 2 else 0.0
+    f00, f01, f02, f10, f11, f12, f20, f21, f22 = exp_so3(sx, sy, sz, tiny)
+    q = mul33(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8],
+              f00, f01, f02, f10, f11, f12, f20, f21, f22)
+    # m(h) = exp(-h nu [e_s]) m = F^T m
+    nx = f00 * mx + f10 * my + f20 * mz
+    ny = f01 * mx + f11 * my + f21 * mz
+    nz = f02 * mx + f12 * my + f22 * mz
+    w0, w1, w2 = _from_body(q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8],
+                            nx, ny, nz, ix, iy, iz)
+    return q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], w0, w1, w2
+
+
+@kernel
+def _euler_b(mp, mq, mr):
+    """B, 9 row-major floats: the rotation Rx(theta) Rz(psi) taking (m_p, m_q, m_r) to
+    (0, 0, |m|): cos(theta) = m_r / |m|, sin(psi) = m_p / rho, cos(psi) = m_q / rho."""
+    rho = math.sqrt(mp * mp + mq * mq)
+    g = math.sqrt(rho * rho + mr * mr)  # its own norm: B is a rotation to rounding
+    st, ct = rho / g, mr / g
+    sp, cp = mp / rho, mq / rho
+    return cp, -sp, 0.0, ct * sp, ct * cp, -st, st * sp, st * cp, ct
+
+
+@kernel
+def _extremes(ix, iy, iz):
+    """The axes of the smallest and the largest moment, and the other one."""
+    m3 = (ix, iy, iz)
+    lo = 0
+    hi = 0
+    for k in range(1, 3):
+        if m3[k] < m3[lo]:
+            lo = k
+        if m3[k] > m3[hi]:
+            hi = k
+    return lo, hi, 3 - lo - hi
+
+
+@kernel
+def invariants(ix, iy, iz, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz):
+    """The two invariants of torque-free motion the flow keeps, each a sum of terms of one
+    sign (no cancellation): E_lo = G^2 - H I_lo = sum m_i^2 (1 - I_lo / I_i) and
+    E_hi = H I_hi - G^2 = sum m_i^2 (I_hi / I_i - 1), m = I R^T omega, G^2 = |m|^2,
+    H = m . I^-1 m (twice the kinetic energy)."""
+    mx = ix * (r00 * wx + r10 * wy + r20 * wz)
+    my = iy * (r01 * wx + r11 * wy + r21 * wz)
+    mz = iz * (r02 * wx + r12 * wy + r22 * wz)
+    lo, hi, _ = _extremes(ix, iy, iz)
+    m3 = (ix, iy, iz)
+    i_lo, i_hi = m3[lo], m3[hi]
+    e_lo = mx * mx * (1.0 - i_lo / ix) + my * my * (1.0 - i_lo / iy) + mz * mz * (
+        1.0 - i_lo / iz)
+    e_hi = mx * mx * (i_hi / ix - 1.0) + my * my * (i_hi / iy - 1.0) + mz * mz * (
+        i_hi / iz - 1.0)
+    return e_lo, e_hi
+
+
+@kernel
+def free_flow(ix, iy, iz, e_lo, e_hi, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy,
+              wz, h, tiny):
+    """(R, omega) after time h (s, any sign) of torque-free motion of a body with principal
+    moments (ix, iy, iz), from R (its principal frame, body to world), omega (world) and
+    the motion's ``invariants`` (e_lo, e_hi): 12 floats, exact up to rounding (see the
+    module). Given the invariants, steps taken one after the other keep them exactly: the
+    polhode is fixed by them, only the phase is read from the state."""
+    # body-frame angular momentum
+    mx = ix * (r00 * wx + r10 * wy + r20 * wz)
+    my = iy * (r01 * wx + r11 * wy + r21 * wz)
+    mz = iz * (r02 * wx + r12 * wy + r22 * wz)
+    if ix == iy and iy == iz:
+        return _steady(r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, h, tiny)
+    if ix == iy or iy == iz or ix == iz:
+        axis = 2 if ix == iy else (0 if iy == iz else 1)
+        return _symmetric(ix, iy, iz, axis, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+                          wx, wy, wz, mx, my, mz, h, tiny)
+    zeros = (1 if mx == 0.0 else 0) + (1 if my == 0.0 else 0) + (1 if mz == 0.0 else 0)
+    if zeros >= 2:  # about a principal axis: steady
+        return _steady(r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, h, tiny)
+    lo, hi, mid = _extremes(ix, iy, iz)
+    m3 = (ix, iy, iz)
+    i_lo, i_mid, i_hi = m3[lo], m3[mid], m3[hi]
+    # G^2 - H I_mid, by its sign: about the axis of the largest moment, or of the smallest
+    if e_lo * (i_hi - i_mid) >= e_hi * (i_mid - i_lo):
+        p_ax, r_ax = lo, hi
+        d_r, d_p = e_hi, e_lo  # H I_r - G^2, G^2 - H I_p
+    else:
+        p_ax, r_ax = hi, lo
+        d_r, d_p = -e_lo, -e_hi
+    q_ax = mid
+    hh = (e_lo + e_hi) / (i_hi - i_lo)
+    g2 = e_lo + hh * i_lo
+    # (p, q, r) right-handed: if not a cyclic order of (0, 1, 2), flip q.
+    sign_q = 1.0 if (q_ax - p_ax) % 3 == 1 else -1.0
+    mv = (mx, my, mz)
+    ip, iq, ir = m3[p_ax], m3[q_ax], m3[r_ax]
+    mp, mq, mr = mv[p_ax], sign_q * mv[q_ax], mv[r_ax]
+    a2 = ip * d_r / (ir - ip)
+    b2 = iq * d_r / (ir - iq)
+    c2 = ir * d_p / (ir - ip)
+    k2 = (iq - ip) * d_r / ((ir - iq) * d_p)
+    if not (a2 > 0.0 and b2 > 0.0 and c2 > 0.0) or not (k2 < 1.0):
+        # on the separatrix or rounding at a steady rotation: no elliptic form
+        return _steady(r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, h, tiny)
+    k2 = max(k2, 0.0)
+    a, b, c = math.sqrt(a2), math.sqrt(b2), math.sqrt(c2)
+    if mr < 0.0:
+        c = -c
+    lam = math.sqrt((ir - iq) * d_p / (ip * iq * ir))
+    if (c < 0.0) != (1.0 / iq - 1.0 / ir < 0.0):
+        lam = -lam
+    n = 1.0 - b2 / a2
+    ng = b2 * (ip - iq) / (a2 * iq)
+    mc = 1.0 - k2
+    # u0: its amplitude from (sn, cn) = (m_q / b, m_p / a), half periods counted from cn >= 0.
+    s0, c0 = mq / b, mp / a
+    j0 = 0
+    if c0 < 0.0:
+        s0, c0, j0 = -s0, -c0, 1
+    s0 = min(max(s0, -1.0), 1.0)
+    c0 = max(c0, 0.0)
+    kk = carlson_rf(0.0, mc, 1.0)  # K(k)
+    half = 2.0 * kk  # u over a half period of the amplitude
+    phi_c = 2.0 * kk
+    if ng != 0.0:
+        phi_c += 2.0 * ng * carlson_rj(0.0, mc, 1.0, 1.0 - n) / 3.0
+    u0 = j0 * half + s0 * carlson_rf(c0 * c0, 1.0 - k2 * s0 * s0, 1.0)
+    big0 = j0 * phi_c + _phi(s0, c0, k2, n, ng)
+    u1 = u0 + lam * h
+    j1 = math.floor(u1 / half + 0.5)
+    r1 = u1 - j1 * half
+    sn1, cn1, dn1 = sncndn(r1, mc)
+    big1 = j1 * phi_c + _phi(sn1, cn1, k2, n, ng)
+    sign1 = 1.0 if j1 % 2 == 0 else -1.0
+    np_, nq, nr = a * sign1 * cn1, b * sign1 * sn1, c * dn1
+    dphi = math.sqrt(g2) / (ip * lam) * (big1 - big0)
+    b0 = _euler_b(mp, mq, mr)
+    b1 = _euler_b(np_, nq, nr)
+    cz, sz = math.cos(dphi), math.sin(dphi)
+    # M = B0^T Rz(dphi) B1 in the (p, q, r) frame
+    z00, z01, z10, z11 = cz, -sz, sz, cz
+    t = np.empty(9)  # Rz B1
+    for col in range(3):
+        t[col] = z00 * b1[col] + z01 * b1[3 + col]
+        t[3 + col] = z10 * b1[col] + z11 * b1[3 + col]
+        t[6 + col] = b1[6 + col]
+    mm = np.empty(9)  # B0^T (Rz B1)
+    for row in range(3):
+        for col in range(3):
+            mm[3 * row + col] = (b0[row] * t[col] + b0[3 + row] * t[3 + col]
+                                 + b0[6 + row] * t[6 + col])
+    # Back to the principal axes: D = P^T M P, P the axes' order (with q's sign).
+    perm = (p_ax, q_ax, r_ax)
+    sgn = (1.0, sign_q, 1.0)
+    d = np.zeros(9)
+    for row in range(3):
+        for col in range(3):
+            d[3 * perm[row] + perm[col]] = sgn[row] * sgn[col] * mm[3 * row + col]
+    q = mul33(r00, r01, r02, r10, r11, r12, r20, r21, r22,
+              d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8])
+    nb = np.empty(3)
+    nb[p_ax], nb[q_ax], nb[r_ax] = np_, sign_q * nq, nr
+    w0, w1, w2 = _from_body(q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8],
+                            nb[0], nb[1], nb[2], ix, iy, iz)
+    return q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], w0, w1, w2
