@@ -44,6 +44,10 @@ def test_quick_benchmark_checks_orders_and_writes_its_report(tmp_path):
             assert data['ok'], name
             if data['expected_order'] is not None:
                 for what in ('angle', 'omega'):
+                    if data.get(f'exact_{what}'):  # every error below 1e-11: a flow method
+                        assert name.startswith('rb_sim_ros flow'), (name, what)
+                        assert all(p[f'{what}_final'] < 1e-9 for p in data['points'])
+                        continue
                     assert abs(data[f'order_{what}'] - data['expected_order']) <= 0.3, \
                         (name, what, data[f'order_{what}'])
             timed = [p for p in data['points'] if 'diverged' not in p]
@@ -51,7 +55,10 @@ def test_quick_benchmark_checks_orders_and_writes_its_report(tmp_path):
 
     stress = summary['stress']
     for row in stress['blow_up']:
-        assert row['raised'] and row['consistent'] and row['state_finite'], row
+        if row['exact_flow']:  # exact at any rate: runs through, finite, energy kept
+            assert not row['raised'] and row['finite'] and abs(row['energy_drift']) < 1e-12
+        else:
+            assert row['raised'] and row['consistent'] and row['state_finite'], row
     flip = stress['dzhanibekov']
     eq27 = next(r for r in flip['rows'] if r['method'] == 'rb_sim_ros eq27')
     assert abs(eq27['relative_error']) < 1e-3
