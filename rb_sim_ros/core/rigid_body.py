@@ -79,6 +79,20 @@ def _vector(name: str, value: Any, size: int = 3) -> np.ndarray:
     return arr
 
 
+def _plain3(value: Any) -> bool:
+    """True for a tuple or list of 3 finite Python floats or ints (not bools)."""
+    if type(value) is not tuple and type(value) is not list or len(value) != 3:
+        return False
+    for c in value:
+        t = type(c)
+        if t is float:
+            if not math.isfinite(c):
+                return False
+        elif t is not int or abs(c) > 2 ** 53:
+            return False
+    return True
+
+
 def finite_floats(name: str, value: Any, size: int) -> tuple[float, ...]:
     """``value`` as a tuple of ``size`` finite floats; ValueError naming ``name`` otherwise."""
     try:
@@ -318,13 +332,23 @@ class Wrench:
 
     def __init__(self, force: Any = (0.0, 0.0, 0.0), torque: Any = (0.0, 0.0, 0.0),
                  frame: 'Frame | str' = Frame.WORLD) -> None:
-        force, torque = _vector('force', force), _vector('torque', torque)
         frame = Frame.parse(frame)
+        # Three finite Python floats or ints each (what a controller and the node pass):
+        # checked in Python, one array each; anything else by the general check.
+        fast = _plain3(force) and _plain3(torque)
+        if fast:
+            values = (*map(float, force), *map(float, torque))
+            arr = np.array(values)
+            arr.flags.writeable = False  # before the views: they inherit it
+            force, torque = arr[:3], arr[3:]
+        else:
+            force, torque = _vector('force', force), _vector('torque', torque)
+            values = (*force.tolist(), *torque.tolist())
         object.__setattr__(self, 'force', force)
         object.__setattr__(self, 'torque', torque)
         object.__setattr__(self, 'frame', frame)
         # Compared once per publish period by the node: a tuple compares in ~100 ns.
-        object.__setattr__(self, '_key', (frame, *map(float, force), *map(float, torque)))
+        object.__setattr__(self, '_key', (frame, *values))
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Wrench):

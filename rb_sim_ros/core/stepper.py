@@ -151,6 +151,15 @@ class BodyStore:
         args = (self.params, self.coefficients, rows, n)
         out = (self.status, self.taken, self.bad, self.work)
         K.advance(self.state, self.spare, *args, False, *out)
+        if len(rows) == 1:  # a Stepper's step: scalar reads, no fancy indexing
+            row = int(rows[0])
+            if self.status[row] == K.STATUS_OK:
+                if len(self.clock) == 1:
+                    self.state, self.spare = self.spare, self.state
+                else:
+                    K.copy_rows(self.state, self.spare, rows)
+                self.clock[row] += n
+                return []
         failed = rows[self.status[rows] != K.STATUS_OK]
         if len(failed):
             # Taken again from the untouched rows, step by step: the state before the bad
@@ -444,14 +453,15 @@ def set_wrench_params(p: np.ndarray, inverse_mass: float, force, torque,
                       in_body: bool) -> None:
     """Fill a kernel params row with a held wrench (force and torque in the principal body
     frame if ``in_body``, else world), as Thm 1 takes it: F / m, and F / m + g where constant."""
-    fx, fy, fz = (float(force[0]) * inverse_mass, float(force[1]) * inverse_mass,
-                  float(force[2]) * inverse_mass)
-    gx, gy, gz = (float(c) for c in p[K.GRAVITY:K.GRAVITY + 3])
+    f0, f1, f2 = (float(c) for c in force)
+    tx, ty, tz = (float(c) for c in torque)
+    fx, fy, fz = f0 * inverse_mass, f1 * inverse_mass, f2 * inverse_mass
+    gx, gy, gz = p[K.GRAVITY:K.GRAVITY + 3].tolist()
     has_gravity = gx != 0.0 or gy != 0.0 or gz != 0.0
-    torque_free = all(float(c) == 0.0 for c in torque)
-    force_free = not has_gravity and all(float(c) == 0.0 for c in force)
-    p[K.FORCE:K.FORCE + 3] = (fx, fy, fz)
-    p[K.TORQUE:K.TORQUE + 3] = tuple(float(c) for c in torque)
+    torque_free = tx == 0.0 and ty == 0.0 and tz == 0.0
+    force_free = not has_gravity and f0 == 0.0 and f1 == 0.0 and f2 == 0.0
+    # FORCE, TORQUE (6 .. 11) in one write; WORLD_A (15 .. 17) in another.
+    p[K.FORCE:K.TORQUE + 3] = (fx, fy, fz, tx, ty, tz)
     p[K.WORLD_A:K.WORLD_A + 3] = (fx + gx, fy + gy, fz + gz) if has_gravity else (fx, fy, fz)
     flags = int(p[K.FLAGS]) & (K.SPECIALIZE | K.ISOTROPIC)
     flags |= (K.FORCE_IN_BODY | K.TORQUE_IN_BODY) if in_body else 0
