@@ -248,26 +248,11 @@ def invariants(ix, iy, iz, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, 
 
 
 @kernel
-def free_flow(ix, iy, iz, e_lo, e_hi, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy,
-              wz, h, tiny):
-    """(R, omega) after time h (s, any sign) of torque-free motion of a body with principal
-    moments (ix, iy, iz), from R (its principal frame, body to world), omega (world) and
-    the motion's ``invariants`` (e_lo, e_hi): 12 floats, exact up to rounding (see the
-    module). Given the invariants, steps taken one after the other keep them exactly: the
-    polhode is fixed by them, only the phase is read from the state."""
-    # body-frame angular momentum
-    mx = ix * (r00 * wx + r10 * wy + r20 * wz)
-    my = iy * (r01 * wx + r11 * wy + r21 * wz)
-    mz = iz * (r02 * wx + r12 * wy + r22 * wz)
-    if ix == iy and iy == iz:
-        return _steady(r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, h, tiny)
-    if ix == iy or iy == iz or ix == iz:
-        axis = 2 if ix == iy else (0 if iy == iz else 1)
-        return _symmetric(ix, iy, iz, axis, r00, r01, r02, r10, r11, r12, r20, r21, r22,
-                          wx, wy, wz, mx, my, mz, h, tiny)
-    zeros = (1 if mx == 0.0 else 0) + (1 if my == 0.0 else 0) + (1 if mz == 0.0 else 0)
-    if zeros >= 2:  # about a principal axis: steady
-        return _steady(r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, h, tiny)
+def _constants(ix, iy, iz, e_lo, e_hi):
+    """The polhode of the invariants (e_lo, e_hi): ok (False: no elliptic form, on the
+    separatrix or at a steady rotation), the axes p, q, r and q's sign, the moments I_p, I_q,
+    I_r, the amplitudes a, b, |c|, k^2, |lambda|, n, n + gamma, 1 - k^2, the u of a half
+    period of the amplitude (2K), Phi over it, and G."""
     lo, hi, mid = _extremes(ix, iy, iz)
     m3 = (ix, iy, iz)
     i_lo, i_mid, i_hi = m3[lo], m3[mid], m3[hi]
@@ -279,78 +264,150 @@ def free_flow(ix, iy, iz, e_lo, e_hi, r00, r01, r02, r10, r11, r12, r20, r21, r2
         p_ax, r_ax = hi, lo
         d_r, d_p = -e_lo, -e_hi
     q_ax = mid
-    hh = (e_lo + e_hi) / (i_hi - i_lo)
-    g2 = e_lo + hh * i_lo
     # (p, q, r) right-handed: if not a cyclic order of (0, 1, 2), flip q.
     sign_q = 1.0 if (q_ax - p_ax) % 3 == 1 else -1.0
-    mv = (mx, my, mz)
     ip, iq, ir = m3[p_ax], m3[q_ax], m3[r_ax]
-    mp, mq, mr = mv[p_ax], sign_q * mv[q_ax], mv[r_ax]
+    hh = (e_lo + e_hi) / (i_hi - i_lo)
+    g = math.sqrt(e_lo + hh * i_lo)
     a2 = ip * d_r / (ir - ip)
     b2 = iq * d_r / (ir - iq)
     c2 = ir * d_p / (ir - ip)
     k2 = (iq - ip) * d_r / ((ir - iq) * d_p)
-    if not (a2 > 0.0 and b2 > 0.0 and c2 > 0.0) or not (k2 < 1.0):
-        # on the separatrix or rounding at a steady rotation: no elliptic form
-        return _steady(r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, h, tiny)
+    ok = a2 > 0.0 and b2 > 0.0 and c2 > 0.0 and k2 < 1.0
+    if not ok:
+        return (False, p_ax, q_ax, r_ax, sign_q, ip, iq, ir, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                0.0, 1.0, 1.0, 0.0, g)
     k2 = max(k2, 0.0)
-    a, b, c = math.sqrt(a2), math.sqrt(b2), math.sqrt(c2)
-    if mr < 0.0:
-        c = -c
     lam = math.sqrt((ir - iq) * d_p / (ip * iq * ir))
-    if (c < 0.0) != (1.0 / iq - 1.0 / ir < 0.0):
-        lam = -lam
     n = 1.0 - b2 / a2
     ng = b2 * (ip - iq) / (a2 * iq)
     mc = 1.0 - k2
-    # u0: its amplitude from (sn, cn) = (m_q / b, m_p / a), half periods counted from cn >= 0.
+    kk = carlson_rf(0.0, mc, 1.0)  # K(k)
+    phi_c = 2.0 * kk
+    if ng != 0.0:
+        phi_c += 2.0 * ng * carlson_rj(0.0, mc, 1.0, 1.0 - n) / 3.0
+    return (True, p_ax, q_ax, r_ax, sign_q, ip, iq, ir, math.sqrt(a2), math.sqrt(b2),
+            math.sqrt(c2), k2, lam, n, ng, mc, 2.0 * kk, phi_c, g)
+
+
+@kernel
+def _at(u, a, b, c, k2, n, ng, mc, half, phi_c):
+    """m_p, m_q, m_r at u and Phi(u) (the integral of the precession rate's shape), with u
+    counted in half periods of the amplitude from the one where cn >= 0."""
+    j = math.floor(u / half + 0.5)
+    r = u - j * half
+    sn, cn, dn = sncndn(r, mc)
+    sign = 1.0 if j % 2 == 0 else -1.0
+    return a * sign * cn, b * sign * sn, c * dn, j * phi_c + _phi(sn, cn, k2, n, ng)
+
+
+@kernel
+def _frame_r(q00, q01, q02, q10, q11, q12, q20, q21, q22, phi, mp, mq, mr, p_ax, q_ax,
+             r_ax, sign_q):
+    """R = Q Rz(phi) B(m) P, 9 row-major floats, in the principal axes."""
+    b1 = _euler_b(mp, mq, mr)
+    cz, sz = math.cos(phi), math.sin(phi)
+    t = np.empty(9)  # Rz(phi) B, in the (p, q, r) frame
+    for col in range(3):
+        t[col] = cz * b1[col] - sz * b1[3 + col]
+        t[3 + col] = sz * b1[col] + cz * b1[3 + col]
+        t[6 + col] = b1[6 + col]
+    # (Rz B) P: column j of the (p, q, r) frame is principal axis perm[j], sign sgn[j]
+    perm = (p_ax, q_ax, r_ax)
+    sgn = (1.0, sign_q, 1.0)
+    w = np.zeros(9)
+    for row in range(3):
+        for col in range(3):
+            w[3 * row + perm[col]] = sgn[col] * t[3 * row + col]
+    return mul33(q00, q01, q02, q10, q11, q12, q20, q21, q22,
+                 w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8])
+
+
+@kernel
+def flow_start(ix, iy, iz, e_lo, e_hi, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy,
+               wz):
+    """Where a body's torque-free motion is on its polhode: (elliptic, sign of m_r, u, Q)
+    with R = Q Rz(0) B(m) P now (Q = R P^T B(m)^T: its third column is L / |L|).
+    elliptic is False where ``free_flow``'s special cases apply (equal moments, a steady
+    rotation, the separatrix): then step with ``free_flow``."""
+    mx = ix * (r00 * wx + r10 * wy + r20 * wz)
+    my = iy * (r01 * wx + r11 * wy + r21 * wz)
+    mz = iz * (r02 * wx + r12 * wy + r22 * wz)
+    zeros = (1 if mx == 0.0 else 0) + (1 if my == 0.0 else 0) + (1 if mz == 0.0 else 0)
+    none = (False, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    if ix == iy or iy == iz or ix == iz or zeros >= 2:
+        return none
+    (ok, p_ax, q_ax, r_ax, sign_q, ip, iq, ir, a, b, c, k2, lam, n, ng, mc, half, phi_c,
+     g) = _constants(ix, iy, iz, e_lo, e_hi)
+    if not ok:
+        return none
+    mv = (mx, my, mz)
+    mp, mq, mr = mv[p_ax], sign_q * mv[q_ax], mv[r_ax]
+    sign_r = -1.0 if mr < 0.0 else 1.0
+    # u from the amplitude (sn, cn) = (m_q / b, m_p / a), half periods counted from cn >= 0
     s0, c0 = mq / b, mp / a
     j0 = 0
     if c0 < 0.0:
         s0, c0, j0 = -s0, -c0, 1
     s0 = min(max(s0, -1.0), 1.0)
     c0 = max(c0, 0.0)
-    kk = carlson_rf(0.0, mc, 1.0)  # K(k)
-    half = 2.0 * kk  # u over a half period of the amplitude
-    phi_c = 2.0 * kk
-    if ng != 0.0:
-        phi_c += 2.0 * ng * carlson_rj(0.0, mc, 1.0, 1.0 - n) / 3.0
     u0 = j0 * half + s0 * carlson_rf(c0 * c0, 1.0 - k2 * s0 * s0, 1.0)
-    big0 = j0 * phi_c + _phi(s0, c0, k2, n, ng)
-    u1 = u0 + lam * h
-    j1 = math.floor(u1 / half + 0.5)
-    r1 = u1 - j1 * half
-    sn1, cn1, dn1 = sncndn(r1, mc)
-    big1 = j1 * phi_c + _phi(sn1, cn1, k2, n, ng)
-    sign1 = 1.0 if j1 % 2 == 0 else -1.0
-    np_, nq, nr = a * sign1 * cn1, b * sign1 * sn1, c * dn1
-    dphi = math.sqrt(g2) / (ip * lam) * (big1 - big0)
-    b0 = _euler_b(mp, mq, mr)
-    b1 = _euler_b(np_, nq, nr)
-    cz, sz = math.cos(dphi), math.sin(dphi)
-    # M = B0^T Rz(dphi) B1 in the (p, q, r) frame
-    z00, z01, z10, z11 = cz, -sz, sz, cz
-    t = np.empty(9)  # Rz B1
-    for col in range(3):
-        t[col] = z00 * b1[col] + z01 * b1[3 + col]
-        t[3 + col] = z10 * b1[col] + z11 * b1[3 + col]
-        t[6 + col] = b1[6 + col]
-    mm = np.empty(9)  # B0^T (Rz B1)
-    for row in range(3):
-        for col in range(3):
-            mm[3 * row + col] = (b0[row] * t[col] + b0[3 + row] * t[3 + col]
-                                 + b0[6 + row] * t[6 + col])
-    # Back to the principal axes: D = P^T M P, P the axes' order (with q's sign).
-    perm = (p_ax, q_ax, r_ax)
-    sgn = (1.0, sign_q, 1.0)
-    d = np.zeros(9)
-    for row in range(3):
-        for col in range(3):
-            d[3 * perm[row] + perm[col]] = sgn[row] * sgn[col] * mm[3 * row + col]
+    # Q = R P^T B^T: R times the transpose of (B P)
+    bp = _frame_r(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, mp, mq, mr, p_ax, q_ax,
+                  r_ax, sign_q)
     q = mul33(r00, r01, r02, r10, r11, r12, r20, r21, r22,
-              d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8])
+              bp[0], bp[3], bp[6], bp[1], bp[4], bp[7], bp[2], bp[5], bp[8])
+    return (True, sign_r, u0, q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8])
+
+
+@kernel
+def flow_advance(ix, iy, iz, e_lo, e_hi, sign_r, u, phi, q00, q01, q02, q10, q11, q12, q20,
+                 q21, q22, h):
+    """Time h along the polhode from (u, phi) with the frame Q of ``flow_start``: (u, phi,
+    R, omega) after it, 14 floats. u is kept within a period (4K), phi within 2 pi."""
+    (ok, p_ax, q_ax, r_ax, sign_q, ip, iq, ir, a, b, c, k2, lam, n, ng, mc, half, phi_c,
+     g) = _constants(ix, iy, iz, e_lo, e_hi)
+    c = c * sign_r
+    if (c < 0.0) != (1.0 / iq - 1.0 / ir < 0.0):
+        lam = -lam
+    _, _, _, big0 = _at(u, a, b, c, k2, n, ng, mc, half, phi_c)
+    u1 = u + lam * h
+    mp, mq, mr, big1 = _at(u1, a, b, c, k2, n, ng, mc, half, phi_c)
+    phi1 = phi + g / (ip * lam) * (big1 - big0)
+    two_pi = 2.0 * math.pi
+    phi1 -= two_pi * math.floor(phi1 / two_pi + 0.5)
+    u1 -= 2.0 * half * math.floor(u1 / (2.0 * half) + 0.5)
+    r = _frame_r(q00, q01, q02, q10, q11, q12, q20, q21, q22, phi1, mp, mq, mr, p_ax, q_ax,
+                 r_ax, sign_q)
     nb = np.empty(3)
-    nb[p_ax], nb[q_ax], nb[r_ax] = np_, sign_q * nq, nr
-    w0, w1, w2 = _from_body(q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8],
+    nb[p_ax], nb[q_ax], nb[r_ax] = mp, sign_q * mq, mr
+    w0, w1, w2 = _from_body(r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8],
                             nb[0], nb[1], nb[2], ix, iy, iz)
-    return q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8], w0, w1, w2
+    return (u1, phi1, r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], w0, w1, w2)
+
+
+@kernel
+def free_flow(ix, iy, iz, e_lo, e_hi, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy,
+              wz, h, tiny):
+    """(R, omega) after time h (s, any sign) of torque-free motion of a body with principal
+    moments (ix, iy, iz), from R (its principal frame, body to world), omega (world) and
+    the motion's ``invariants`` (e_lo, e_hi): 12 floats, exact up to rounding (see the
+    module): ``flow_start`` then ``flow_advance``, or the special cases."""
+    (elliptic, sign_r, u0, q00, q01, q02, q10, q11, q12, q20, q21, q22) = flow_start(
+        ix, iy, iz, e_lo, e_hi, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz)
+    if elliptic:
+        out = flow_advance(ix, iy, iz, e_lo, e_hi, sign_r, u0, 0.0, q00, q01, q02, q10, q11,
+                           q12, q20, q21, q22, h)
+        return (out[2], out[3], out[4], out[5], out[6], out[7], out[8], out[9], out[10],
+                out[11], out[12], out[13])
+    mx = ix * (r00 * wx + r10 * wy + r20 * wz)
+    my = iy * (r01 * wx + r11 * wy + r21 * wz)
+    mz = iz * (r02 * wx + r12 * wy + r22 * wz)
+    if ix == iy and iy == iz:
+        return _steady(r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, h, tiny)
+    if ix == iy or iy == iz or ix == iz:
+        axis = 2 if ix == iy else (0 if iy == iz else 1)
+        return _symmetric(ix, iy, iz, axis, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+                          wx, wy, wz, mx, my, mz, h, tiny)
+    # about a principal axis, on the separatrix, or rounding at a steady rotation
+    return _steady(r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, h, tiny)

@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from rb_sim_ros.core.free_flow import free_flow, invariants
+from rb_sim_ros.core.free_flow import flow_advance, flow_start, free_flow, invariants
 from rb_sim_ros.core.jit import kernel, parallel_kernel, prange
 from rb_sim_ros.core.rotation_kernels import exp_so3, mul33, orthonormalize
 
@@ -70,9 +70,12 @@ MAX_STEPS = 4
 # padded to MAX_STEPS: velocity x dt, position x dt^2, rotation x dt^2, cross x dt^3.
 STEPS, C_VELOCITY, C_POSITION, C_ROTATION, C_CROSS = 18, 19, 23, 27, 31
 # A splitting (STEPS = 1): its weights from C_WEIGHTS, C_WEIGHT_COUNT of them. Its rows
-# keep the invariants of the free flow (free_flow.invariants) where others keep history.
+# keep, where others keep history, the free flow's invariants (free_flow.invariants) and,
+# while no torque acts, where the body is on its polhode (free_flow.flow_start): mode 1 when
+# that is kept, the sign of m_r, u, the precession phi and the frame Q (9).
 C_WEIGHTS, C_WEIGHT_COUNT = 19, 23
-FLOW_E_LO, FLOW_E_HI = XP, XP + 1
+FLOW_E_LO, FLOW_E_HI, FLOW_MODE, FLOW_SIGN, FLOW_U, FLOW_PHI, FLOW_Q = (
+    XP, XP + 1, XP + 2, XP + 3, XP + 4, XP + 5, XP + 6)
 COEFFICIENTS = 35
 
 # -- status --------------------------------------------------------------------------------------
@@ -757,14 +760,29 @@ def advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work):
     # The invariants stay as stored while no torque acts: a torque-free body keeps them
     # exactly, step after step; they are read again after a state was written (no history).
     torqued = not ((flags & TORQUE_FREE) and float(p[i, ANGULAR_DAMPING]) == 0.0)
+    # Torque-free, the motion is kept as where it is on its polhode (u, phi, Q: mode 1) and
+    # R, omega are evaluated from that: no rounding builds up in L, energy or R.
+    fq = np.empty(9)
+    mode, sign_r, u, phi = 0.0, 1.0, 0.0, 0.0
     if float(s[i, HISTORY]) == HISTORY_VALID:
         e_lo, e_hi = float(s[i, FLOW_E_LO]), float(s[i, FLOW_E_HI])
+        mode, sign_r = float(s[i, FLOW_MODE]), float(s[i, FLOW_SIGN])
+        u, phi = float(s[i, FLOW_U]), float(s[i, FLOW_PHI])
+        for k in range(9):
+            fq[k] = s[i, FLOW_Q + k]
     else:
         e_lo, e_hi = invariants(ix, iy, iz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
                                 wx, wy, wz)
+        if not torqued:
+            (elliptic, sign_r, u, fq[0], fq[1], fq[2], fq[3], fq[4], fq[5], fq[6], fq[7],
+             fq[8]) = flow_start(ix, iy, iz, e_lo, e_hi, r00, r01, r02, r10, r11, r12, r20,
+                                 r21, r22, wx, wy, wz)
+            mode = 1.0 if elliptic else 0.0
+    if torqued:
+        mode = 0.0
     good = 0
     for _ in range(n):
-        ne_lo, ne_hi = e_lo, e_hi
+        ne_lo, ne_hi, nu, nphi = e_lo, e_hi, u, phi
         nx0, nx1, nx2, nv0, nv1, nv2 = xx, xy, xz, vx, vy, vz
         q00, q01, q02, q10, q11, q12, q20, q21, q22 = r00, r01, r02, r10, r11, r12, r20, r21, r22
         nw0, nw1, nw2 = wx, wy, wz
@@ -773,12 +791,17 @@ def advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work):
             nv0, nv1, nv2, nw0, nw1, nw2 = _kick(p, i, 0.5 * h, nv0, nv1, nv2, q00, q01, q02,
                                                  q10, q11, q12, q20, q21, q22, nw0, nw1, nw2)
             nx0, nx1, nx2 = nx0 + h * nv0, nx1 + h * nv1, nx2 + h * nv2
-            if torqued:
-                ne_lo, ne_hi = invariants(ix, iy, iz, q00, q01, q02, q10, q11, q12, q20, q21,
-                                          q22, nw0, nw1, nw2)
-            (q00, q01, q02, q10, q11, q12, q20, q21, q22, nw0, nw1, nw2) = free_flow(
-                ix, iy, iz, ne_lo, ne_hi, q00, q01, q02, q10, q11, q12, q20, q21, q22, nw0,
-                nw1, nw2, h, tiny)
+            if mode == 1.0:
+                (nu, nphi, q00, q01, q02, q10, q11, q12, q20, q21, q22, nw0, nw1,
+                 nw2) = flow_advance(ix, iy, iz, ne_lo, ne_hi, sign_r, nu, nphi, fq[0], fq[1],
+                                     fq[2], fq[3], fq[4], fq[5], fq[6], fq[7], fq[8], h)
+            else:
+                if torqued:
+                    ne_lo, ne_hi = invariants(ix, iy, iz, q00, q01, q02, q10, q11, q12, q20,
+                                              q21, q22, nw0, nw1, nw2)
+                (q00, q01, q02, q10, q11, q12, q20, q21, q22, nw0, nw1, nw2) = free_flow(
+                    ix, iy, iz, ne_lo, ne_hi, q00, q01, q02, q10, q11, q12, q20, q21, q22, nw0,
+                    nw1, nw2, h, tiny)
             nv0, nv1, nv2, nw0, nw1, nw2 = _kick(p, i, 0.5 * h, nv0, nv1, nv2, q00, q01, q02,
                                                  q10, q11, q12, q20, q21, q22, nw0, nw1, nw2)
         work[i, WORK_FULL] += 1
@@ -787,10 +810,12 @@ def advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work):
             status[i] = STATUS_NON_FINITE
             bad[i, 0], bad[i, 1], bad[i, 2] = nw0, nw1, nw2
             break
-        # R pulled back to SO(3) every step: it costs little beside the flow, and a drift
-        # of R off SO(3) would move L = R m, which the flow keeps otherwise.
-        (q00, q01, q02, q10, q11, q12, q20, q21, q22) = orthonormalize(
-            q00, q01, q02, q10, q11, q12, q20, q21, q22)
+        if mode != 1.0:
+            # R pulled back to SO(3) every step: it costs little beside the flow, and a drift
+            # of R off SO(3) would move L = R m, which the flow keeps otherwise.
+            (q00, q01, q02, q10, q11, q12, q20, q21, q22) = orthonormalize(
+                q00, q01, q02, q10, q11, q12, q20, q21, q22)
+        u, phi = nu, nphi
         xx, xy, xz, vx, vy, vz = nx0, nx1, nx2, nv0, nv1, nv2
         r00, r01, r02, r10, r11, r12, r20, r21, r22 = q00, q01, q02, q10, q11, q12, q20, q21, q22
         wx, wy, wz = nw0, nw1, nw2
@@ -808,6 +833,9 @@ def advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work):
     d[i, W], d[i, W + 1], d[i, W + 2] = wx, wy, wz
     d[i, COUNTDOWN] = countdown
     d[i, FLOW_E_LO], d[i, FLOW_E_HI] = e_lo, e_hi
+    d[i, FLOW_MODE], d[i, FLOW_SIGN], d[i, FLOW_U], d[i, FLOW_PHI] = mode, sign_r, u, phi
+    for k in range(9):
+        d[i, FLOW_Q + k] = fq[k]
     d[i, HISTORY] = HISTORY_VALID
     evaluate(dst, p, i)  # a and beta at the new state, for the readers of accelerations
     if not checked and not _finite(xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12,
