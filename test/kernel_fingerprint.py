@@ -121,13 +121,17 @@ def high_order() -> str:
         inertias = [np.diag(np.sort(rng.uniform(0.5, 1.0, 3))) for _ in range(n)]
         q = so3.exp(rng.normal(size=3))
         inertias[1] = q @ inertias[1] @ q.T
+        flow = method.startswith('flow')
         b = BatchStepper(rng.uniform(0.5, 3.0, n), np.array(inertias), 1e-3,
                          rng.normal(size=(n, 3)), [so3.exp(rng.normal(size=3)) for _ in range(n)],
                          rng.normal(size=(n, 3)), rng.normal(size=(n, 3)) * 3.0,
-                         gravity=(0.0, 0.0, -9.81), method=method, angular_damping=0.1)
+                         gravity=(0.0, 0.0, -9.81), method=method,
+                         angular_damping=0.0 if flow else 0.1)
         b.step(3)
-        b.set_wrench(None, rng.normal(size=(n, 3)), rng.normal(size=(n, 3)),
-                     ['world', 'body'] * (n // 2))
+        # the flows: half the bodies stay torque-free (their polhode kept between steps)
+        torqued = np.arange(0, n // 2 if flow else n)
+        b.set_wrench(torqued, rng.normal(size=(len(torqued), 3)),
+                     rng.normal(size=(len(torqued), 3)), ['world', 'body'] * (len(torqued) // 2))
         b.step(20)
         out.extend(_batch_reads(b))
     gravity, bodies, contact, _ = load_scene(str(SCENES / 'collisions.yaml'))

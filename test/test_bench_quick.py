@@ -34,7 +34,7 @@ def test_quick_benchmark_checks_orders_and_writes_its_report(tmp_path):
     summary = json.loads((tmp_path / 'summary.json').read_text())
     assert summary['quick'] and summary['orders_checked'] and not summary.get('failures')
 
-    for scene in summary['work_precision'].values():
+    for scene_name, scene in summary['work_precision'].items():
         assert scene['reference_check']['ok'], scene['reference_check']
         methods = scene['methods']
         assert {f'rb_sim_ros {m}' for m in METHODS} <= set(methods)
@@ -44,9 +44,10 @@ def test_quick_benchmark_checks_orders_and_writes_its_report(tmp_path):
             assert data['ok'], name
             if data['expected_order'] is not None:
                 for what in ('angle', 'omega'):
-                    if data.get(f'exact_{what}'):  # every error below 1e-10: a flow method
+                    if data.get(f'exact_{what}'):  # every error below 1e-10: a flow method,
+                        # and only on the torque-free scenes (under torque it has an order)
                         assert name.startswith('rb_sim_ros flow'), (name, what)
-                        assert all(p[f'{what}_final'] < 1e-9 for p in data['points'])
+                        assert scene_name != 'torque every 0.1 s', name
                         continue
                     assert abs(data[f'order_{what}'] - data['expected_order']) <= 0.3, \
                         (name, what, data[f'order_{what}'])

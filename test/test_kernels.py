@@ -30,8 +30,8 @@ def _fingerprints(disable_jit: bool) -> dict:
 
 def test_compiled_and_interpreted_paths_give_the_same_bits():
     """1000 batch bodies, the collision demo (1.5 s, a wrench change), the 1000-sphere heap
-    (3 steps) and the lie3 / lie4 runs: compiled, and interpreted with NUMBA_DISABLE_JIT=1, the
-    same states to the bit."""
+    (3 steps) and the lie3 / lie4 / flow2 / flow4 runs: compiled, and interpreted with
+    NUMBA_DISABLE_JIT=1, the same states to the bit."""
     compiled, interpreted = _fingerprints(False), _fingerprints(True)
     assert compiled.pop('compiled') is True and interpreted.pop('compiled') is False
     assert compiled == interpreted

@@ -141,15 +141,17 @@ def sncndn(u, mc):
 
 
 @kernel
-def _phi(s, c, k2, n, ng):
-    """F(phi) + ng J(phi) at sin(phi) = s, cos(phi) = c >= 0, |phi| <= pi/2: the integral of
-    (1 + gamma sn^2) / (1 - n sn^2) du from 0 to the u of amplitude phi (ng = n + gamma),
-    J(phi) = integral of sin^2 / ((1 - n sin^2) Delta) = s^3 R_J(c^2, D^2, 1, 1 - n s^2) / 3."""
-    d2 = 1.0 - k2 * s * s
-    f = s * carlson_rf(c * c, d2, 1.0)
+def _phi(s, c, d, n, ng):
+    """F(phi) + ng J(phi) at sin(phi) = s (sn), cos(phi) = c >= 0 (cn), Delta = d (dn),
+    |phi| <= pi/2: the integral of (1 + gamma sn^2) / (1 - n sn^2) du from 0 to the u of
+    amplitude phi (ng = n + gamma), J(phi) = integral of sin^2 / ((1 - n sin^2) Delta)
+    = s^3 R_J(c^2, d^2, 1, 1 - n s^2) / 3. cn and dn are taken as given, not as
+    sqrt(1 - s^2): near the middle axis they are small and only they are accurate; and
+    1 - n s^2 is c^2 + (1 - n) s^2, which does not cancel."""
+    f = s * carlson_rf(c * c, d * d, 1.0)
     if ng == 0.0 or s == 0.0:
         return f
-    return f + ng * s * s * s * carlson_rj(c * c, d2, 1.0, 1.0 - n * s * s) / 3.0
+    return f + ng * s * s * s * carlson_rj(c * c, d * d, 1.0, c * c + (1.0 - n) * s * s) / 3.0
 
 
 @kernel
@@ -249,8 +251,8 @@ def invariants(ix, iy, iz, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, 
 
 @kernel
 def _constants(ix, iy, iz, e_lo, e_hi):
-    """The polhode of the invariants (e_lo, e_hi): ok (False: no elliptic form, on the
-    separatrix or at a steady rotation), the axes p, q, r and q's sign, the moments I_p, I_q,
+    """The polhode of the invariants (e_lo, e_hi): ok (False: no elliptic form, at a steady
+    rotation about a principal axis), the axes p, q, r and q's sign, the moments I_p, I_q,
     I_r, the amplitudes a, b, |c|, k^2, |lambda|, n, n + gamma, 1 - k^2, the u of a half
     period of the amplitude (2K), Phi over it, and G."""
     lo, hi, mid = _extremes(ix, iy, iz)
@@ -273,7 +275,9 @@ def _constants(ix, iy, iz, e_lo, e_hi):
     b2 = iq * d_r / (ir - iq)
     c2 = ir * d_p / (ir - ip)
     k2 = (iq - ip) * d_r / ((ir - iq) * d_p)
-    ok = a2 > 0.0 and b2 > 0.0 and c2 > 0.0 and k2 < 1.0
+    # The case chosen above makes k^2 <= 1 (= 1 on the separatrix); rounding may not.
+    k2 = min(k2, 1.0)
+    ok = a2 > 0.0 and b2 > 0.0 and c2 > 0.0
     if not ok:
         return (False, p_ax, q_ax, r_ax, sign_q, ip, iq, ir, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
                 0.0, 1.0, 1.0, 0.0, g)
@@ -282,6 +286,9 @@ def _constants(ix, iy, iz, e_lo, e_hi):
     n = 1.0 - b2 / a2
     ng = b2 * (ip - iq) / (a2 * iq)
     mc = 1.0 - k2
+    if mc == 0.0:  # on the separatrix: one approach to the middle axis, no period
+        return (True, p_ax, q_ax, r_ax, sign_q, ip, iq, ir, math.sqrt(a2), math.sqrt(b2),
+                math.sqrt(c2), k2, lam, n, ng, mc, math.inf, math.inf, g)
     kk = carlson_rf(0.0, mc, 1.0)  # K(k)
     phi_c = 2.0 * kk
     if ng != 0.0:
@@ -293,12 +300,16 @@ def _constants(ix, iy, iz, e_lo, e_hi):
 @kernel
 def _at(u, a, b, c, k2, n, ng, mc, half, phi_c):
     """m_p, m_q, m_r at u and Phi(u) (the integral of the precession rate's shape), with u
-    counted in half periods of the amplitude from the one where cn >= 0."""
+    counted in half periods of the amplitude from the one where cn >= 0 (on the separatrix,
+    k = 1, there is one: sn = tanh, cn = dn = sech)."""
+    if mc == 0.0:
+        sn, cn, dn = sncndn(u, mc)
+        return a * cn, b * sn, c * dn, _phi(sn, cn, dn, n, ng)
     j = math.floor(u / half + 0.5)
     r = u - j * half
     sn, cn, dn = sncndn(r, mc)
     sign = 1.0 if j % 2 == 0 else -1.0
-    return a * sign * cn, b * sign * sn, c * dn, j * phi_c + _phi(sn, cn, k2, n, ng)
+    return a * sign * cn, b * sign * sn, c * dn, j * phi_c + _phi(sn, cn, dn, n, ng)
 
 
 @kernel
@@ -329,7 +340,8 @@ def flow_start(ix, iy, iz, e_lo, e_hi, r00, r01, r02, r10, r11, r12, r20, r21, r
     """Where a body's torque-free motion is on its polhode: (elliptic, sign of m_r, u, Q)
     with R = Q Rz(0) B(m) P now (Q = R P^T B(m)^T: its third column is L / |L|).
     elliptic is False where ``free_flow``'s special cases apply (equal moments, a steady
-    rotation, the separatrix): then step with ``free_flow``."""
+    rotation about a principal axis): then step with ``free_flow``. On the separatrix
+    (k = 1) u runs over the one approach to the middle axis."""
     mx = ix * (r00 * wx + r10 * wy + r20 * wz)
     my = iy * (r01 * wx + r11 * wy + r21 * wz)
     mz = iz * (r02 * wx + r12 * wy + r22 * wz)
@@ -344,20 +356,31 @@ def flow_start(ix, iy, iz, e_lo, e_hi, r00, r01, r02, r10, r11, r12, r20, r21, r
     mv = (mx, my, mz)
     mp, mq, mr = mv[p_ax], sign_q * mv[q_ax], mv[r_ax]
     sign_r = -1.0 if mr < 0.0 else 1.0
-    # u from the amplitude (sn, cn) = (m_q / b, m_p / a), half periods counted from cn >= 0
-    s0, c0 = mq / b, mp / a
+    # u from (sn, cn, dn) = (m_q / b, m_p / a, |m_r| / c), each from its own component (near
+    # the middle axis cn and dn are small, and only they fix u); half periods counted from
+    # cn >= 0.
+    s0, c0, d0 = mq / b, mp / a, abs(mr) / c
     j0 = 0
+    branch = 1.0
     if c0 < 0.0:
         s0, c0, j0 = -s0, -c0, 1
+        if mc == 0.0:  # no half period to shift by: (m_p, m_q) -> -(m_p, m_q) is a symmetry
+            branch, j0 = -1.0, 0
     s0 = min(max(s0, -1.0), 1.0)
-    c0 = max(c0, 0.0)
-    u0 = j0 * half + s0 * carlson_rf(c0 * c0, 1.0 - k2 * s0 * s0, 1.0)
+    c0, d0 = min(c0, 1.0), min(d0, 1.0)
+    if c0 == 0.0 and d0 == 0.0:  # at the middle axis itself: steady
+        return none
+    u0 = s0 * carlson_rf(c0 * c0, d0 * d0, 1.0)
+    if j0:
+        u0 += half
     # Q = R P^T B^T: R times the transpose of (B P)
     bp = _frame_r(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, mp, mq, mr, p_ax, q_ax,
                   r_ax, sign_q)
     q = mul33(r00, r01, r02, r10, r11, r12, r20, r21, r22,
               bp[0], bp[3], bp[6], bp[1], bp[4], bp[7], bp[2], bp[5], bp[8])
-    return (True, sign_r, u0, q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8])
+    # sign_r carries the separatrix's branch too: |sign_r| = 2 for (m_p, m_q) negated.
+    return (True, sign_r * (2.0 if branch < 0.0 else 1.0), u0, q[0], q[1], q[2], q[3], q[4],
+            q[5], q[6], q[7], q[8])
 
 
 @kernel
@@ -367,7 +390,9 @@ def flow_advance(ix, iy, iz, e_lo, e_hi, sign_r, u, phi, q00, q01, q02, q10, q11
     R, omega) after it, 14 floats. u is kept within a period (4K), phi within 2 pi."""
     (ok, p_ax, q_ax, r_ax, sign_q, ip, iq, ir, a, b, c, k2, lam, n, ng, mc, half, phi_c,
      g) = _constants(ix, iy, iz, e_lo, e_hi)
-    c = c * sign_r
+    if abs(sign_r) > 1.5:  # the separatrix's other branch: (m_p, m_q) negated
+        a, b = -a, -b
+    c = c if sign_r > 0.0 else -c
     if (c < 0.0) != (1.0 / iq - 1.0 / ir < 0.0):
         lam = -lam
     _, _, _, big0 = _at(u, a, b, c, k2, n, ng, mc, half, phi_c)
@@ -376,7 +401,8 @@ def flow_advance(ix, iy, iz, e_lo, e_hi, sign_r, u, phi, q00, q01, q02, q10, q11
     phi1 = phi + g / (ip * lam) * (big1 - big0)
     two_pi = 2.0 * math.pi
     phi1 -= two_pi * math.floor(phi1 / two_pi + 0.5)
-    u1 -= 2.0 * half * math.floor(u1 / (2.0 * half) + 0.5)
+    if mc != 0.0:
+        u1 -= 2.0 * half * math.floor(u1 / (2.0 * half) + 0.5)
     r = _frame_r(q00, q01, q02, q10, q11, q12, q20, q21, q22, phi1, mp, mq, mr, p_ax, q_ax,
                  r_ax, sign_q)
     nb = np.empty(3)
@@ -409,5 +435,5 @@ def free_flow(ix, iy, iz, e_lo, e_hi, r00, r01, r02, r10, r11, r12, r20, r21, r2
         axis = 2 if ix == iy else (0 if iy == iz else 1)
         return _symmetric(ix, iy, iz, axis, r00, r01, r02, r10, r11, r12, r20, r21, r22,
                           wx, wy, wz, mx, my, mz, h, tiny)
-    # about a principal axis, on the separatrix, or rounding at a steady rotation
+    # about a principal axis (the middle one too), or rounding at a steady rotation
     return _steady(r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, h, tiny)

@@ -300,14 +300,17 @@ class Stepper(FixedStep):
     def set_state(self, state: State, previous: State | Sequence[State] | None = None) -> None:
         """Jump to ``state`` (world frame). The history restarts (start-up on the next step)
         unless ``previous`` is given: the exact states one dt, 2 dt, ... earlier, as many as
-        the method keeps (``method.steps - 1``; one may be given as a State)."""
+        the method keeps (``method.steps - 1``; one may be given as a State; a method that
+        keeps none, flow2 or flow4, takes None only). For lie3 and lie4 a wrench set after
+        this starts the history again from ``state`` (docs/integrators.md, "Wrench
+        changes"); eq27 evaluates the given state again under it."""
         if not isinstance(state, State):
             raise ValueError(f'state must be a State, got {state!r}')
         if isinstance(previous, State):
             previous = (previous,)
         keep = self._method.steps - 1
         if previous is not None and (
-                not isinstance(previous, (list, tuple)) or len(previous) != keep
+                keep == 0 or not isinstance(previous, (list, tuple)) or len(previous) != keep
                 or not all(isinstance(s, State) for s in previous)):
             raise ValueError(f'previous must be None or {keep} State(s), newest first '
                              f'({self._method.name} keeps {keep}), got {previous!r}')
