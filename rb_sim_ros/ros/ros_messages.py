@@ -37,6 +37,21 @@ def wrench_from_msg(msg: WrenchMsg, frame: Frame, max_wrench: float) -> Wrench:
     return Wrench(f, t, frame)
 
 
+def wrench_at_point(msg: WrenchMsg, point, max_wrench: float) -> Wrench:
+    """The body-frame wrench at the centre of mass of a geometry_msgs/Wrench given in the
+    frame of an application point at ``point`` (m, body frame; axes those of the body): the
+    force, and the torque plus point x force. Both the message and the result are checked
+    as ``check_wrench``."""
+    f = (msg.force.x, msg.force.y, msg.force.z)
+    t = (msg.torque.x, msg.torque.y, msg.torque.z)
+    check_wrench(f, t, max_wrench)
+    rx, ry, rz = point
+    moment = (t[0] + ry * f[2] - rz * f[1], t[1] + rz * f[0] - rx * f[2],
+              t[2] + rx * f[1] - ry * f[0])
+    check_wrench(f, moment, max_wrench)
+    return Wrench(f, moment, Frame.BODY)
+
+
 def check_wrench(force, torque, max_wrench: float) -> None:
     """ValueError naming what is wrong unless force (N) and torque (N m) are finite with norms
     <= ``max_wrench``. The norm is math.hypot's, which does not overflow: a finite component
