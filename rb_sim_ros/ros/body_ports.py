@@ -16,7 +16,7 @@ from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, QoSProfile
 
 from rb_sim_ros.core.rigid_body import Frame
-from rb_sim_ros.ros import ros_messages
+from rb_sim_ros.ros import node_params, ros_messages
 from rb_sim_ros.sim.simulation import SetPose, SetWrench
 
 # Latched (transient local) like a state: a late subscriber still gets the recent ones.
@@ -41,7 +41,10 @@ class BodyPorts:
         self.world_frame, self.body_frame = world_frame, body_frame
         self.settings = settings  # a dict-like view of the node's parameters, read on use
         self._queue, self._reject = queue, reject
-        self.out = ros_messages.OutputMessages(world_frame, body_frame, twist_frame)
+        self.out = ros_messages.OutputMessages(
+            world_frame, body_frame, twist_frame,
+            node_params.covariance36(settings['odom_pose_covariance']),
+            node_params.covariance36(settings['odom_twist_covariance']))
         self.last_command_step = 0
         qos = QoSProfile(depth=10)
         self.pub_pose = node.create_publisher(PoseStamped, prefix + 'pose', qos)

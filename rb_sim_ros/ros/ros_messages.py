@@ -81,17 +81,24 @@ class OutputMessages:
     """The published PoseStamped, Twist and Odometry, filled in place from a state."""
 
     def __init__(self, world_frame: str = 'odom', body_frame: str = 'base_link',
-                 twist_frame: str = 'body') -> None:
+                 twist_frame: str = 'body', pose_covariance=None,
+                 twist_covariance=None) -> None:
         self.pose = PoseStamped()
         self.twist = Twist()
         self.odom = Odometry()
-        self.configure(world_frame, body_frame, twist_frame)
+        self.configure(world_frame, body_frame, twist_frame, pose_covariance,
+                       twist_covariance)
 
-    def configure(self, world_frame: str, body_frame: str, twist_frame: str) -> None:
+    def configure(self, world_frame: str, body_frame: str, twist_frame: str,
+                  pose_covariance=None, twist_covariance=None) -> None:
+        """Frames, and odom's covariances (36 row-major floats each; None: zeros)."""
         self.pose.header.frame_id = world_frame
         self.odom.header.frame_id = world_frame
         self.odom.child_frame_id = body_frame
         self.twist_in_body = Frame.parse(twist_frame) is Frame.BODY
+        zeros = (0.0,) * 36
+        self.odom.pose.covariance = list(pose_covariance or zeros)
+        self.odom.twist.covariance = list(twist_covariance or zeros)
 
     def fill(self, time_ns: int, position, quaternion_xyzw, linear_velocity,
              angular_velocity) -> bool:
