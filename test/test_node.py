@@ -465,3 +465,41 @@ def test_colliding_bodies_land_and_are_drawn(start_sim, probe, tmp_path):
     probe.wait_for(lambda: any(v.key == 'sleeping_bodies' and v.value == '1'
                                for d in diagnostics for s in d.status for v in s.values),
                    what='the ball asleep in /diagnostics')
+
+
+def test_a_wrench_at_a_named_point_acts_there(start_sim, probe, tmp_path):
+    """A thruster 0.5 m along the body's y pushing along x (frame_id 'thruster'): the node
+    applies the force and the moment r x F = (0, 0, -0.5 F) at the centre of mass, in the body
+    frame. A sphere (I = 0.4, no other wrench) then spins about z at omega_z = -0.5 F t / I
+    (the body's z stays the world's) while the point, and its force, turn with it."""
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text('bodies:\n  - {name: s, mass: 1.0, inertia: [0.4, 0.4, 0.4], '
+                     'points: {thruster: [0, 0.5, 0]}}\n')
+    start_sim('-p', f'scene_file:={scene}', '-p', 'command_timeout:=0.0')
+    odoms = probe.collect(Odometry, 's/odom')
+    applied = probe.collect(WrenchStamped, 's/applied_wrench', APPLIED_QOS)
+    stamped = probe.publisher(WrenchStamped, 's/wrench_stamped')
+    probe.wait_for(lambda: len(odoms) > 3, what='first odometry')
+    force = 0.2
+    m = WrenchStamped(wrench=_wrench_msg((force, 0.0, 0.0), (0.0, 0.0, 0.0)))
+    m.header.frame_id = 'thruster'
+    stamped.publish(m)
+    probe.wait_for(lambda: applied, what='the wrench at the point')
+    got = applied[0]
+    assert got.header.frame_id == 's'  # the body frame
+    w = got.wrench
+    assert (w.force.x, w.force.y, w.force.z) == (force, 0.0, 0.0)
+    assert (w.torque.x, w.torque.y, w.torque.z) == (0.0, 0.0, -0.5 * force)
+    n = len(odoms)
+    probe.wait_for(lambda: len(odoms) > n + 20, what='odometry after it')
+    start = stamp_ns(got.header.stamp)
+    later = [o for o in odoms if stamp_ns(o.header.stamp) > start + 50 * DT_NS]
+    assert len(later) > 5
+    for o in later:
+        elapsed = (stamp_ns(o.header.stamp) - start) * 1e-9
+        assert o.twist.twist.angular.z == pytest.approx(-0.5 * force / 0.4 * elapsed,
+                                                        rel=1e-9)
+        assert o.twist.twist.angular.x == o.twist.twist.angular.y == 0.0
+    # the force turned with the body: its world direction is R e_x, not e_x
+    last = later[-1].pose.pose.orientation
+    assert abs(last.z) > 1e-3

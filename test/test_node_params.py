@@ -56,6 +56,26 @@ def test_the_values_that_killed_the_node_are_refused(name, value):
         node_params.check(name, value)
 
 
+@pytest.mark.parametrize('value, why', [
+    ([0.1] * 5, 'list of 6 or 36'), ([0.1] * 5 + [-0.1], 'must be >= 0'),
+    ([0.1] * 5 + [math.nan], 'finite'), ([0.1] * 5 + [True], 'number'),
+    ([1.0 if i % 7 == 0 else (0.5 if i == 1 else 0.0) for i in range(36)], 'symmetric'),
+])
+def test_odom_covariances_are_refused_with_the_reason(value, why):
+    for name in ('odom_pose_covariance', 'odom_twist_covariance'):
+        with pytest.raises(ValueError, match=f'{name}.*{why}'):
+            node_params.check(name, value)
+
+
+def test_odom_covariance_diagonal_and_full_forms():
+    diag = node_params.covariance36([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+    assert [diag[7 * k] for k in range(6)] == [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
+    assert sum(diag) == 21.0
+    full = [float(i == j) + 0.1 * (i != j) for i in range(6) for j in range(6)]
+    node_params.check('odom_pose_covariance', full)
+    assert node_params.covariance36(full) == tuple(full)
+
+
 def test_a_period_of_unbounded_work_is_refused():
     values = dict(DEFAULTS, dt=1e-9, publish_rate=1e-3)
     with pytest.raises(ValueError, match='steps a period'):

@@ -255,7 +255,8 @@ def test_a_scene_recording_replays_bit_for_bit(start_sim, probe, installed, ros_
                      'angular_damping: 0.2, angular_velocity: [0, 0, 5]}\n'
                      '  - {name: wall, static: true}\n')
     f = tmp_path / 'run.mcap'
-    sim = start_sim('-p', f'scene_file:={scene}', '-p', f'record:={f}')
+    sim = start_sim('-p', f'scene_file:={scene}', '-p', f'record:={f}',
+                    '-p', 'odom_pose_covariance:=[0.01, 0.01, 0.04, 0.001, 0.001, 0.002]')
     poses = probe.collect(PoseStamped, 'b/pose')
     applied = probe.collect(WrenchStamped, 'a/applied_wrench', APPLIED_QOS)
     pub = probe.publisher(Wrench, 'a/wrench')
@@ -268,6 +269,13 @@ def test_a_scene_recording_replays_bit_for_bit(start_sim, probe, installed, ros_
     rec = RecordingReader(str(f))
     # the scene's integrator (the node's parameter left empty)
     assert json.loads(rec.metadata['rb_sim_ros']['config'])['integrator'] == 'lie4'
+    # odom carries the covariance set by parameter, read back by the independent reader
+    with AnyReader([f]) as reader:
+        odom = [reader.deserialize(raw, c.msgtype) for c, _t, raw in reader.messages()
+                if c.topic == '/b/odom']
+    assert odom and all([o.pose.covariance[7 * k] for k in range(6)]
+                        == [0.01, 0.01, 0.04, 0.001, 0.001, 0.002] for o in odom)
+    assert all(sum(o.twist.covariance) == 0.0 for o in odom)
     assert {'/a/pose', '/b/odom', '/rb_sim/input/a/wrench'} <= set(rec.channels)
     assert not any(t.startswith('/wall/') for t in rec.channels)  # a static body: nothing
     result = _replay(installed, ros_env, '--verify', str(f))

@@ -7,6 +7,7 @@ import math
 
 from geometry_msgs.msg import Wrench as WrenchMsg
 from hypothesis import given, settings, strategies as st
+import numpy as np
 import pytest
 
 from rb_sim_ros.core.rigid_body import Frame
@@ -59,3 +60,20 @@ def test_a_huge_finite_component_is_refused_not_an_overflow():
                                      1e6)
     with pytest.raises(ValueError, match='torque norm'):
         ros_messages.check_wrench((0.0, 0.0, 0.0), (1e308, 1e308, 0.0), 1e300)
+
+
+def test_wrench_at_a_point_adds_r_cross_f():
+    """Against numpy's cross product: torque + r x F, body frame; the message and the result
+    are checked against max_wrench."""
+    msg = WrenchMsg()
+    msg.force.x, msg.force.y, msg.force.z = 1.0, -2.0, 0.5
+    msg.torque.x, msg.torque.y, msg.torque.z = 0.1, 0.0, -0.3
+    r = (0.2, 0.7, -0.4)
+    w = ros_messages.wrench_at_point(msg, r, 100.0)
+    assert w.frame is Frame.BODY
+    assert np.allclose(w.torque, np.array([0.1, 0.0, -0.3]) + np.cross(r, [1.0, -2.0, 0.5]),
+                       rtol=0, atol=1e-15)
+    assert w.force.tolist() == [1.0, -2.0, 0.5]
+    with pytest.raises(ValueError, match='torque norm'):
+        # fine as sent, too big at the centre of mass
+        ros_messages.wrench_at_point(msg, (0.0, 1e3, 0.0), 100.0)

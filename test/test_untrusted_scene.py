@@ -389,6 +389,7 @@ _GOOD = {'name': ['a', 'b', 'ball_1'], 'mass': [1.0, 2, 1e308, 5e-324],
          'orientation': [[0, 0, 0, 1], [1e200, 0, 0, 1e200], [0, 0, 0, 5e-324]],
          'angular_velocity': [_V3, [0, 0, 1e308]], 'linear_damping': [0.1, 1e308],
          'angular_damping': [0.0], 'static': [True, False], 'colliders': ['shape', []],
+         'points': [{}, {'p': [0, 1e308, -1]}, {'left': [0.5, 0, 0], 'right': [-0.5, 0, 0]}],
          'type': ['sphere', 'box', 'capsule', 'plane', 'shape'],
          'normal': [[0, 0, 1], [0, 1e200, 1e200], [0, 0, 5e-324]], 'offset': [0.5, -1e308],
          'restitution': [0.5, 1], 'friction': [0.3, 1e308]}

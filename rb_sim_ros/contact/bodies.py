@@ -31,7 +31,8 @@ class BodySpec:
     initial_*: the state at step 0 and after a reset. linear/angular_damping: rates (1/s).
     static: never moves and costs nothing (infinite mass in contacts). colliders: shapes of
     ``collision_shapes`` in the body frame (a Plane only on a static body); a scene in which no
-    moving body has one skips collision detection entirely.
+    moving body has one skips collision detection entirely. points: named application points
+    ((name, (x, y, z)) pairs, m, body frame): a wrench sent in a point's frame acts there.
     """
 
     name: str = 'body'
@@ -45,6 +46,7 @@ class BodySpec:
     angular_damping: float = 0.0
     static: bool = False
     colliders: tuple = ()
+    points: tuple = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not _NAME.match(self.name):
@@ -71,8 +73,28 @@ class BodySpec:
             if isinstance(c, Plane) and not self.static:
                 raise ValueError(f'colliders[{i}] is a Plane, which only a static body may '
                                  'have')
+        points = []
+        for i, pair in enumerate(self.points):
+            if not isinstance(pair, (tuple, list)) or len(pair) != 2:
+                raise ValueError(f'points[{i}] must be a (name, [x, y, z]) pair, got {pair!r}')
+            name, at = pair
+            if not isinstance(name, str) or not _NAME.match(name):
+                raise ValueError(f'points[{i}]: name must be an ASCII letter, then ASCII '
+                                 f'letters, digits and underscores (it names a frame), got '
+                                 f'{name!r}')
+            if any(name == other for other, _ in points):
+                raise ValueError(f"points[{i}]: '{name}' is used twice")
+            points.append((name, finite_floats(f"point '{name}'", at, 3)))
+        object.__setattr__(self, 'points', tuple(points))
         self.body()  # validates mass and inertia
         self.initial_state()  # validates the orientation
+
+    def point(self, name: str) -> tuple[float, float, float] | None:
+        """The position (m, body frame) of the application point ``name``, or None."""
+        for other, at in self.points:
+            if other == name:
+                return at
+        return None
 
     def body(self) -> RigidBody:
         inertia = (np.array(self.inertia) if len(self.inertia) == 3

@@ -16,7 +16,7 @@ from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, QoSProfile
 
 from rb_sim_ros.core.rigid_body import Frame
-from rb_sim_ros.ros import ros_messages
+from rb_sim_ros.ros import node_params, ros_messages
 from rb_sim_ros.sim.simulation import SetPose, SetWrench
 
 # Latched (transient local) like a state: a late subscriber still gets the recent ones.
@@ -35,12 +35,16 @@ class BodyPorts:
     are the node's."""
 
     def __init__(self, node, name: str, prefix: str, world_frame: str, body_frame: str,
-                 twist_frame: str, settings, queue, reject) -> None:
+                 twist_frame: str, settings, queue, reject, points=()) -> None:
         self.name = name
+        self.points = dict(points)  # name -> (x, y, z) m, body frame
         self.world_frame, self.body_frame = world_frame, body_frame
         self.settings = settings  # a dict-like view of the node's parameters, read on use
         self._queue, self._reject = queue, reject
-        self.out = ros_messages.OutputMessages(world_frame, body_frame, twist_frame)
+        self.out = ros_messages.OutputMessages(
+            world_frame, body_frame, twist_frame,
+            node_params.covariance36(settings['odom_pose_covariance']),
+            node_params.covariance36(settings['odom_twist_covariance']))
         self.last_command_step = 0
         qos = QoSProfile(depth=10)
         self.pub_pose = node.create_publisher(PoseStamped, prefix + 'pose', qos)
@@ -93,10 +97,20 @@ class BodyPorts:
             frame = Frame.WORLD
         elif fid in (self.body_frame, 'body'):
             frame = Frame.BODY
+        elif fid in self.points:  # at an application point: force there, axes the body's
+            try:
+                wrench = ros_messages.wrench_at_point(msg.wrench, self.points[fid],
+                                                      self.settings['max_wrench'])
+            except ValueError as e:
+                self._reject('wrench_stamped', e)
+                return
+            self._queue(SetWrench(wrench, self.name))
+            return
         else:
+            points = f", nor a point ({', '.join(sorted(self.points))})" if self.points else ''
             self._reject('wrench_stamped', ValueError(
-                f"frame_id '{fid}' is neither '{self.world_frame}' nor '{self.body_frame}' "
-                '(no tf lookup here)'))
+                f"frame_id '{fid}' is neither '{self.world_frame}' nor '{self.body_frame}'"
+                f'{points} (no tf lookup here)'))
             return
         self._queue_wrench(msg.wrench, frame)
 

@@ -90,6 +90,28 @@ def _vector(*sizes: int):
     return check
 
 
+def covariance36(v: Any) -> tuple[float, ...]:
+    """The 36 row-major entries of a 6x6 covariance given as 6 variances (its diagonal) or all
+    36 (symmetric, variances >= 0): the form of nav_msgs/Odometry's covariance fields."""
+    values = [float(c) for c in v]
+    if len(values) == 6:
+        full = [0.0] * 36
+        for k in range(6):
+            full[7 * k] = values[k]
+        return tuple(full)
+    return tuple(values)
+
+
+def _covariance(name: str, v: Any) -> None:
+    _vector(6, 36)(name, v)
+    full = covariance36(v)
+    if any(full[7 * k] < 0.0 for k in range(6)):
+        raise ValueError(f'{name}: variances (the diagonal) must be >= 0, got '
+                         f'{[full[7 * k] for k in range(6)]}')
+    if any(full[6 * i + j] != full[6 * j + i] for i in range(6) for j in range(i)):
+        raise ValueError(f'{name}: a 6x6 covariance must be symmetric')
+
+
 def _orientation(name: str, v: Any) -> None:
     _vector(4)(name, v)
     if not any(v):
@@ -148,6 +170,12 @@ PARAMS = (
           _frame_id),
     Param('body_frame', 'base_link', 'Body frame (REP-105): odom child_frame_id.', True,
           _frame_id),
+    Param('odom_pose_covariance', [0.0] * 6, "Covariance of odom's pose: 6 variances "
+          '(x, y, z in m^2; rotation about x, y, z in rad^2) or the 36 row-major entries. '
+          'The simulator knows its pose exactly (0); set what the consumer of a real odometry '
+          'source would get.', True, _covariance),
+    Param('odom_twist_covariance', [0.0] * 6, "Covariance of odom's twist: 6 variances "
+          '((m/s)^2, (rad/s)^2) or the 36 row-major entries.', True, _covariance),
     Param('wrench_frame', 'world', "Frame of wrenches on the 'wrench' topic: 'world' (fixed) "
           "or 'body' (turns with the body).", False, _frame),
     Param('twist_frame', 'body', "Frame of the 'twist' topic and of 'set_twist': 'body' (as "

@@ -358,7 +358,10 @@ def resimulate(rec: Recording, errors: list | None = None):
     except ValueError as e:
         raise _bad(rec.path, f'config: {e}') from None
     twist_frame = rec.parameters.get('twist_frame', 'body')
-    outs = {b.name: OutputMessages(*rec.frames(b.name), twist_frame) for b in rec.config.bodies}
+    covariances = [node_params.covariance36(rec.parameters.get(name, [0.0] * 6))
+                   for name in ('odom_pose_covariance', 'odom_twist_covariance')]
+    outs = {b.name: OutputMessages(*rec.frames(b.name), twist_frame, *covariances)
+            for b in rec.config.bodies}
     events = rec.inputs
     i = 0
     filled = {}

@@ -37,6 +37,21 @@ def wrench_from_msg(msg: WrenchMsg, frame: Frame, max_wrench: float) -> Wrench:
     return Wrench(f, t, frame)
 
 
+def wrench_at_point(msg: WrenchMsg, point, max_wrench: float) -> Wrench:
+    """The body-frame wrench at the centre of mass of a geometry_msgs/Wrench given in the
+    frame of an application point at ``point`` (m, body frame; axes those of the body): the
+    force, and the torque plus point x force. Both the message and the result are checked
+    as ``check_wrench``."""
+    f = (msg.force.x, msg.force.y, msg.force.z)
+    t = (msg.torque.x, msg.torque.y, msg.torque.z)
+    check_wrench(f, t, max_wrench)
+    rx, ry, rz = point
+    moment = (t[0] + ry * f[2] - rz * f[1], t[1] + rz * f[0] - rx * f[2],
+              t[2] + rx * f[1] - ry * f[0])
+    check_wrench(f, moment, max_wrench)
+    return Wrench(f, moment, Frame.BODY)
+
+
 def check_wrench(force, torque, max_wrench: float) -> None:
     """ValueError naming what is wrong unless force (N) and torque (N m) are finite with norms
     <= ``max_wrench``. The norm is math.hypot's, which does not overflow: a finite component
@@ -66,17 +81,24 @@ class OutputMessages:
     """The published PoseStamped, Twist and Odometry, filled in place from a state."""
 
     def __init__(self, world_frame: str = 'odom', body_frame: str = 'base_link',
-                 twist_frame: str = 'body') -> None:
+                 twist_frame: str = 'body', pose_covariance=None,
+                 twist_covariance=None) -> None:
         self.pose = PoseStamped()
         self.twist = Twist()
         self.odom = Odometry()
-        self.configure(world_frame, body_frame, twist_frame)
+        self.configure(world_frame, body_frame, twist_frame, pose_covariance,
+                       twist_covariance)
 
-    def configure(self, world_frame: str, body_frame: str, twist_frame: str) -> None:
+    def configure(self, world_frame: str, body_frame: str, twist_frame: str,
+                  pose_covariance=None, twist_covariance=None) -> None:
+        """Frames, and odom's covariances (36 row-major floats each; None: zeros)."""
         self.pose.header.frame_id = world_frame
         self.odom.header.frame_id = world_frame
         self.odom.child_frame_id = body_frame
         self.twist_in_body = Frame.parse(twist_frame) is Frame.BODY
+        zeros = (0.0,) * 36
+        self.odom.pose.covariance = list(pose_covariance or zeros)
+        self.odom.twist.covariance = list(twist_covariance or zeros)
 
     def fill(self, time_ns: int, position, quaternion_xyzw, linear_velocity,
              angular_velocity) -> bool:

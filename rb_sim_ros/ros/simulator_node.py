@@ -100,7 +100,7 @@ class SimulatorNode(Node):
             self.ports[spec.name] = BodyPorts(
                 self, spec.name, '' if single else spec.name + '/', values['world_frame'],
                 values['body_frame'] if single else spec.name, values['twist_frame'],
-                _Settings(self), self._queue, self._reject)
+                _Settings(self), self._queue, self._reject, spec.points)
         self._moving = [p for p in self.ports.values() if self.sim.is_moving(p.name)]
         self._apply_settings()
         self._recorder = _open_recorder(self, values)

@@ -13,6 +13,8 @@
         mass: 120.0                     # kg, with inertia (kg m^2): 3 moments or a 3x3 tensor
         inertia: [[40, 0, 0], [0, 55, 1.5], [0, 1.5, 30]]
         angular_velocity: [0.0, 0.01, 0.2]
+        points: {left_thruster: [0, 1, 0]}   # application points (m, body frame): a
+                                        # wrench_stamped with frame_id left_thruster acts there
       - name: crate
         shape: box                      # or: density (kg/m^3) and a shape, from which both
         size: [0.4, 0.3, 0.2]           #   box: size (m, full edge lengths x y z)
@@ -63,7 +65,7 @@ from rb_sim_ros.sim.simulation import BodySpec, ContactSettings
 TOP_KEYS = {'gravity', 'contact', 'bodies', 'integrator'}
 BODY_KEYS = {'name', 'mass', 'inertia', 'shape', 'size', 'radius', 'length', 'density',
              'position', 'orientation', 'linear_velocity', 'angular_velocity', 'linear_damping',
-             'angular_damping', 'static', 'colliders'}
+             'angular_damping', 'static', 'colliders', 'points'}
 SHAPES = {'box': {'size'}, 'sphere': {'radius'}, 'cylinder': {'radius', 'length'}}
 COLLIDER_TYPES = ('box', 'capsule', 'plane', 'shape', 'sphere')
 
@@ -72,6 +74,7 @@ MAX_BODIES = 20_000
 MAX_DEPTH = 8  # the scene's own structure needs 6 (bodies, a body, colliders, one, position)
 MAX_VALUES = 2_000_000  # about 100 values per body at MAX_BODIES; some 100 MB as Python objects
 MAX_NAME = 64
+MAX_POINTS = 64
 # A ROS 2 topic name token (rcl/rmw: alphanumerics and '_', not starting with a digit),
 # and further: ASCII only, starting with a letter.
 NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]*\Z')
@@ -285,10 +288,28 @@ def _body(path: str, index: int, data: Any) -> BodySpec:
         if key in data:
             kwargs[key] = _number(where, key, data[key], 0.0, unit=' (1/s)')
     kwargs['colliders'] = _colliders(where, data.get('colliders', []), shape, dims, static)
+    kwargs['points'] = _points(where, data.get('points', {}), kwargs['name'])
     try:
         return BodySpec(**kwargs)
     except (ValueError, TypeError, ArithmeticError) as e:  # all checked above: never expected
         raise SceneError(f'{where}: {e}') from None
+
+
+def _points(where: str, points: Any, body: str) -> tuple:
+    """points: {name: [x, y, z]} (m, body frame): the body's named application points."""
+    if not isinstance(points, dict):
+        _fail(where, 'points', f'must be a mapping of names to [x, y, z] (m, body frame), got '
+              f'{_show(points)}')
+    if len(points) > MAX_POINTS:
+        _fail(where, 'points', f'{len(points)} points, more than MAX_POINTS = {MAX_POINTS}')
+    out = []
+    for name, at in points.items():
+        if not NAME.match(name) or len(name) > MAX_NAME or name == body:
+            _fail(where, f'points.{_key(name)}', 'a point name must be an ASCII letter, then '
+                  f'ASCII letters, digits and underscores, at most {MAX_NAME}, and not the '
+                  'name of its body (it names a frame)')
+        out.append((name, _vector(where, f'points.{name}', at, 3)))
+    return tuple(out)
 
 
 def _own_shape(shape: Any, dims: dict, material: dict):
