@@ -180,7 +180,7 @@ def test_services_pause_step_reset_and_teleports(start_sim, probe):
     # Teleport, then reset back to the initial pose.
     set_pose = probe.publisher(PoseStamped, 'set_pose')
     target = PoseStamped()
-    target.header.frame_id = 'odom'
+    target.header.frame_id = 'world'
     target.pose.position.x, target.pose.orientation.z, target.pose.orientation.w = 5.0, 1.0, 0.0
     set_pose.publish(target)
     probe.wait_for(lambda: probe.node.count_publishers('set_pose') >= 1)
@@ -283,7 +283,7 @@ def test_send_wrench_drives_the_simulator_from_a_csv_profile(start_sim, probe, t
     probe.wait_for(lambda: any(a.wrench == Wrench() for a in applied), what='the final zero')
     got = [(a.header.frame_id, a.wrench.force.x, a.wrench.force.y, a.wrench.torque.z)
            for a in applied]
-    assert got == [('odom', 1.0, 0.0, 0.0), ('base_link', 0.0, 2.0, 0.1),
+    assert got == [('world', 1.0, 0.0, 0.0), ('base_link', 0.0, 2.0, 0.1),
                    ('base_link', 0.0, 0.0, 0.0)]
 
 
@@ -312,7 +312,7 @@ def test_a_scene_gives_each_body_its_topics(start_sim, probe, tmp_path):
     probe.wait_for(lambda: applied, what='the wrench on a')
     n = len(poses['a'])
     probe.wait_for(lambda: len(poses['a']) > n + 10, what='poses after it')
-    assert poses['a'][0].header.frame_id == 'odom'
+    assert poses['a'][0].header.frame_id == 'world'
 
     from rb_sim_ros.sim.scene import load_scene
     gravity, bodies, contact, _ = load_scene(str(scene))

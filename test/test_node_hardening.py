@@ -273,7 +273,7 @@ def test_a_large_scene_gives_topics_to_the_first_bodies_and_poses_to_all(
     probe.wait_for(lambda: arrays and arrays[-1].header.stamp.sec >= 1, what='1 s of poses')
     msg = arrays[-1]
     t = stamp_ns(msg.header.stamp) * 1e-9
-    assert len(msg.poses) == 5 and msg.header.frame_id == 'odom'
+    assert len(msg.poses) == 5 and msg.header.frame_id == 'world'
     for i, pose in enumerate(msg.poses):  # x = i, z = i t (no gravity): exact to rounding
         assert pose.position.x == i and abs(pose.position.z - i * t) < 1e-9 * (1 + i * t)
     topics = {name for name, _types in probe.node.get_topic_names_and_types()}

@@ -316,7 +316,7 @@ def test_a_collision_recording_replays_bit_for_bit(start_sim, probe, installed, 
     probe.wait_for(lambda: crate[-1].pose.position.x > 1.3, what='the crate at the wall')
     teleport = probe.publisher(PoseStamped, 'ball/set_pose')
     above = PoseStamped()
-    above.header.frame_id = 'odom'
+    above.header.frame_id = 'world'
     above.pose.position.x, above.pose.position.y, above.pose.position.z = 1.4, 0.0, 0.6
     above.pose.orientation.w = 1.0
     teleport.publish(above)

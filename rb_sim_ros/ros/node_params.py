@@ -166,8 +166,9 @@ PARAMS = (
           False, _vector(3)),
     Param('initial_angular_velocity', [0.0, 0.0, 0.0],
           'Initial angular velocity (rad/s), world frame.', False, _vector(3)),
-    Param('world_frame', 'odom', 'Fixed frame (REP-105) of pose and odom headers.', True,
-          _frame_id),
+    Param('world_frame', 'world', 'Fixed frame of pose and odom headers. Ground truth, and '
+          'set_pose teleports: a world or map frame, not odom (REP-105 forbids jumps in '
+          'odom).', True, _frame_id),
     Param('body_frame', 'base_link', 'Body frame (REP-105): odom child_frame_id.', True,
           _frame_id),
     Param('odom_pose_covariance', [0.0] * 6, "Covariance of odom's pose: 6 variances "

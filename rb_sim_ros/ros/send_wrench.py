@@ -161,8 +161,11 @@ def main(args=None) -> int:
     p.add_argument('--max-wrench', type=float, default=MAX_WRENCH,
                    help='largest force norm (N) and torque norm (N m) to send (default: the '
                    "simulator's max_wrench default, 1e6)")
-    p.add_argument('--world-frame', default='odom')
-    p.add_argument('--body-frame', default='base_link')
+    p.add_argument('--world-frame', default='world',
+                   help="frame_id of a world-frame wrench: the simulator's world_frame "
+                   "(default 'world', which it always accepts)")
+    p.add_argument('--body-frame', default='base_link',
+                   help="frame_id of a body-frame wrench: the simulator's body_frame")
     opts = p.parse_args(ros_arguments.non_ros_args(argv, 'send_wrench'))
     problem = _check_options(opts)
     if problem:
