@@ -503,3 +503,40 @@ def test_a_wrench_at_a_named_point_acts_there(start_sim, probe, tmp_path):
     # the force turned with the body: its world direction is R e_x, not e_x
     last = later[-1].pose.pose.orientation
     assert abs(last.z) > 1e-3
+
+
+def test_qos_of_any_topic_is_set_by_parameter(start_sim, probe):
+    """rclpy's QoS overrides, as rclcpp nodes take them: the pose publisher offers best effort
+    and odom transient local (seen on the graph); the depth set for pose is the node's
+    parameter; the others keep their defaults."""
+    from rcl_interfaces.srv import GetParameters
+    from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+    start_sim('-p', 'qos_overrides./pose.publisher.depth:=1',
+              '-p', 'qos_overrides./pose.publisher.reliability:=best_effort',
+              '-p', 'qos_overrides./odom.publisher.durability:=transient_local')
+
+    def offered(topic):
+        return [i.qos_profile for i in probe.node.get_publishers_info_by_topic(topic)
+                if i.node_name == 'rb_sim']
+
+    probe.wait_for(lambda: offered('/pose') and offered('/odom') and offered('/twist'),
+                   what='the publishers')
+    assert offered('/pose')[0].reliability == ReliabilityPolicy.BEST_EFFORT
+    assert offered('/odom')[0].durability == DurabilityPolicy.TRANSIENT_LOCAL
+    twist = offered('/twist')[0]
+    assert twist.reliability == ReliabilityPolicy.RELIABLE
+    assert twist.durability == DurabilityPolicy.VOLATILE
+    got = probe.call(GetParameters, 'rb_sim/get_parameters', GetParameters.Request(
+        names=['qos_overrides./pose.publisher.depth']))
+    assert [v.integer_value for v in got.values] == [1]
+
+
+@pytest.mark.parametrize('override, why', [
+    ('qos_overrides./pose.publisher.reliability:=sometimes', 'reliability'),
+    ('qos_overrides./odom.publisher.depth:=deep', 'INTEGER'),
+])
+def test_a_bad_qos_override_is_one_line_and_exit_2(start_sim, override, why):
+    sim = start_sim('-p', override)
+    assert sim.proc.wait(60) == 2
+    out = sim.output()
+    assert 'qos_overrides' in out and why in out and 'Traceback' not in out

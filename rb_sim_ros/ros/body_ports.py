@@ -13,7 +13,8 @@ import math
 
 from geometry_msgs.msg import PoseStamped, Twist, Wrench as WrenchMsg, WrenchStamped
 from nav_msgs.msg import Odometry
-from rclpy.qos import DurabilityPolicy, QoSProfile
+from rclpy.qos import DurabilityPolicy, QoSPolicyKind, QoSProfile
+from rclpy.qos_overriding_options import QoSOverridingOptions
 
 from rb_sim_ros.core.rigid_body import Frame
 from rb_sim_ros.ros import node_params, ros_messages
@@ -21,6 +22,10 @@ from rb_sim_ros.sim.simulation import SetPose, SetWrench
 
 # Latched (transient local) like a state: a late subscriber still gets the recent ones.
 APPLIED_QOS = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+# Every topic's history, depth, reliability and durability can be set by parameter, as for
+# rclcpp nodes: qos_overrides./<topic>.publisher.depth:=1 (or .subscription.reliability ...).
+OVERRIDABLE = QoSOverridingOptions([QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH,
+                                    QoSPolicyKind.RELIABILITY, QoSPolicyKind.DURABILITY])
 
 
 class TwistInput:
@@ -46,19 +51,26 @@ class BodyPorts:
             node_params.covariance36(settings['odom_pose_covariance']),
             node_params.covariance36(settings['odom_twist_covariance']))
         self.last_command_step = 0
-        qos = QoSProfile(depth=10)
-        self.pub_pose = node.create_publisher(PoseStamped, prefix + 'pose', qos)
-        self.pub_twist = node.create_publisher(Twist, prefix + 'twist', qos)
-        self.pub_odom = node.create_publisher(Odometry, prefix + 'odom', qos)
-        self.pub_applied = node.create_publisher(WrenchStamped, prefix + 'applied_wrench',
-                                                 APPLIED_QOS)
+        # A profile each: rclpy writes the overrides into the profile it is given.
+
+        def qos():
+            return QoSProfile(depth=10)
+        over = {'qos_overriding_options': OVERRIDABLE}
+        self.pub_pose = node.create_publisher(PoseStamped, prefix + 'pose', qos(), **over)
+        self.pub_twist = node.create_publisher(Twist, prefix + 'twist', qos(), **over)
+        self.pub_odom = node.create_publisher(Odometry, prefix + 'odom', qos(), **over)
+        self.pub_applied = node.create_publisher(
+            WrenchStamped, prefix + 'applied_wrench',
+            QoSProfile(depth=APPLIED_QOS.depth, durability=APPLIED_QOS.durability), **over)
         self.state_pubs = ((self.pub_pose, self.out.pose), (self.pub_twist, self.out.twist),
                            (self.pub_odom, self.out.odom))
-        node.create_subscription(WrenchMsg, prefix + 'wrench', self._on_wrench, qos)
+        node.create_subscription(WrenchMsg, prefix + 'wrench', self._on_wrench, qos(), **over)
         node.create_subscription(WrenchStamped, prefix + 'wrench_stamped',
-                                 self._on_wrench_stamped, qos)
-        node.create_subscription(PoseStamped, prefix + 'set_pose', self._on_set_pose, qos)
-        node.create_subscription(Twist, prefix + 'set_twist', self._on_set_twist, qos)
+                                 self._on_wrench_stamped, qos(), **over)
+        node.create_subscription(PoseStamped, prefix + 'set_pose', self._on_set_pose, qos(),
+                                 **over)
+        node.create_subscription(Twist, prefix + 'set_twist', self._on_set_twist, qos(),
+                                 **over)
 
     def publish(self, time_ns: int, pose_twist, recorder=None, step: int = 0) -> bool:
         """Publish the state to whoever listens: a topic with no subscriber (and no recording)

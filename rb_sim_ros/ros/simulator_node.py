@@ -33,9 +33,11 @@ import time
 from geometry_msgs.msg import Pose, PoseArray
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 import rclpy
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos_overriding_options import InvalidQosOverridesError
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_srvs.srv import Empty, SetBool, Trigger
@@ -45,7 +47,7 @@ from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import ZERO_WRENCH
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.ros import node_params, ros_arguments, ros_messages
-from rb_sim_ros.ros.body_ports import APPLIED_QOS, BodyPorts, TwistInput
+from rb_sim_ros.ros.body_ports import APPLIED_QOS, BodyPorts, OVERRIDABLE, TwistInput
 from rb_sim_ros.ros.collision_markers import CollisionMarkers
 from rb_sim_ros.ros.diagnostics import Diagnostics
 from rb_sim_ros.sim.scene import load_scene
@@ -72,6 +74,22 @@ class SimulatorNode(Node):
         except BaseException:  # a bad value or a signal while starting: leave nothing open
             self.close()
             raise
+
+    # Topics take QoS overrides from parameters (body_ports.OVERRIDABLE); a bad one is the
+    # user's input: refused in one line naming the topic, not a traceback.
+    def create_publisher(self, msg_type, topic, *args, **kwargs):
+        return self._endpoint(super().create_publisher, msg_type, topic, *args, **kwargs)
+
+    def create_subscription(self, msg_type, topic, *args, **kwargs):
+        return self._endpoint(super().create_subscription, msg_type, topic, *args, **kwargs)
+
+    @staticmethod
+    def _endpoint(create, msg_type, topic, *args, **kwargs):
+        try:
+            return create(msg_type, topic, *args, **kwargs)
+        except (RuntimeError, ParameterException, InvalidQosOverridesError) as e:
+            why = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+            raise ValueError(f"QoS of '{topic}' (qos_overrides parameters): {why}") from None
 
     def _start(self) -> None:
         for p in node_params.PARAMS:
@@ -104,19 +122,21 @@ class SimulatorNode(Node):
         self._moving = [p for p in self.ports.values() if self.sim.is_moving(p.name)]
         self._apply_settings()
         self._recorder = _open_recorder(self, values)
+        over = {'qos_overriding_options': OVERRIDABLE}
         self._pub_clock = (self.create_publisher(ClockMsg, '/clock', QoSProfile(
-            depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)) if values['publish_clock']
-            else None)
+            depth=1, reliability=ReliabilityPolicy.BEST_EFFORT), **over)
+            if values['publish_clock'] else None)
         self._clock_msg = ClockMsg()
         self.diagnostics.create_publisher(self)
-        self._pub_poses = self.create_publisher(PoseArray, 'poses', 10)
+        self._pub_poses = self.create_publisher(PoseArray, 'poses', 10, **over)
         self._poses_msg = PoseArray()
         self._poses_msg.header.frame_id = values['world_frame']
         self._poses_msg.poses = [Pose() for _ in self.config.bodies]
         self._markers = self._pub_markers = None
         if self.config.collides:
             self._markers = CollisionMarkers(self.config, values['world_frame'])
-            self._pub_markers = self.create_publisher(MarkerArray, 'collision_markers', 1)
+            self._pub_markers = self.create_publisher(MarkerArray, 'collision_markers', 1,
+                                                      **over)
         self.create_service(Empty, 'reset', self._on_reset)
         self.create_service(SetBool, 'pause', self._on_pause)
         self.create_service(Trigger, 'step', self._on_step)
