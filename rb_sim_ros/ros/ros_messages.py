@@ -80,7 +80,7 @@ def rotation_from_quaternion(q):
 class OutputMessages:
     """The published PoseStamped, Twist and Odometry, filled in place from a state."""
 
-    def __init__(self, world_frame: str = 'odom', body_frame: str = 'base_link',
+    def __init__(self, world_frame: str = 'world', body_frame: str = 'base_link',
                  twist_frame: str = 'body', pose_covariance=None,
                  twist_covariance=None) -> None:
         self.pose = PoseStamped()
