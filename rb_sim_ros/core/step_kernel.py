@@ -424,6 +424,21 @@ def _turned(ux, uy, uz, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22):
 
 
 @kernel
+def _rkmk_stage(p, i, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, vx, vy,
+                vz, ux, uy, uz, c, ax, ay, az, bx, by, bz):
+    """A stage of ``rkmk4_step``: at R = exp([u]) R_0, omega_0 + c beta, v_0 + c a, the
+    accelerations there, K = dexp^-1_u(omega) and v: 12 floats."""
+    s00, s01, s02, s10, s11, s12, s20, s21, s22 = _turned(
+        ux, uy, uz, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    sx, sy, sz = wx + c * bx, wy + c * by, wz + c * bz
+    tx, ty, tz = vx + c * ax, vy + c * ay, vz + c * az
+    a0, a1, a2, b0, b1, b2 = accelerations(
+        p, i, s00, s01, s02, s10, s11, s12, s20, s21, s22, sx, sy, sz, tx, ty, tz, bool(False))
+    kx, ky, kz = _dexpinv(ux, uy, uz, sx, sy, sz)
+    return a0, a1, a2, b0, b1, b2, kx, ky, kz, tx, ty, tz
+
+
+@kernel
 def rkmk4_step(p, i, h, tiny, xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21,
                r22, wx, wy, wz):
     """One step of h (s, negative: back in time) of the classical fourth-order Runge-Kutta
@@ -432,36 +447,16 @@ def rkmk4_step(p, i, h, tiny, xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r
     hh = 0.5 * h
     a1x, a1y, a1z, b1x, b1y, b1z = accelerations(
         p, i, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, vx, vy, vz, bool(False))
-    # stage 2: u = h/2 K1 (K1 = omega_0)
-    u2x, u2y, u2z = hh * wx, hh * wy, hh * wz
-    s00, s01, s02, s10, s11, s12, s20, s21, s22 = _turned(
-        u2x, u2y, u2z, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22)
-    w2x, w2y, w2z = wx + hh * b1x, wy + hh * b1y, wz + hh * b1z
-    v2x, v2y, v2z = vx + hh * a1x, vy + hh * a1y, vz + hh * a1z
-    a2x, a2y, a2z, b2x, b2y, b2z = accelerations(
-        p, i, s00, s01, s02, s10, s11, s12, s20, s21, s22, w2x, w2y, w2z, v2x, v2y, v2z,
-        bool(False))
-    k2x, k2y, k2z = _dexpinv(u2x, u2y, u2z, w2x, w2y, w2z)
-    # stage 3: u = h/2 K2
-    u3x, u3y, u3z = hh * k2x, hh * k2y, hh * k2z
-    s00, s01, s02, s10, s11, s12, s20, s21, s22 = _turned(
-        u3x, u3y, u3z, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22)
-    w3x, w3y, w3z = wx + hh * b2x, wy + hh * b2y, wz + hh * b2z
-    v3x, v3y, v3z = vx + hh * a2x, vy + hh * a2y, vz + hh * a2z
-    a3x, a3y, a3z, b3x, b3y, b3z = accelerations(
-        p, i, s00, s01, s02, s10, s11, s12, s20, s21, s22, w3x, w3y, w3z, v3x, v3y, v3z,
-        bool(False))
-    k3x, k3y, k3z = _dexpinv(u3x, u3y, u3z, w3x, w3y, w3z)
-    # stage 4: u = h K3
-    u4x, u4y, u4z = h * k3x, h * k3y, h * k3z
-    s00, s01, s02, s10, s11, s12, s20, s21, s22 = _turned(
-        u4x, u4y, u4z, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22)
-    w4x, w4y, w4z = wx + h * b3x, wy + h * b3y, wz + h * b3z
-    v4x, v4y, v4z = vx + h * a3x, vy + h * a3y, vz + h * a3z
-    a4x, a4y, a4z, b4x, b4y, b4z = accelerations(
-        p, i, s00, s01, s02, s10, s11, s12, s20, s21, s22, w4x, w4y, w4z, v4x, v4y, v4z,
-        bool(False))
-    k4x, k4y, k4z = _dexpinv(u4x, u4y, u4z, w4x, w4y, w4z)
+    # stage 2: u = h/2 K1 (K1 = omega_0); stage 3: u = h/2 K2; stage 4: u = h K3
+    (a2x, a2y, a2z, b2x, b2y, b2z, k2x, k2y, k2z, v2x, v2y, v2z) = _rkmk_stage(
+        p, i, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, vx, vy, vz,
+        hh * wx, hh * wy, hh * wz, hh, a1x, a1y, a1z, b1x, b1y, b1z)
+    (a3x, a3y, a3z, b3x, b3y, b3z, k3x, k3y, k3z, v3x, v3y, v3z) = _rkmk_stage(
+        p, i, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, vx, vy, vz,
+        hh * k2x, hh * k2y, hh * k2z, hh, a2x, a2y, a2z, b2x, b2y, b2z)
+    (a4x, a4y, a4z, b4x, b4y, b4z, k4x, k4y, k4z, v4x, v4y, v4z) = _rkmk_stage(
+        p, i, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, vx, vy, vz,
+        h * k3x, h * k3y, h * k3z, h, a3x, a3y, a3z, b3x, b3y, b3z)
     h6 = h / 6.0
     q00, q01, q02, q10, q11, q12, q20, q21, q22 = _turned(
         h6 * (wx + 2.0 * k2x + 2.0 * k3x + k4x), h6 * (wy + 2.0 * k2y + 2.0 * k3y + k4y),
