@@ -79,18 +79,23 @@ def _vector(name: str, value: Any, size: int = 3) -> np.ndarray:
     return arr
 
 
-def _plain3(value: Any) -> bool:
-    """True for a tuple or list of 3 finite Python floats or ints (not bools)."""
-    if type(value) is not tuple and type(value) is not list or len(value) != 3:
-        return False
+def _plain3(value: Any) -> tuple[float, float, float] | None:
+    """The 3 floats of a tuple or list of 3 finite Python floats or ints (not bools), or of a
+    float64 array of shape (3,) with finite entries; None for anything else."""
+    if type(value) is np.ndarray:
+        if value.shape != (3,) or value.dtype != np.float64:
+            return None
+        value = value.tolist()
+    elif type(value) is not tuple and type(value) is not list or len(value) != 3:
+        return None
     for c in value:
         t = type(c)
         if t is float:
             if not math.isfinite(c):
-                return False
+                return None
         elif t is not int or abs(c) > 2 ** 53:
-            return False
-    return True
+            return None
+    return (float(value[0]), float(value[1]), float(value[2]))
 
 
 def finite_floats(name: str, value: Any, size: int) -> tuple[float, ...]:
@@ -333,11 +338,12 @@ class Wrench:
     def __init__(self, force: Any = (0.0, 0.0, 0.0), torque: Any = (0.0, 0.0, 0.0),
                  frame: 'Frame | str' = Frame.WORLD) -> None:
         frame = Frame.parse(frame)
-        # Three finite Python floats or ints each (what a controller and the node pass):
-        # checked in Python, one array each; anything else by the general check.
-        fast = _plain3(force) and _plain3(torque)
-        if fast:
-            values = (*map(float, force), *map(float, torque))
+        # Three finite Python floats or ints, or a float64 array of 3 (what a controller and
+        # the node pass): checked in Python, one array for both; anything else by the
+        # general check.
+        f3, t3 = _plain3(force), _plain3(torque)
+        if f3 is not None and t3 is not None:
+            values = f3 + t3
             arr = np.array(values)
             arr.flags.writeable = False  # before the views: they inherit it
             force, torque = arr[:3], arr[3:]
