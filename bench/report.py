@@ -236,8 +236,9 @@ def long_run(lr: dict) -> list[str]:
              f'Torque-free tumble of the body (1, 2, 3) kg m^2 at dt = {lr["dt"] * 1e3:g} ms '
              f'({lr["steps"] * lr["dt"]:g} s simulated), every method. The orthonormality '
              'error max(|R^T R - I|, |det R - 1|) is of the R that rb_sim_ros integrates, read '
-             'raw at 120 log-spaced times (the stepper re-orthonormalizes every 1024 steps; '
-             'MuJoCo renormalizes its quaternion every step).', '',
+             'raw at 120 log-spaced times (the multistep methods re-orthonormalize every 1024 '
+             'steps; the flows evaluate R afresh each step from the kept polhode; MuJoCo '
+             'renormalizes its quaternion every step).', '',
              '![long run](img/long_run.png)', '',
              '| method | energy drift at the end | momentum drift at the end | max '
              'orthonormality error of R | note |', '| --- | ---: | ---: | ---: | --- |']

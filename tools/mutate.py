@@ -39,6 +39,7 @@ CONTACTS = 'test/test_mutants_contacts.py::'
 STEPPER = 'test/test_mutants_stepper.py::'
 COLLISIONS = 'test/test_collisions.py::'
 CONVERGENCE = 'test/test_convergence.py::'
+HIGH_ORDER = 'test/test_high_order.py::'
 NODE = 'test/test_node.py::'
 HARDENING = 'test/test_node_hardening.py::'
 
@@ -200,6 +201,31 @@ MUTANTS = [
        '            if height - support <= 0.0:')],
      ['test/test_narrow_phase.py::test_plane_candidates_use_the_support_distance'],
      'a collider within its speculative margin of a plane is not a candidate'),
+    # -- issue 14: the higher-order methods and the flows ----------------------------------
+    ('lie3-without-beta-derivative', 'rb_sim_ros/core/multistep.py',
+     [('    cross=(7.0 / 48.0, -4.0 / 48.0, 1.0 / 48.0),',
+       '    cross=(1.0 / 12.0, 0.0, 0.0),')],
+     [HIGH_ORDER + 'test_local_orders_from_exact_history'],
+     "lie3's rotation vector without the (dt^4/24) beta' x omega term"),
+    ('lie-history-re-evaluated', 'rb_sim_ros/core/step_kernel.py',
+     [('    if float(src[i, HISTORY]) != HISTORY_VALID:',
+       '    if float(src[i, HISTORY]) == HISTORY_NONE:')],
+     [HIGH_ORDER + 'test_global_order_with_a_wrench_change_every_eighth_of_a_second'],
+     'lie3/lie4 keep their history across a wrench change instead of starting again'),
+    ('flow-full-first-kick', 'rb_sim_ros/core/step_kernel.py',
+     [('_kick(p, i, 0.5 * h, nv0, nv1, nv2, q00, q01, q02,\n'
+       '                                                 q10, q11, q12, q20, q21, q22, nw0, '
+       'nw1, nw2)\n            nx0',
+       '_kick(p, i, h, nv0, nv1, nv2, q00, q01, q02,\n'
+       '                                                 q10, q11, q12, q20, q21, q22, nw0, '
+       'nw1, nw2)\n            nx0')],
+     [HIGH_ORDER + 'test_splitting_orders_with_wrench_changes'],
+     'a whole kick before the free flow, not half of one (Strang broken)'),
+    ('flow-precession-sign', 'rb_sim_ros/core/free_flow.py',
+     [('    phi1 = phi + g / (ip * lam) * (big1 - big0)',
+       '    phi1 = phi - g / (ip * lam) * (big1 - big0)')],
+     [HIGH_ORDER + 'test_free_flow_is_the_torque_free_motion_for_any_step'],
+     'the precession about L turned the wrong way'),
 ]
 
 
