@@ -534,9 +534,21 @@ def test_qos_of_any_topic_is_set_by_parameter(start_sim, probe):
 @pytest.mark.parametrize('override, why', [
     ('qos_overrides./pose.publisher.reliability:=sometimes', 'reliability'),
     ('qos_overrides./odom.publisher.depth:=deep', 'INTEGER'),
+    ('qos_overrides./pose.publisher.depth:=99999999999', 'qos_overrides'),
 ])
 def test_a_bad_qos_override_is_one_line_and_exit_2(start_sim, override, why):
     sim = start_sim('-p', override)
     assert sim.proc.wait(60) == 2
     out = sim.output()
     assert 'qos_overrides' in out and why in out and 'Traceback' not in out
+
+
+def test_a_point_named_like_the_world_frame_is_refused(start_sim, tmp_path):
+    """A wrench_stamped in frame 'map' would go to the world frame, never to the point."""
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text('bodies:\n  - {name: s, mass: 1.0, inertia: [0.4, 0.4, 0.4], '
+                     'points: {map: [0, 0.5, 0]}}\n')
+    sim = start_sim('-p', f'scene_file:={scene}', '-p', 'world_frame:=map')
+    assert sim.proc.wait(60) == 2
+    out = sim.output()
+    assert "point 'map' is named like world_frame" in out and 'Traceback' not in out

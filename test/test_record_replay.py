@@ -250,7 +250,8 @@ def test_a_scene_recording_replays_bit_for_bit(start_sim, probe, installed, ros_
     scene = tmp_path / 'scene.yaml'
     scene.write_text('gravity: [0, 0, -9.81]\nintegrator: lie4\nbodies:\n'
                      '  - {name: a, mass: 2.0, inertia: [[0.2, 0.01, 0], [0.01, 0.3, 0], '
-                     '[0, 0, 0.4]], angular_velocity: [0.1, 0.2, 0.3]}\n'
+                     '[0, 0, 0.4]], angular_velocity: [0.1, 0.2, 0.3], '
+                     'points: {nozzle: [0, 0.2, -0.1]}}\n'
                      '  - {name: b, shape: cylinder, radius: 0.1, length: 0.5, density: 800, '
                      'angular_damping: 0.2, angular_velocity: [0, 0, 5]}\n'
                      '  - {name: wall, static: true}\n')
@@ -260,9 +261,14 @@ def test_a_scene_recording_replays_bit_for_bit(start_sim, probe, installed, ros_
     poses = probe.collect(PoseStamped, 'b/pose')
     applied = probe.collect(WrenchStamped, 'a/applied_wrench', APPLIED_QOS)
     pub = probe.publisher(Wrench, 'a/wrench')
+    at_point = probe.publisher(WrenchStamped, 'a/wrench_stamped')
     probe.wait_for(lambda: len(poses) > 3, what='poses of b')
     pub.publish(_wrench(1.0, 0.05))
     probe.wait_for(lambda: applied, what='the wrench on a')
+    nozzle = WrenchStamped(wrench=_wrench(0.5, 0.0))
+    nozzle.header.frame_id = 'nozzle'  # the recording carries the point and its wrench
+    at_point.publish(nozzle)
+    probe.wait_for(lambda: len(applied) > 1, what='the wrench at the nozzle')
     n = len(poses)
     probe.wait_for(lambda: len(poses) > n + 5, what='more poses')
     sim.stop()

@@ -163,7 +163,8 @@ def test_points(tmp_path):
     config = Config(bodies=(body,))
     assert Config.from_dict(json.loads(json.dumps(config.to_dict()))) == config
     for bad, why in (('[1, 2]', 'must be a mapping'), ('{1x: [0, 0, 0]}', 'point name'),
-                     ('{a: [0, 0, 0]}', 'point name'), ('{p: [0, 0]}', 'list of 3 numbers'),
+                     ('{a: [0, 0, 0]}', 'point name'), ('{world: [0, 0, 0]}', 'point name'),
+                     ('{body: [0, 0, 0]}', 'point name'), ('{p: [0, 0]}', 'list of 3 numbers'),
                      ('{p: [0, 0, .nan]}', 'finite'), ('{p: [0, 0, true]}', 'number')):
         f.write_text(f'bodies:\n  - {{name: a, mass: 1, inertia: [1, 1, 1], points: {bad}}}\n')
         with pytest.raises(SceneError, match=why):

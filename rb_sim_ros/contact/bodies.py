@@ -78,10 +78,11 @@ class BodySpec:
             if not isinstance(pair, (tuple, list)) or len(pair) != 2:
                 raise ValueError(f'points[{i}] must be a (name, [x, y, z]) pair, got {pair!r}')
             name, at = pair
-            if not isinstance(name, str) or not _NAME.match(name):
+            if not isinstance(name, str) or not _NAME.match(name) or name in (
+                    self.name, 'world', 'body'):
                 raise ValueError(f'points[{i}]: name must be an ASCII letter, then ASCII '
-                                 f'letters, digits and underscores (it names a frame), got '
-                                 f'{name!r}')
+                                 f"letters, digits and underscores, not the body's name, "
+                                 f"'world' or 'body' (it names a frame), got {name!r}")
             if any(name == other for other, _ in points):
                 raise ValueError(f"points[{i}]: '{name}' is used twice")
             points.append((name, finite_floats(f"point '{name}'", at, 3)))

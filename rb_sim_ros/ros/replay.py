@@ -168,6 +168,15 @@ def _config(data, path: str) -> Config:
                                 v, f'config.bodies[{i}].colliders', path)):
                             for ck, cv in c.items():
                                 _flat(cv, f'config.bodies[{i}].colliders[{j}].{ck}', path)
+                    elif k == 'points':  # [[name, [x, y, z]], ...]
+                        where = f'config.bodies[{i}].points'
+                        if not isinstance(v, list):
+                            raise _bad(path, f'{where} must be a list, got {type(v).__name__}')
+                        for j, pair in enumerate(v):
+                            if not (isinstance(pair, list) and len(pair) == 2
+                                    and isinstance(pair[0], str)):
+                                raise _bad(path, f'{where}[{j}] must be [name, [x, y, z]]')
+                            _flat(pair[1], f'{where}[{j}]', path)
                     else:
                         _flat(v, f'config.bodies[{i}].{k}', path)
         elif key == 'contact':

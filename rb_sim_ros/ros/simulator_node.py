@@ -87,9 +87,11 @@ class SimulatorNode(Node):
     def _endpoint(create, msg_type, topic, *args, **kwargs):
         try:
             return create(msg_type, topic, *args, **kwargs)
-        except (RuntimeError, ParameterException, InvalidQosOverridesError) as e:
+        except (RuntimeError, TypeError, ParameterException, InvalidQosOverridesError) as e:
+            # (TypeError: a depth too large for the C profile; RuntimeError: rcl refused it)
             why = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-            raise ValueError(f"QoS of '{topic}' (qos_overrides parameters): {why}") from None
+            raise ValueError(f"cannot create the endpoint of '{topic}' (check its "
+                             f'qos_overrides parameters): {why}') from None
 
     def _start(self) -> None:
         for p in node_params.PARAMS:
@@ -486,6 +488,11 @@ def _config(v: dict, scene=None) -> Config:
     integrator = v['integrator'] or multistep.EQ27.name
     if scene is not None:
         gravity, bodies, contact = scene.gravity, scene.bodies, scene.contact
+        for b in bodies:  # a point named like a fixed frame would never be reached
+            for name, _ in b.points:
+                if name == v['world_frame']:
+                    raise ValueError(f"body '{b.name}': point '{name}' is named like "
+                                     'world_frame: rename one of them')
         integrator = v['integrator'] or scene.integrator or integrator
     else:
         gravity = (0.0, 0.0, 0.0)

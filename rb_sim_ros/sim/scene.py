@@ -304,10 +304,10 @@ def _points(where: str, points: Any, body: str) -> tuple:
         _fail(where, 'points', f'{len(points)} points, more than MAX_POINTS = {MAX_POINTS}')
     out = []
     for name, at in points.items():
-        if not NAME.match(name) or len(name) > MAX_NAME or name == body:
+        if not NAME.match(name) or len(name) > MAX_NAME or name in (body, 'world', 'body'):
             _fail(where, f'points.{_key(name)}', 'a point name must be an ASCII letter, then '
                   f'ASCII letters, digits and underscores, at most {MAX_NAME}, and not the '
-                  'name of its body (it names a frame)')
+                  "name of its body, 'world' or 'body' (it names a frame)")
         out.append((name, _vector(where, f'points.{name}', at, 3)))
     return tuple(out)
 
