@@ -253,6 +253,19 @@ def _finite(*values):
 
 
 @kernel
+def _step_status(nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12, q20, q21, q22,
+                 nw0, nw1, nw2, max_turn_sq):
+    """STATUS_OK for a new state that may be taken; else why not: not finite, or turning
+    faster than the body's limit (a checked run's test of each step)."""
+    if not _finite(nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12, q20, q21, q22,
+                   nw0, nw1, nw2):
+        return STATUS_NON_FINITE
+    if not (nw0 * nw0 + nw1 * nw1 + nw2 * nw2 <= max_turn_sq):
+        return STATUS_TURN
+    return STATUS_OK
+
+
+@kernel
 def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
     """n steps of body i from row i of ``src`` into row i of ``dst`` (see the module)."""
     if c[STEPS] > 2.0:
@@ -343,12 +356,8 @@ def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
             wx, wy, wz, ax, ay, az, bx, by, bz, apx, apy, apz, bpx, bpy, bpz)
         work[i, WORK_TRANSLATION if frozen_rotation else WORK_FULL] += 1
         if checked:
-            code = STATUS_OK
-            if not _finite(nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12,
-                           q20, q21, q22, nw0, nw1, nw2):
-                code = STATUS_NON_FINITE
-            elif not (nw0 * nw0 + nw1 * nw1 + nw2 * nw2 <= max_turn_sq):
-                code = STATUS_TURN
+            code = _step_status(nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12,
+                                q20, q21, q22, nw0, nw1, nw2, max_turn_sq)
             if code != STATUS_OK:
                 status[i] = code
                 bad[i, 0], bad[i, 1], bad[i, 2] = nw0, nw1, nw2
@@ -642,12 +651,8 @@ def advance_body_k(src, dst, p, c, i, n, checked, status, taken, bad, work):
                 px + cx, py + cy, pz + cz, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22)
         work[i, WORK_TRANSLATION if frozen_rotation else WORK_FULL] += 1
         if checked:
-            code = STATUS_OK
-            if not _finite(nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12,
-                           q20, q21, q22, nw0, nw1, nw2):
-                code = STATUS_NON_FINITE
-            elif not (nw0 * nw0 + nw1 * nw1 + nw2 * nw2 <= max_turn_sq):
-                code = STATUS_TURN
+            code = _step_status(nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12,
+                                q20, q21, q22, nw0, nw1, nw2, max_turn_sq)
             if code != STATUS_OK:
                 status[i] = code
                 bad[i, 0], bad[i, 1], bad[i, 2] = nw0, nw1, nw2
