@@ -280,12 +280,8 @@ def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
     flags = int(p[i, FLAGS])
     max_turn_sq = float(p[i, MAX_TURN_SQ])
     s = src
-    xx, xy, xz = float(s[i, X]), float(s[i, X + 1]), float(s[i, X + 2])
-    vx, vy, vz = float(s[i, V]), float(s[i, V + 1]), float(s[i, V + 2])
-    r00, r01, r02 = float(s[i, R]), float(s[i, R + 1]), float(s[i, R + 2])
-    r10, r11, r12 = float(s[i, R + 3]), float(s[i, R + 4]), float(s[i, R + 5])
-    r20, r21, r22 = float(s[i, R + 6]), float(s[i, R + 7]), float(s[i, R + 8])
-    wx, wy, wz = float(s[i, W]), float(s[i, W + 1]), float(s[i, W + 2])
+    (xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+     wx, wy, wz) = _get(s, i)
     ax, ay, az = float(s[i, A]), float(s[i, A + 1]), float(s[i, A + 2])
     bx, by, bz = float(s[i, B]), float(s[i, B + 1]), float(s[i, B + 2])
     countdown = int(s[i, COUNTDOWN])
@@ -383,20 +379,11 @@ def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
         dst[i, :] = src[i, :]
         return
     d = dst
-    d[i, X], d[i, X + 1], d[i, X + 2] = xx, xy, xz
-    d[i, V], d[i, V + 1], d[i, V + 2] = vx, vy, vz
-    d[i, R], d[i, R + 1], d[i, R + 2] = r00, r01, r02
-    d[i, R + 3], d[i, R + 4], d[i, R + 5] = r10, r11, r12
-    d[i, R + 6], d[i, R + 7], d[i, R + 8] = r20, r21, r22
-    d[i, W], d[i, W + 1], d[i, W + 2] = wx, wy, wz
+    _put(d, i, X, xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz)
     d[i, A], d[i, A + 1], d[i, A + 2] = ax, ay, az
     d[i, B], d[i, B + 1], d[i, B + 2] = bx, by, bz
-    d[i, XP], d[i, XP + 1], d[i, XP + 2] = pxx, pxy, pxz
-    d[i, VP], d[i, VP + 1], d[i, VP + 2] = pvx, pvy, pvz
-    d[i, RP], d[i, RP + 1], d[i, RP + 2] = p00, p01, p02
-    d[i, RP + 3], d[i, RP + 4], d[i, RP + 5] = p10, p11, p12
-    d[i, RP + 6], d[i, RP + 7], d[i, RP + 8] = p20, p21, p22
-    d[i, WP], d[i, WP + 1], d[i, WP + 2] = pwx, pwy, pwz
+    _put(d, i, XP, pxx, pxy, pxz, pvx, pvy, pvz, p00, p01, p02, p10, p11, p12, p20, p21, p22,
+         pwx, pwy, pwz)
     d[i, AP], d[i, AP + 1], d[i, AP + 2] = apx, apy, apz
     d[i, BP], d[i, BP + 1], d[i, BP + 2] = bpx, bpy, bpz
     d[i, COUNTDOWN] = countdown
@@ -521,31 +508,39 @@ def _start_up_ring(p, i, k, dt, tiny, ring):
     """The k - 1 states before the current one (ring[0]) by RKMK4 steps back in time under
     the held wrench, each with its accelerations: the state j steps back into ring[k - j]."""
     r = ring
-    xx, xy, xz = float(r[0, X]), float(r[0, X + 1]), float(r[0, X + 2])
-    vx, vy, vz = float(r[0, V]), float(r[0, V + 1]), float(r[0, V + 2])
-    r00, r01, r02 = float(r[0, R]), float(r[0, R + 1]), float(r[0, R + 2])
-    r10, r11, r12 = float(r[0, R + 3]), float(r[0, R + 4]), float(r[0, R + 5])
-    r20, r21, r22 = float(r[0, R + 6]), float(r[0, R + 7]), float(r[0, R + 8])
-    wx, wy, wz = float(r[0, W]), float(r[0, W + 1]), float(r[0, W + 2])
+    (xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+     wx, wy, wz) = _get(r, 0)
     for j in range(1, k):
         (xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
          wx, wy, wz) = rkmk4_step(p, i, -dt, tiny, xx, xy, xz, vx, vy, vz, r00, r01, r02,
                                   r10, r11, r12, r20, r21, r22, wx, wy, wz)
-        _put(ring, k - j, xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+        _put(ring, k - j, X, xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
              wx, wy, wz)
         _evaluate_ring(p, i, ring, k - j)
 
 
 @kernel
-def _put(ring, e, xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+def _put(a, e, at, xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
          wx, wy, wz):
-    """x, v, R, omega into ring entry e."""
-    ring[e, X], ring[e, X + 1], ring[e, X + 2] = xx, xy, xz
-    ring[e, V], ring[e, V + 1], ring[e, V + 2] = vx, vy, vz
-    ring[e, R], ring[e, R + 1], ring[e, R + 2] = r00, r01, r02
-    ring[e, R + 3], ring[e, R + 4], ring[e, R + 5] = r10, r11, r12
-    ring[e, R + 6], ring[e, R + 7], ring[e, R + 8] = r20, r21, r22
-    ring[e, W], ring[e, W + 1], ring[e, W + 2] = wx, wy, wz
+    """x, v, R, omega into row e of ``a`` from column ``at`` (X: a state row or a ring
+    entry; XP: the previous step's), in the layout X, V, R, W."""
+    a[e, at + X], a[e, at + X + 1], a[e, at + X + 2] = xx, xy, xz
+    a[e, at + V], a[e, at + V + 1], a[e, at + V + 2] = vx, vy, vz
+    a[e, at + R], a[e, at + R + 1], a[e, at + R + 2] = r00, r01, r02
+    a[e, at + R + 3], a[e, at + R + 4], a[e, at + R + 5] = r10, r11, r12
+    a[e, at + R + 6], a[e, at + R + 7], a[e, at + R + 8] = r20, r21, r22
+    a[e, at + W], a[e, at + W + 1], a[e, at + W + 2] = wx, wy, wz
+
+
+@kernel
+def _get(a, e):
+    """x, v, R, omega of row e of ``a`` (a state row or a ring entry): 18 floats."""
+    return (float(a[e, X]), float(a[e, X + 1]), float(a[e, X + 2]),
+            float(a[e, V]), float(a[e, V + 1]), float(a[e, V + 2]),
+            float(a[e, R]), float(a[e, R + 1]), float(a[e, R + 2]),
+            float(a[e, R + 3]), float(a[e, R + 4]), float(a[e, R + 5]),
+            float(a[e, R + 6]), float(a[e, R + 7]), float(a[e, R + 8]),
+            float(a[e, W]), float(a[e, W + 1]), float(a[e, W + 2]))
 
 
 @kernel
@@ -663,7 +658,7 @@ def advance_body_k(src, dst, p, c, i, n, checked, status, taken, bad, work):
                 q00, q01, q02, q10, q11, q12, q20, q21, q22)
             countdown = every
         top = (top + 1) % k
-        _put(ring, top, nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12, q20, q21,
+        _put(ring, top, X, nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12, q20, q21,
              q22, nw0, nw1, nw2)
         a0, a1, a2, b0, b1, b2 = accelerations(
             p, i, q00, q01, q02, q10, q11, q12, q20, q21, q22, nw0, nw1, nw2, nv0, nv1, nv2,
@@ -749,12 +744,8 @@ def advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work):
         return
     s = src
     ix, iy, iz = float(p[i, MOMENTS]), float(p[i, MOMENTS + 1]), float(p[i, MOMENTS + 2])
-    xx, xy, xz = float(s[i, X]), float(s[i, X + 1]), float(s[i, X + 2])
-    vx, vy, vz = float(s[i, V]), float(s[i, V + 1]), float(s[i, V + 2])
-    r00, r01, r02 = float(s[i, R]), float(s[i, R + 1]), float(s[i, R + 2])
-    r10, r11, r12 = float(s[i, R + 3]), float(s[i, R + 4]), float(s[i, R + 5])
-    r20, r21, r22 = float(s[i, R + 6]), float(s[i, R + 7]), float(s[i, R + 8])
-    wx, wy, wz = float(s[i, W]), float(s[i, W + 1]), float(s[i, W + 2])
+    (xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+     wx, wy, wz) = _get(s, i)
     countdown = int(s[i, COUNTDOWN])
     flags = int(p[i, FLAGS])
     # The invariants stay as stored while no torque acts: a torque-free body keeps them
@@ -825,12 +816,7 @@ def advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work):
     if good == 0:
         return
     d = dst
-    d[i, X], d[i, X + 1], d[i, X + 2] = xx, xy, xz
-    d[i, V], d[i, V + 1], d[i, V + 2] = vx, vy, vz
-    d[i, R], d[i, R + 1], d[i, R + 2] = r00, r01, r02
-    d[i, R + 3], d[i, R + 4], d[i, R + 5] = r10, r11, r12
-    d[i, R + 6], d[i, R + 7], d[i, R + 8] = r20, r21, r22
-    d[i, W], d[i, W + 1], d[i, W + 2] = wx, wy, wz
+    _put(d, i, X, xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz)
     d[i, COUNTDOWN] = countdown
     d[i, FLOW_E_LO], d[i, FLOW_E_HI] = e_lo, e_hi
     d[i, FLOW_MODE], d[i, FLOW_SIGN], d[i, FLOW_U], d[i, FLOW_PHI] = mode, sign_r, u, phi
