@@ -54,9 +54,7 @@ def header(s: dict) -> list[str]:
 
 def cost(s: dict) -> list[str]:
     rows = s['step_cost']
-    ours = [r['us_per_step'] for r in rows if r['method'].startswith('rb_sim_ros')
-            and ' flow' not in r['method']]
-    flows = [r['us_per_step'] for r in rows if r['method'].startswith('rb_sim_ros flow')]
+    ours, flows = step_cost.ours_and_flows(rows)
     met = max(ours) <= step_cost.GOAL_US
     return ['## Cost of one step', '',
             f'`stepper.step({s["step_cost_steps"]})`, minimum of {s["repeats"]} runs, divided by '
@@ -291,10 +289,7 @@ def _range(values) -> str:
 def findings(s: dict) -> list[str]:
     """The key figures of this run, in words (computed from the summary)."""
     out = ['## Findings', '']
-    ours = [r['us_per_step'] for r in s['step_cost'] if r['method'].startswith('rb_sim_ros')
-            and ' flow' not in r['method']]
-    flows = [r['us_per_step'] for r in s['step_cost']
-             if r['method'].startswith('rb_sim_ros flow')]
+    ours, flows = step_cost.ours_and_flows(s['step_cost'])
     out.append(f'- One step of rb_sim_ros’s multistep methods costs {min(ours):.2f}-'
                f'{max(ours):.2f} us amortised over step({s["step_cost_steps"]}) (goal <= '
                f'{step_cost.GOAL_US:g} us), compiled (numba)'
