@@ -116,7 +116,9 @@ def test_two_runs_with_inputs_at_the_same_steps_record_identical_outputs(start_s
                                                                          tmp_path):
     first = _scripted_run(start_sim, probe, tmp_path / 'run0.mcap')
     second = _scripted_run(start_sim, probe, tmp_path / 'run1.mcap')
-    assert len(first) == len(second) == 3 * (1 + 12)
+    # pose, twist, odom, imu, accel and /tf at step 0 and after each of 12 steps
+    assert len(first) == len(second) == 6 * (1 + 12)
+    assert {k for k, _ in first} == {'pose', 'twist', 'odom', 'imu', 'accel', 'tf'}
     assert all(replay.identical(k, a, b) for (k, a), (_, b) in zip(first, second))
 
 

@@ -27,6 +27,7 @@ if [ "$current" = no ]; then
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps -e "$root"
   echo "$want" > "$stamp"
 fi
+. "$root/tools/build_msgs.sh"
 # Keep ROS traffic on this machine unless the user chose otherwise.
 export ROS_AUTOMATIC_DISCOVERY_RANGE=${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}
 export PATH="$venv/bin:$PATH"

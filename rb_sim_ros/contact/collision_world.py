@@ -358,6 +358,24 @@ class CollisionWorld:
             return self.static[name]
         raise ValueError(f"no body named '{name}'")
 
+    def contact_accelerations(self, name: str):
+        """What the last step's contacts did to body ``name``'s velocities, over dt: (linear
+        m/s^2, angular rad/s^2), world frame; None while it sleeps (held at rest: its whole
+        acceleration is zero). Zero for a body without colliders, and after a teleport until
+        the next step."""
+        if name not in self.steppers:
+            raise ValueError(f"no moving body named '{name}'")
+        i = self._index.get(name) if self.enabled else None
+        if i is None:
+            return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        if self._asleep[i]:
+            return None
+        _, _, v, w = self.steppers[name]._row_components()
+        inv = 1.0 / self.dt
+        dv, dw = self._v[i].tolist(), self._w[i].tolist()
+        return (tuple((v[c] - dv[c]) * inv for c in range(3)),
+                tuple((w[c] - dw[c]) * inv for c in range(3)))
+
     def last_contacts(self) -> list[WorldContact]:
         """The contacts of the last step (speculative ones too), in solver order."""
         if self._last is None:
@@ -498,6 +516,9 @@ class CollisionWorld:
         i = self._index.get(name) if self.enabled else None
         if i is None:
             return
+        # Its velocities before the last contact pass are now its new ones: a teleport is
+        # not an acceleration (contact_accelerations).
+        self._v[i], self._w[i] = state.linear_velocity, state.angular_velocity
         self._slow_steps[i] = 0
         if self._asleep.any():
             # It and every sleeper its colliders' AABBs reached where it was: what rested on

@@ -11,13 +11,16 @@ from __future__ import annotations
 
 import math
 
-from geometry_msgs.msg import PoseStamped, Twist, Wrench as WrenchMsg, WrenchStamped
+from geometry_msgs.msg import AccelStamped, PoseStamped, Twist, Wrench as WrenchMsg, \
+    WrenchStamped
 from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, QoSPolicyKind, QoSProfile
 from rclpy.qos_overriding_options import QoSOverridingOptions
+from sensor_msgs.msg import Imu
 
 from rb_sim_ros.core.rigid_body import Frame
 from rb_sim_ros.ros import node_params, ros_messages
+from rb_sim_ros.sim.imu import ImuSensor
 from rb_sim_ros.sim.simulation import SetPose, SetWrench
 
 # Latched (transient local) like a state: a late subscriber still gets the recent ones.
@@ -40,7 +43,10 @@ class BodyPorts:
     are the node's."""
 
     def __init__(self, node, name: str, prefix: str, world_frame: str, body_frame: str,
-                 twist_frame: str, settings, queue, reject, points=()) -> None:
+                 twist_frame: str, settings, queue, reject, points=(), moving: bool = True,
+                 imu_noise=None, index: int = 0) -> None:
+        """``moving``: the body can move (a static one gets no imu or accel); ``imu_noise``:
+        a sim.imu.ImuNoise; ``index``: the body's index in the scene (its noise stream)."""
         self.name = name
         self.points = dict(points)  # name -> (x, y, z) m, body frame
         self.world_frame, self.body_frame = world_frame, body_frame
@@ -49,7 +55,8 @@ class BodyPorts:
         self.out = ros_messages.OutputMessages(
             world_frame, body_frame, twist_frame,
             node_params.covariance36(settings['odom_pose_covariance']),
-            node_params.covariance36(settings['odom_twist_covariance']))
+            node_params.covariance36(settings['odom_twist_covariance']), imu_noise)
+        self.sensor = ImuSensor(imu_noise, index) if moving and imu_noise is not None else None
         self.last_command_step = 0
         # A profile each: rclpy writes the overrides into the profile it is given.
 
@@ -59,6 +66,14 @@ class BodyPorts:
         self.pub_pose = node.create_publisher(PoseStamped, prefix + 'pose', qos(), **over)
         self.pub_twist = node.create_publisher(Twist, prefix + 'twist', qos(), **over)
         self.pub_odom = node.create_publisher(Odometry, prefix + 'odom', qos(), **over)
+        self.pub_imu = self.pub_accel = None
+        self.motion_pubs = ()
+        if moving:
+            self.pub_imu = node.create_publisher(Imu, prefix + 'imu', qos(), **over)
+            self.pub_accel = node.create_publisher(AccelStamped, prefix + 'accel', qos(),
+                                                   **over)
+            self.motion_pubs = ((self.pub_imu, self.out.imu),
+                                (self.pub_accel, self.out.accel))
         self.pub_applied = node.create_publisher(
             WrenchStamped, prefix + 'applied_wrench',
             QoSProfile(depth=APPLIED_QOS.depth, durability=APPLIED_QOS.durability), **over)
@@ -72,20 +87,37 @@ class BodyPorts:
         node.create_subscription(Twist, prefix + 'set_twist', self._on_set_twist, qos(),
                                  **over)
 
-    def publish(self, time_ns: int, pose_twist, recorder=None, step: int = 0) -> bool:
-        """Publish the state to whoever listens: a topic with no subscriber (and no recording)
-        costs neither a fill nor a serialisation. A non-finite state, or one whose body-frame
-        twist overflows, is never published: False then."""
+    def topics(self) -> dict[str, str]:
+        """kind -> the topic it is published on (what a recording names)."""
+        pubs = {'pose': self.pub_pose, 'twist': self.pub_twist, 'odom': self.pub_odom,
+                'imu': self.pub_imu, 'accel': self.pub_accel}
+        return {kind: pub.topic_name for kind, pub in pubs.items() if pub is not None}
+
+    def publish(self, sim, recorder=None) -> bool:
+        """Publish the body's state, and for a moving body its imu and accel, to whoever
+        listens: a topic with no subscriber (and no recording) costs neither a fill nor a
+        serialisation. The IMU's noise is drawn at every publish, listened to or not, so that
+        it depends on sim time only. A non-finite state, or one whose body-frame twist or
+        acceleration overflows, is never published: False then."""
+        time_ns = sim.time_ns
+        pose_twist = sim.pose_twist(self.name)
         if not all(math.isfinite(c) for vec in pose_twist for c in vec):
             return False
+        offsets = self.sensor.sample(time_ns) if self.sensor is not None else None
         pubs = [p for p in self.state_pubs if p[0].get_subscription_count()]
-        if pubs or recorder is not None:
+        motion = [p for p in self.motion_pubs if p[0].get_subscription_count()]
+        if pubs or motion or recorder is not None:
             if not self.out.fill(time_ns, *pose_twist):
                 return False
-            for pub, msg in pubs:
+            if motion or (recorder is not None and self.motion_pubs):
+                a, b = sim.accelerations(self.name)
+                if not self.out.fill_motion(time_ns, pose_twist[1], pose_twist[3], a, b,
+                                            sim.config.gravity, offsets):
+                    return False
+            for pub, msg in pubs + motion:
                 pub.publish(msg)
             if recorder is not None:
-                recorder.output(self.name, step, time_ns, self.out)
+                recorder.output(self.name, sim.step_count, time_ns, self.out)
         return True
 
     def applied(self, wrench, time_ns: int) -> None:

@@ -16,6 +16,7 @@ from typing import Any, Callable
 
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import Frame
+from rb_sim_ros.sim.imu import ImuNoise
 
 
 # The work of one publish period is bounded: at most this many physics steps (a period of
@@ -112,6 +113,25 @@ def _covariance(name: str, v: Any) -> None:
         raise ValueError(f'{name}: a 6x6 covariance must be symmetric')
 
 
+def _non_negative(name: str, v: Any) -> None:
+    if _number(name, v) < 0.0:
+        raise ValueError(f'{name} must be a finite number >= 0, got {v!r}')
+
+
+def _prefix(name: str, v: Any) -> None:
+    if not isinstance(v, str) or v.startswith('/') or len(v) > 256 or \
+            any(c.isspace() for c in v):
+        raise ValueError(f'{name} must be a frame id prefix (at most 256 characters, no '
+                         f'leading /, no spaces), got {v!r}')
+
+
+def imu_noise(values: dict):
+    """The sim.imu.ImuNoise of the node's parameters ``values``."""
+    return ImuNoise(float(values['imu_gyro_noise']), float(values['imu_accel_noise']),
+                    float(values['imu_gyro_bias_walk']), float(values['imu_accel_bias_walk']),
+                    int(values['imu_seed']))
+
+
 def _orientation(name: str, v: Any) -> None:
     _vector(4)(name, v)
     if not any(v):
@@ -171,6 +191,25 @@ PARAMS = (
           'odom).', True, _frame_id),
     Param('body_frame', 'base_link', 'Body frame (REP-105): odom child_frame_id.', True,
           _frame_id),
+    Param('frame_prefix', '', 'Prepended to every body frame id the node uses (odom child, '
+          '/tf child, imu header, wrench_stamped frame), so that several simulators share one '
+          "graph and one world_frame (e.g. 'sim1/'). Empty: none.", True, _prefix),
+    Param('publish_tf', True, 'Publish each moving body as world_frame -> body frame on /tf '
+          'every publish period, and static bodies once on /tf_static (transient local), as '
+          'tf2_ros broadcasters do.', True, _bool),
+    Param('imu_gyro_noise', 0.0, "Gyroscope white noise of '<body>/imu': standard deviation "
+          'per sample and axis (rad/s); its variance fills angular_velocity_covariance.', True,
+          _non_negative),
+    Param('imu_accel_noise', 0.0, 'Accelerometer white noise: standard deviation per sample '
+          'and axis (m/s^2); its variance fills linear_acceleration_covariance.', True,
+          _non_negative),
+    Param('imu_gyro_bias_walk', 0.0, 'Gyroscope bias random walk per axis (rad/s/sqrt(s)); '
+          'the bias starts at zero.', True, _non_negative),
+    Param('imu_accel_bias_walk', 0.0, 'Accelerometer bias random walk per axis '
+          '(m/s^2/sqrt(s)); the bias starts at zero.', True, _non_negative),
+    Param('imu_seed', 0, 'Seed of the IMU noise (0 to 2^63 - 1); each body draws its own '
+          'stream from it, so a run and its replay get the same noise.', True,
+          _integer(0, 2 ** 63 - 1)),
     Param('odom_pose_covariance', [0.0] * 6, "Covariance of odom's pose: 6 variances "
           '(x, y, z in m^2; rotation about x, y, z in rad^2) or the 36 row-major entries. '
           'The simulator knows its pose exactly (0); set what the consumer of a real odometry '

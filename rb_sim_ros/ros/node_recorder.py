@@ -11,8 +11,11 @@ One MCAP file (profile ros2, cdr, ros2msg schemas; see ``recording/``):
   ``/rb_sim/input/<body>/wrench`` (WrenchStamped, frame_id 'world' or 'body', as received),
   ``.../set_pose`` (PoseStamped, world), ``.../set_twist`` (TwistStamped, world) and
   ``.../reset`` (nav_msgs/Odometry: the state reset to, world frame);
-* outputs at every publish: each body's ``pose``, ``twist`` and ``odom`` on the topics the node
-  published them on, log time = sim time.
+* outputs at every publish: each moving body's ``pose``, ``twist``, ``odom``, ``imu`` and
+  ``accel`` on the topics the node published them on (``output_topics`` in the metadata;
+  recordings made before imu and accel existed have the first three), log time = sim time;
+  with publish_tf, ``/tf`` (tf2_msgs/TFMessage) at every publish and ``/tf_static`` once at
+  step 0 (``tf_topics`` in the metadata).
 
 Inputs are everything that changed the run; with ``config`` they re-simulate it bit for bit,
 and the outputs are what to compare against.
@@ -23,14 +26,16 @@ from __future__ import annotations
 import json
 import os
 
-from geometry_msgs.msg import PoseStamped, Twist, TwistStamped, WrenchStamped
+from geometry_msgs.msg import AccelStamped, PoseStamped, Twist, TwistStamped, WrenchStamped
 from mcap.writer import LIBRARY_IDENTIFIER
 from nav_msgs.msg import Odometry
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from sensor_msgs.msg import Imu
 
 from rb_sim_ros import __version__
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.recording import RecordingWriter, WriterError
-from rb_sim_ros.ros.ros_messages import time_msg
+from rb_sim_ros.ros.ros_messages import TF_STATIC, time_msg
 from rb_sim_ros.sim.simulation import Config, Reset, SetPose, SetTwist, SetWrench
 
 METADATA = 'rb_sim_ros'
@@ -40,7 +45,12 @@ FORMAT = 1
 INPUT_PREFIX = '/rb_sim/input/'
 INPUTS = {'wrench': WrenchStamped, 'set_pose': PoseStamped, 'set_twist': TwistStamped,
           'reset': Odometry}
-OUTPUTS = {'pose': PoseStamped, 'twist': Twist, 'odom': Odometry}
+OUTPUTS = {'pose': PoseStamped, 'twist': Twist, 'odom': Odometry, 'imu': Imu,
+           'accel': AccelStamped}
+# What every recording has of a body (imu and accel came later).
+REQUIRED_OUTPUTS = ('pose', 'twist', 'odom')
+# tf2's topics and their type (tf2_msgs, built into a PyPI venv by tools/build_msgs.sh).
+TF_TYPE = 'tf2_msgs/msg/TFMessage'
 
 
 def input_topic(body: str, kind: str) -> str:
@@ -128,7 +138,8 @@ class NodeRecorder:
     """
 
     def __init__(self, path: str, config: Config, parameters: dict,
-                 output_topics: dict[str, dict[str, str]], overwrite: bool = False) -> None:
+                 output_topics: dict[str, dict[str, str]], overwrite: bool = False,
+                 tf_topics=()) -> None:
         try:
             self._writer = RecordingWriter(path, overwrite=overwrite, library=LIBRARY)
         except WriterError as e:
@@ -146,11 +157,19 @@ class NodeRecorder:
         for topics in output_topics.values():
             for kind, topic in topics.items():
                 self._writer.register_topic(topic, OUTPUTS[kind])
+        tf_topics = sorted(tf_topics)
+        if tf_topics:
+            from tf2_msgs.msg import TFMessage  # only when the node has it: publish_tf
+            for topic in tf_topics:
+                qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL) \
+                    if topic == TF_STATIC else QoSProfile(depth=100)
+                self._writer.register_topic(topic, TFMessage, qos)
         self._writer.write_metadata(METADATA, {
             'format': str(FORMAT), 'version': __version__,
             'config': json.dumps(config.to_dict()),
             'parameters': json.dumps(parameters, sort_keys=True),
             'output_topics': json.dumps(output_topics, sort_keys=True),
+            'tf_topics': json.dumps(tf_topics),
         })
 
     @property
@@ -174,10 +193,13 @@ class NodeRecorder:
         w = self._writer
         if w.error is not None:
             return
-        topics = self._outputs[body]
-        w.write(topics['pose'], out.pose, time_ns, sequence=step)
-        w.write(topics['twist'], out.twist, time_ns, sequence=step)
-        w.write(topics['odom'], out.odom, time_ns, sequence=step)
+        for kind, topic in self._outputs[body].items():
+            w.write(topic, getattr(out, kind), time_ns, sequence=step)
+
+    def tf(self, topic: str, step: int, time_ns: int, msg) -> None:
+        """A TFMessage the node published on ``topic`` (/tf or /tf_static)."""
+        if self._writer.error is None:
+            self._writer.write(topic, msg, time_ns, sequence=step)
 
     def close(self) -> None:
         """Finish the file (idempotent). Never raises for a failed write: see ``failed``."""

@@ -27,10 +27,13 @@ from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.recording import ReaderError, RecordingReader, recover, WriterError
 from rb_sim_ros.recording.schemas import type_name_of
 from rb_sim_ros.ros import node_params, node_recorder, ros_arguments
-from rb_sim_ros.ros.ros_messages import OutputMessages, time_msg
+from rb_sim_ros.ros.ros_messages import (new_transform, OutputMessages, TF, TF_STATIC,
+                                         time_msg, transform)
+from rb_sim_ros.sim.imu import ImuSensor
 from rb_sim_ros.sim.simulation import Config, Simulation
 
-QUANTITIES = ('position', 'orientation', 'linear_velocity', 'angular_velocity')
+QUANTITIES = ('position', 'orientation', 'linear_velocity', 'angular_velocity',
+              'linear_acceleration', 'angular_acceleration')
 # Everything in a file is untrusted; these bound the work a file can ask for.
 MAX_JSON_DEPTH = 16  # the metadata nests 5 deep (config, bodies, a body, colliders, a collider)
 MAX_STEPS_PER_OUTPUT = 1_000_000  # physics steps between two published states (as the node)
@@ -40,6 +43,8 @@ MAX_WAIT_S = 1e6
 INPUT_TYPES = {kind: type_name_of(cls) for kind, cls in node_recorder.INPUTS.items()}
 OUTPUT_TYPES = {kind: type_name_of(cls) for kind, cls in node_recorder.OUTPUTS.items()}
 # Parameters replay itself uses, with their defaults (a recording holds all of them).
+IMU_DEFAULTS = {'imu_gyro_noise': 0.0, 'imu_accel_noise': 0.0, 'imu_gyro_bias_walk': 0.0,
+                'imu_accel_bias_walk': 0.0, 'imu_seed': 0}
 FRAME_PARAMS = {'world_frame': 'odom', 'body_frame': 'base_link', 'twist_frame': 'body'}
 
 
@@ -75,7 +80,8 @@ class Recording:
     config: Config
     parameters: dict
     inputs: list  # (step, event, topic), sorted by step
-    outputs: list  # (step, body, kind, topic, msg, log_time_ns), sorted by step
+    outputs: list  # (step, body, kind, topic, msg, log_time_ns), sorted by step; /tf and
+    # /tf_static with body '' and kind 'tf' or 'tf_static'
     truncated: bool
     path: str = ''
     recorded_per_topic: dict = field(default_factory=dict)  # output topic -> messages in file
@@ -84,8 +90,16 @@ class Recording:
         """(world frame, body frame) the node stamped ``body``'s outputs with."""
         p = self.parameters
         single = not p.get('scene_file')
-        return (p.get('world_frame', 'odom'),
-                p.get('body_frame', 'base_link') if single else body)
+        return (p.get('world_frame', 'odom'), p.get('frame_prefix', '')
+                + (p.get('body_frame', 'base_link') if single else body))
+
+    def tf_bodies(self, kind: str) -> list[str]:
+        """The bodies of a /tf ('tf': the moving ones with topics) or /tf_static message
+        ('tf_static': the static ones with topics), in the node's order."""
+        limit = self.parameters.get('max_body_topics', len(self.config.bodies))
+        if not self.parameters.get('scene_file'):
+            limit = 1
+        return [b.name for b in self.config.bodies[:limit] if b.static == (kind == 'tf_static')]
 
 
 def _bad(path: str, what: str) -> ReaderError:
@@ -240,8 +254,9 @@ def _output_topics(data, config: Config, parameters: dict, path: str) -> dict:
     seen = set()
     for body, topics in data.items():
         _mapping(topics, f'output_topics.{body}', path)
-        if sorted(topics) != sorted(OUTPUT_TYPES):
-            raise _bad(path, f'output_topics.{body} has {sorted(topics)}, not '
+        if not set(node_recorder.REQUIRED_OUTPUTS) <= set(topics) <= set(OUTPUT_TYPES):
+            raise _bad(path, f'output_topics.{body} has {sorted(topics)}: it needs '
+                       f'{list(node_recorder.REQUIRED_OUTPUTS)}, and may have only '
                        f'{sorted(OUTPUT_TYPES)}')
         for kind, topic in topics.items():
             if (not isinstance(topic, str) or not topic.startswith('/') or len(topic) < 2
@@ -249,6 +264,17 @@ def _output_topics(data, config: Config, parameters: dict, path: str) -> dict:
                 raise _bad(path, f'output_topics.{body}.{kind} {topic!r} is not a topic name '
                            'of its own (absolute, not an input, not used twice)')
             seen.add(topic)
+    return data
+
+
+def _tf_topics(meta: dict, path: str) -> list:
+    """The tf topics a recording holds (none before they existed)."""
+    if 'tf_topics' not in meta:
+        return []
+    data = _json(meta, 'tf_topics', path)
+    if not isinstance(data, list) or not set(data) <= {TF, TF_STATIC} or \
+            len(set(data)) != len(data):
+        raise _bad(path, f'tf_topics must list {TF!r} and/or {TF_STATIC!r}, got {data!r}')
     return data
 
 
@@ -269,13 +295,19 @@ def load(path: str) -> Recording:
                                    path)
     by_topic = {topic: (body, kind) for body, topics in output_topics.items()
                 for kind, topic in topics.items()}
+    types = {topic: OUTPUT_TYPES[kind] for topic, (_, kind) in by_topic.items()}
+    for topic in _tf_topics(meta, path):
+        if topic in by_topic:
+            raise _bad(path, f'{topic} is both a body output and a tf topic')
+        by_topic[topic] = ('', 'tf' if topic == TF else 'tf_static')
+        types[topic] = node_recorder.TF_TYPE
     moving = {b.name for b in config.bodies if not b.static}
     for topic, type_name in reader.channels.items():
         parsed = node_recorder.parse_input_topic(topic)
         if parsed is not None and parsed[0] in moving:
             want = INPUT_TYPES[parsed[1]]
         elif topic in by_topic:
-            want = OUTPUT_TYPES[by_topic[topic][1]]
+            want = types[topic]
         else:
             raise ReaderError(f'{path}: topic {topic} is neither an output named in the '
                               'metadata nor an input of a moving body')
@@ -323,19 +355,34 @@ def load(path: str) -> Recording:
     return Recording(config, parameters, inputs, outputs, reader.truncated, path, recorded)
 
 
+def _xyz(v) -> tuple:
+    return (v.x, v.y, v.z)
+
+
 def _vectors(kind: str, msg):
-    """The quantities an output message (pose, twist or odom) carries, as tuples."""
+    """The quantities an output message carries, as tuples of floats."""
     if kind == 'pose':
         p, o = msg.pose.position, msg.pose.orientation
-        return {'position': (p.x, p.y, p.z), 'orientation': (o.x, o.y, o.z, o.w)}
+        return {'position': _xyz(p), 'orientation': (o.x, o.y, o.z, o.w)}
     if kind == 'odom':
         p, o = msg.pose.pose.position, msg.pose.pose.orientation
-        lin, ang = msg.twist.twist.linear, msg.twist.twist.angular
-        return {'position': (p.x, p.y, p.z), 'orientation': (o.x, o.y, o.z, o.w),
-                'linear_velocity': (lin.x, lin.y, lin.z),
-                'angular_velocity': (ang.x, ang.y, ang.z)}
-    lin, ang = msg.linear, msg.angular
-    return {'linear_velocity': (lin.x, lin.y, lin.z), 'angular_velocity': (ang.x, ang.y, ang.z)}
+        return {'position': _xyz(p), 'orientation': (o.x, o.y, o.z, o.w),
+                'linear_velocity': _xyz(msg.twist.twist.linear),
+                'angular_velocity': _xyz(msg.twist.twist.angular)}
+    if kind == 'imu':
+        o = msg.orientation
+        return {'orientation': (o.x, o.y, o.z, o.w),
+                'angular_velocity': _xyz(msg.angular_velocity),
+                'linear_acceleration': _xyz(msg.linear_acceleration)}
+    if kind == 'accel':
+        return {'linear_acceleration': _xyz(msg.accel.linear),
+                'angular_acceleration': _xyz(msg.accel.angular)}
+    if kind in ('tf', 'tf_static'):
+        ts = [t.transform for t in msg.transforms]
+        return {'position': sum((_xyz(t.translation) for t in ts), ()),
+                'orientation': sum(((t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w)
+                                    for t in ts), ())}
+    return {'linear_velocity': _xyz(msg.linear), 'angular_velocity': _xyz(msg.angular)}
 
 
 def identical(kind: str, a, b) -> bool:
@@ -369,8 +416,14 @@ def resimulate(rec: Recording, errors: list | None = None):
     twist_frame = rec.parameters.get('twist_frame', 'body')
     covariances = [node_params.covariance36(rec.parameters.get(name, [0.0] * 6))
                    for name in ('odom_pose_covariance', 'odom_twist_covariance')]
-    outs = {b.name: OutputMessages(*rec.frames(b.name), twist_frame, *covariances)
+    try:
+        noise = node_params.imu_noise({**IMU_DEFAULTS, **rec.parameters})
+    except (ValueError, TypeError) as e:
+        raise _bad(rec.path, f'parameters: {e}') from None
+    outs = {b.name: OutputMessages(*rec.frames(b.name), twist_frame, *covariances, noise)
             for b in rec.config.bodies}
+    sensors = {b.name: ImuSensor(noise, i) for i, b in enumerate(rec.config.bodies)}
+    offsets, motion_filled = {}, {}
     events = rec.inputs
     i = 0
     filled = {}
@@ -400,11 +453,32 @@ def resimulate(rec: Recording, errors: list | None = None):
             raise ReaderError(f'{rec.path}: the input on {events[i][2]} at step '
                               f'{events[i][0]} is in the past of the run (now at step '
                               f'{sim.step_count})')
+        if kind in ('tf', 'tf_static'):
+            yield step, kind, topic, msg, _tf_message(rec, sim, kind, type(msg)), log_time
+            continue
         out = outs[body]
-        if filled.get(body) != step:
+        if filled.get(body) != step:  # a publish: as the node, the IMU's noise drawn first
+            offsets[body] = sensors[body].sample(sim.time_ns)
             out.fill(sim.time_ns, *sim.pose_twist(body))
             filled[body] = step
+        if kind in ('imu', 'accel') and motion_filled.get(body) != step:
+            _, q, _, w = sim.pose_twist(body)
+            a, b = sim.accelerations(body)
+            out.fill_motion(sim.time_ns, q, w, a, b, rec.config.gravity, offsets[body])
+            motion_filled[body] = step
         yield step, kind, topic, msg, getattr(out, kind), log_time
+
+
+def _tf_message(rec: Recording, sim: Simulation, kind: str, msg_type):
+    """The /tf (or /tf_static) message the node would publish now."""
+    world = rec.parameters.get('world_frame', 'odom')
+    mine = msg_type()
+    for body in rec.tf_bodies(kind):
+        t = new_transform(world, rec.frames(body)[1])
+        x, q = sim.pose_twist(body)[:2]
+        transform(t, sim.time_ns, x, q)
+        mine.transforms.append(t)
+    return mine
 
 
 def verify(path: str) -> Verification:

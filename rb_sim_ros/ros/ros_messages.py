@@ -14,11 +14,17 @@ from __future__ import annotations
 import math
 
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import PoseStamped, Twist, Wrench as WrenchMsg
+from geometry_msgs.msg import AccelStamped, PoseStamped, TransformStamped, Twist, \
+    Wrench as WrenchMsg
 from nav_msgs.msg import Odometry
+from sensor_msgs.msg import Imu
 
 from rb_sim_ros.core import so3
 from rb_sim_ros.core.rigid_body import Frame, Wrench
+from rb_sim_ros.sim.imu import specific_force
+
+# tf2's topics (absolute: tf2_ros listens there whatever the node's namespace).
+TF, TF_STATIC = '/tf', '/tf_static'
 
 
 def time_msg(time_ns: int) -> Time:
@@ -78,23 +84,34 @@ def rotation_from_quaternion(q):
 
 
 class OutputMessages:
-    """The published PoseStamped, Twist and Odometry, filled in place from a state."""
+    """The published PoseStamped, Twist and Odometry (``fill``), Imu and AccelStamped
+    (``fill_motion``), filled in place from a state."""
 
     def __init__(self, world_frame: str = 'world', body_frame: str = 'base_link',
                  twist_frame: str = 'body', pose_covariance=None,
-                 twist_covariance=None) -> None:
+                 twist_covariance=None, imu_noise=None) -> None:
         self.pose = PoseStamped()
         self.twist = Twist()
         self.odom = Odometry()
+        self.imu = Imu()
+        self.accel = AccelStamped()
         self.configure(world_frame, body_frame, twist_frame, pose_covariance,
-                       twist_covariance)
+                       twist_covariance, imu_noise)
 
     def configure(self, world_frame: str, body_frame: str, twist_frame: str,
-                  pose_covariance=None, twist_covariance=None) -> None:
-        """Frames, and odom's covariances (36 row-major floats each; None: zeros)."""
+                  pose_covariance=None, twist_covariance=None, imu_noise=None) -> None:
+        """Frames, odom's covariances (36 row-major floats each; None: zeros) and the IMU's
+        (from ``imu_noise``, a sim.imu.ImuNoise: the white noise's variances on the
+        diagonal; None: zeros)."""
         self.pose.header.frame_id = world_frame
         self.odom.header.frame_id = world_frame
         self.odom.child_frame_id = body_frame
+        self.imu.header.frame_id = body_frame
+        self.accel.header.frame_id = world_frame
+        gyro = imu_noise.gyro_noise ** 2 if imu_noise is not None else 0.0
+        acc = imu_noise.accel_noise ** 2 if imu_noise is not None else 0.0
+        self.imu.angular_velocity_covariance = [gyro, 0.0, 0.0, 0.0, gyro, 0.0, 0.0, 0.0, gyro]
+        self.imu.linear_acceleration_covariance = [acc, 0.0, 0.0, 0.0, acc, 0.0, 0.0, 0.0, acc]
         self.twist_in_body = Frame.parse(twist_frame) is Frame.BODY
         zeros = (0.0,) * 36
         self.odom.pose.covariance = list(pose_covariance or zeros)
@@ -123,3 +140,48 @@ class OutputMessages:
         ot.linear.x, ot.linear.y, ot.linear.z = lin_b
         ot.angular.x, ot.angular.y, ot.angular.z = ang_b
         return all(math.isfinite(c) for c in lin_b + ang_b)
+
+    def fill_motion(self, time_ns: int, quaternion_xyzw, angular_velocity, linear_acceleration,
+                    angular_acceleration, gravity, imu_offsets=None) -> bool:
+        """Fill the Imu (body frame: orientation, angular velocity and specific force a - g,
+        plus ``imu_offsets`` = (gyro, accel) noise, body frame) and the AccelStamped (world
+        frame) from a world-frame state and its accelerations at ``time_ns``. False if a value
+        is not finite: then nothing must be sent."""
+        stamp = time_msg(time_ns)
+        r = rotation_from_quaternion(quaternion_xyzw)
+        gyro = rotate(r, angular_velocity, transpose=True)
+        force = rotate(r, specific_force(linear_acceleration, gravity), transpose=True)
+        if imu_offsets is not None:
+            (g0, g1, g2), (f0, f1, f2) = imu_offsets
+            gyro = (gyro[0] + g0, gyro[1] + g1, gyro[2] + g2)
+            force = (force[0] + f0, force[1] + f1, force[2] + f2)
+        imu = self.imu
+        imu.header.stamp = stamp
+        o = imu.orientation
+        o.x, o.y, o.z, o.w = quaternion_xyzw
+        w, a = imu.angular_velocity, imu.linear_acceleration
+        w.x, w.y, w.z = gyro
+        a.x, a.y, a.z = force
+        acc = self.accel
+        acc.header.stamp = stamp
+        lin, ang = acc.accel.linear, acc.accel.angular
+        lin.x, lin.y, lin.z = linear_acceleration
+        ang.x, ang.y, ang.z = angular_acceleration
+        return all(math.isfinite(c) for c in gyro + force + tuple(linear_acceleration)
+                   + tuple(angular_acceleration))
+
+
+def transform(msg: TransformStamped, time_ns: int, position, quaternion_xyzw) -> None:
+    """Fill a TransformStamped's stamp and transform (its frame ids are set once) from a
+    pose: parent = the pose's frame, child = the body's, translation and rotation as the
+    published PoseStamped has them, bit for bit."""
+    msg.header.stamp = time_msg(time_ns)
+    t, q = msg.transform.translation, msg.transform.rotation
+    t.x, t.y, t.z = position
+    q.x, q.y, q.z, q.w = quaternion_xyzw
+
+
+def new_transform(parent: str, child: str) -> TransformStamped:
+    msg = TransformStamped()
+    msg.header.frame_id, msg.child_frame_id = parent, child
+    return msg

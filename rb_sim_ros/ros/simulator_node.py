@@ -36,12 +36,17 @@ import rclpy
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.qos_overriding_options import InvalidQosOverridesError
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_srvs.srv import Empty, SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
+
+try:  # not among ROS 2 Jazzy's PyPI wheels: tools/build_msgs.sh builds it into the venv
+    from tf2_msgs.msg import TFMessage
+except ImportError:  # then no /tf, said once at start
+    TFMessage = None
 
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import ZERO_WRENCH
@@ -50,6 +55,7 @@ from rb_sim_ros.ros import node_params, ros_arguments, ros_messages
 from rb_sim_ros.ros.body_ports import APPLIED_QOS, BodyPorts, OVERRIDABLE, TwistInput
 from rb_sim_ros.ros.collision_markers import CollisionMarkers
 from rb_sim_ros.ros.diagnostics import Diagnostics
+from rb_sim_ros.ros.ros_messages import TF, TF_STATIC
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Reset, SetTwist,
                                        SetWrench, Simulation)
@@ -116,14 +122,22 @@ class SimulatorNode(Node):
         self.diagnostics = Diagnostics()
         self.ports: dict[str, BodyPorts] = {}
         single = self._scene is None
-        for spec in self.config.bodies[:values['max_body_topics'] if not single else 1]:
+        noise = node_params.imu_noise(values)
+        for index, spec in enumerate(
+                self.config.bodies[:values['max_body_topics'] if not single else 1]):
             self.ports[spec.name] = BodyPorts(
                 self, spec.name, '' if single else spec.name + '/', values['world_frame'],
-                values['body_frame'] if single else spec.name, values['twist_frame'],
-                _Settings(self), self._queue, self._reject, spec.points)
+                body_frame(values, spec.name, single), values['twist_frame'],
+                _Settings(self), self._queue, self._reject, spec.points,
+                self.sim.is_moving(spec.name), noise, index)
         self._moving = [p for p in self.ports.values() if self.sim.is_moving(p.name)]
         self._apply_settings()
+        self._tf = self._tf_msg = self._tf_static = None
+        if values['publish_tf']:
+            self._start_tf(values)
         self._recorder = _open_recorder(self, values)
+        if self._tf_static is not None and self._recorder is not None:
+            self._recorder.tf(TF_STATIC, 0, 0, self._tf_static)
         over = {'qos_overriding_options': OVERRIDABLE}
         self._pub_clock = (self.create_publisher(ClockMsg, '/clock', QoSProfile(
             depth=1, reliability=ReliabilityPolicy.BEST_EFFORT), **over)
@@ -156,6 +170,33 @@ class SimulatorNode(Node):
             f'simulating {bodies}; dt {self.config.dt} s, publishing every '
             f'{self.config.steps_per_publish} steps, real_time_factor '
             f'{values["real_time_factor"]}')
+
+    def _start_tf(self, values: dict) -> None:
+        """/tf for the moving bodies with topics, every period; /tf_static for the static
+        ones, once (transient local, depth 1: what tf2_ros's static broadcaster offers)."""
+        if TFMessage is None:
+            self.get_logger().warning(
+                'publish_tf: tf2_msgs is not installed, so no /tf (on a ROS install: '
+                'ros-jazzy-tf2-msgs; in the PyPI venv tools/build_msgs.sh builds it)')
+            return
+        over = {'qos_overriding_options': OVERRIDABLE}
+        world = values['world_frame']
+        moving = [p for p in self.ports.values() if self.sim.is_moving(p.name)]
+        static = [p for p in self.ports.values() if not self.sim.is_moving(p.name)]
+        self._tf_ports = moving
+        self._tf_msg = TFMessage(transforms=[
+            ros_messages.new_transform(world, p.body_frame) for p in moving])
+        if moving:
+            self._tf = self.create_publisher(TFMessage, TF, QoSProfile(depth=100), **over)
+        if static:
+            self._tf_static = TFMessage(transforms=[
+                ros_messages.new_transform(world, p.body_frame) for p in static])
+            for port, msg in zip(static, self._tf_static.transforms):
+                x, q = self.sim.pose_twist(port.name)[:2]
+                ros_messages.transform(msg, 0, x, q)
+            self._pub_tf_static = self.create_publisher(TFMessage, TF_STATIC, QoSProfile(
+                depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL), **over)
+            self._pub_tf_static.publish(self._tf_static)
 
     # -- inputs (callbacks only queue; the step loop applies) ------------------------------
     def _queue(self, event) -> None:
@@ -381,12 +422,21 @@ class SimulatorNode(Node):
     def _publish(self) -> None:
         sim = self.sim
         t_ns = sim.time_ns
+        failed = False
         for port in self.ports.values():
             moving = sim.is_moving(port.name)  # a static body is not recorded: it never moves
-            if not port.publish(t_ns, sim.pose_twist(port.name),
-                                self._recorder if moving else None, sim.step_count):
+            if not port.publish(sim, self._recorder if moving else None):
+                failed = True
                 self._fail(f"body '{port.name}' has a non-finite state at step "
                            f'{sim.step_count}; not published')
+        if self._tf is not None and not failed and (
+                self._recorder is not None or self._tf.get_subscription_count()):
+            for port, msg in zip(self._tf_ports, self._tf_msg.transforms):
+                x, q = sim.pose_twist(port.name)[:2]
+                ros_messages.transform(msg, t_ns, x, q)
+            self._tf.publish(self._tf_msg)
+            if self._recorder is not None:
+                self._recorder.tf(TF, sim.step_count, t_ns, self._tf_msg)
         if self._pub_poses.get_subscription_count():
             self._fill_poses(t_ns)
         if self._pub_markers is not None and self._pub_markers.get_subscription_count():
@@ -458,6 +508,12 @@ class SimulatorNode(Node):
             recorder.close()
 
 
+def body_frame(values: dict, name: str, single: bool) -> str:
+    """The frame id of body ``name``: frame_prefix + body_frame for the single body, frame_prefix
+    + its name for a scene's."""
+    return values.get('frame_prefix', '') + (values['body_frame'] if single else name)
+
+
 def _timeout_steps(v: dict, config: Config) -> int:
     """command_timeout in steps: 0 disables; a timeout shorter than a step still times out
     (at the next step), never disables."""
@@ -513,11 +569,15 @@ def _open_recorder(node: SimulatorNode, values: dict):
     if not values['record']:
         return None
     from rb_sim_ros.ros.node_recorder import NodeRecorder
-    topics = {name: {'pose': p.pub_pose.topic_name, 'twist': p.pub_twist.topic_name,
-                     'odom': p.pub_odom.topic_name} for name, p in node.ports.items()
+    topics = {name: p.topics() for name, p in node.ports.items()
               if node.sim.is_moving(name)}  # a static body never moves: nothing to record
+    tf_topics = []
+    if node._tf is not None:
+        tf_topics.append(TF)
+    if node._tf_static is not None:
+        tf_topics.append(TF_STATIC)
     return NodeRecorder(values['record'], node.config, values, topics,
-                        overwrite=bool(values['record_overwrite']))
+                        overwrite=bool(values['record_overwrite']), tf_topics=tf_topics)
 
 
 def main(args=None) -> int:

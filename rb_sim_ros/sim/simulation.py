@@ -247,6 +247,28 @@ class Simulation:
                     (0.0, 0.0, 0.0))
         raise ValueError(f"no body named '{name}'")
 
+    def accelerations(self, name: str = ''):
+        """(linear m/s^2, angular rad/s^2) acceleration of a body now, world frame: Thm 1 at
+        its state under the held wrench, gravity and damping (the integrator's own), plus, in
+        a collision world, what the last step's contacts did to its velocities over dt. A
+        static or sleeping body (held at rest) has none. A teleport is not an acceleration."""
+        name = name or self.config.bodies[0].name
+        if name in self.static:
+            return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        if name not in self.steppers:
+            raise ValueError(f"no body named '{name}'")
+        contact = None
+        if self.world is not None:
+            contact = self.world.contact_accelerations(name)
+            if contact is None:  # asleep
+                return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        a, b = self.steppers[name].accelerations()
+        if contact is not None:
+            (ca, cb) = contact
+            a = (a[0] + ca[0], a[1] + ca[1], a[2] + ca[2])
+            b = (b[0] + cb[0], b[1] + cb[1], b[2] + cb[2])
+        return a, b
+
     def apply(self, event: Event) -> None:
         """Apply ``event`` now: it takes effect from the next step. Validated first."""
         if not isinstance(event, (SetWrench, SetPose, SetTwist, Reset)):
