@@ -47,7 +47,8 @@ def test_acceleration_of_a_free_body_is_newton_and_euler(method):
 
 
 def test_a_body_frame_force_turns_with_the_body_and_damping_counts():
-    spec = BodySpec('b', 4.0, (0.1, 0.1, 0.1), initial_orientation_xyzw=(0, 0, 0.7071068, 0.7071068),
+    spec = BodySpec('b', 4.0, (0.1, 0.1, 0.1),
+                    initial_orientation_xyzw=(0, 0, 0.7071068, 0.7071068),
                     initial_linear_velocity=(1.0, 0.0, 0.0), linear_damping=0.5)
     sim = Simulation(Config(dt=DT, steps_per_publish=1, bodies=(spec,), gravity=G))
     sim.apply(SetWrench(Wrench((2.0, 0.0, 0.0), (0.0, 0.0, 0.0), 'body')))
