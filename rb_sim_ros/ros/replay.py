@@ -23,6 +23,8 @@ import struct
 import sys
 import time
 
+from rclpy.qos import DurabilityPolicy, QoSProfile
+
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.recording import ReaderError, RecordingReader, recover, WriterError
 from rb_sim_ros.recording.schemas import type_name_of
@@ -512,7 +514,7 @@ def play(path: str, rate: float, clock: bool = True, wait: float = 0.0) -> int:
     (0: as fast as possible); first wait up to ``wait`` seconds for a subscriber on one of
     them. Ctrl-C raises KeyboardInterrupt (rclpy's signal handler is not installed)."""
     import rclpy
-    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.qos import ReliabilityPolicy
     from rclpy.signals import SignalHandlerOptions
     from rosgraph_msgs.msg import Clock
 
@@ -541,7 +543,10 @@ def _sleep_until(deadline: float) -> None:
 
 
 def _publish(rclpy, node, outputs, rate: float, wait: float, clock_type, clock_qos) -> None:
-    pubs = {topic: node.create_publisher(type(msg), topic, 10) for topic, msg, _ in outputs}
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    pubs = {topic: node.create_publisher(type(msg), topic,
+                                         latched if topic == TF_STATIC else 10)
+            for topic, msg, _ in outputs}
     clock_pub = (node.create_publisher(clock_type, '/clock', clock_qos)
                  if clock_type is not None else None)
     if not outputs:
