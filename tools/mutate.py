@@ -42,6 +42,8 @@ CONVERGENCE = 'test/test_convergence.py::'
 HIGH_ORDER = 'test/test_high_order.py::'
 NODE = 'test/test_node.py::'
 HARDENING = 'test/test_node_hardening.py::'
+MOTION = 'test/test_motion_sensing.py::'
+TF_IMU = 'test/test_tf_imu_node.py::'
 
 # Eq. (14) of the report as printed: R_{n+1} = (exp([w + (4 b - b_prev)/6 dt] dt)
 # - ([b][w] + [w][b]) dt^3 / 12) R_n, i.e. no (b x w) term in the rotation vector and the
@@ -226,6 +228,36 @@ MUTANTS = [
        '    phi1 = phi - g / (ip * lam) * (big1 - big0)')],
      [HIGH_ORDER + 'test_free_flow_is_the_torque_free_motion_for_any_step'],
      'the precession about L turned the wrong way'),
+    # -- issue 15: acceleration and IMU ----------------------------------------------------
+    ('specific-force-plus-g', 'rb_sim_ros/sim/imu.py',
+     [('    return tuple(a - g for a, g in zip(linear_acceleration, gravity))',
+       '    return tuple(a + g for a, g in zip(linear_acceleration, gravity))')],
+     [MOTION + 'test_a_box_at_rest_on_the_ground_accelerates_nowhere_and_its_imu_reads_plus_g'],
+     'the accelerometer reads a + g (-g at rest, 2 g in free fall)'),
+    ('contact-acceleration-not-over-dt', 'rb_sim_ros/contact/collision_world.py',
+     [('        inv = 1.0 / self.dt\n', '        inv = 1.0\n')],
+     [MOTION + 'test_a_box_at_rest_on_the_ground_accelerates_nowhere_and_its_imu_reads_plus_g'],
+     "the contacts' velocity change taken as an acceleration without dividing by dt"),
+    ('teleport-is-an-acceleration', 'rb_sim_ros/contact/collision_world.py',
+     [('        self._v[i], self._w[i] = state.linear_velocity, state.angular_velocity\n', '')],
+     [MOTION + 'test_a_teleport_is_not_an_acceleration'],
+     'the velocity before the last contact pass kept across a teleport'),
+    ('bias-walk-without-sqrt', 'rb_sim_ros/sim/imu.py',
+     [('        root = math.sqrt((time_ns - self._last_ns) * 1e-9)',
+       '        root = ((time_ns - self._last_ns) * 1e-9)')],
+     [MOTION + 'test_the_bias_walks_as_sigma_sqrt_t'],
+     'the bias walks as sigma t, not sigma sqrt(t)'),
+    ('imu-in-world-frame', 'rb_sim_ros/ros/ros_messages.py',
+     [('        force = rotate(r, specific_force(linear_acceleration, gravity), transpose=True)',
+       '        force = specific_force(linear_acceleration, gravity)')],
+     [TF_IMU + 'test_imu_and_accel_read_newton_and_euler_and_no_tf_when_asked'],
+     "the IMU's specific force left in the world frame"),
+    ('noise-drawn-only-when-filled', 'rb_sim_ros/ros/replay.py',
+     [('            offsets[body] = sensors[body].sample(sim.time_ns)\n',
+       '            offsets[body] = sensors[body].sample(sim.time_ns) if kind == \'imu\' '
+       'else None\n')],
+     [TF_IMU + 'test_a_recording_with_imu_noise_tf_and_contacts_replays_bit_for_bit'],
+     'replay draws the noise only for imu outputs: its stream no longer follows the node'),
 ]
 
 
