@@ -254,7 +254,7 @@ MUTANTS = [
      "the IMU's specific force left in the world frame"),
     ('noise-drawn-only-when-filled', 'rb_sim_ros/ros/replay.py',
      [('            offsets[body] = sensors[body].sample(sim.time_ns)\n',
-       '            offsets[body] = sensors[body].sample(sim.time_ns) if kind == \'imu\' '
+       "            offsets[body] = sensors[body].sample(sim.time_ns) if kind == 'imu' "
        'else None\n')],
      [TF_IMU + 'test_a_recording_with_imu_noise_tf_and_contacts_replays_bit_for_bit'],
      'replay draws the noise only for imu outputs: its stream no longer follows the node'),
