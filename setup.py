@@ -1,3 +1,5 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
 from setuptools import find_packages, setup
 
 package_name = 'rb_sim_ros'
@@ -10,6 +12,11 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/scenes', ['scenes/example.yaml', 'scenes/collisions.yaml']),
+        ('share/' + package_name + '/launch', ['launch/sim.launch.py']),
+        ('share/' + package_name + '/config', ['config/params.yaml']),
+        ('share/' + package_name + '/rviz', ['rviz/rb_sim.rviz']),
+        ('share/' + package_name + '/foxglove', ['foxglove/rb_sim_layout.json']),
+        ('share/doc/' + package_name, ['LICENSE', 'README.md']),
     ],
     # ROS dependencies come from package.xml (rosdep); PyPI-only ones (mcap for recording)
     # are in requirements.txt, used by the README's commands, never forced on colcon.

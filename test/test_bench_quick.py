@@ -1,5 +1,6 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
+# pypi-only: mujoco
 """The benchmark suite's quick mode runs, so that it cannot rot. Nothing timed is asserted
 (the machine is noisy): orders, agreement with the references, and the stress outcomes."""
 

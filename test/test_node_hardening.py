@@ -1,5 +1,6 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
+# pypi-only: mcap
 """What a hostile or careless user sends never kills, hangs or poisons the node (issue 11)."""
 
 import math

@@ -1,5 +1,6 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
+# pypi-only: mcap rosbags
 """Recordings of the real node over DDS, read by rosbags and re-simulated bit for bit."""
 
 import copy

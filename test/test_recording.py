@@ -1,5 +1,6 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
+# pypi-only: mcap rosbags
 """The MCAP recording layer through tmp_path, checked against rosbags as an independent reader.
 
 No ROS graph: only message classes and rclpy's serialisation. rosbags opens a bare .mcap file

@@ -1,5 +1,6 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
+# pypi-only: mcap rosbags
 """What a ROS user expects of a simulated body, over DDS: /tf and /tf_static as tf2 has them,
 frame_prefix, <body>/imu and <body>/accel against Newton, and refusals of bad noise."""
 

@@ -1,5 +1,6 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
+# pypi-only: mcap rosbags
 """replay treats everything in a file as untrusted: a bad recording is one line and exit 2.
 
 No ROS graph: recordings are the regression fixture with its metadata rewritten (by the mcap

@@ -168,8 +168,9 @@ class Param:
 PARAMS = (
     Param('dt', 0.001, 'Physics step (s), 1e-9 to 10. Simulated time is always step_count * dt.',
           True, _within(1e-9, 10.0, '1e-9 and 10 s')),
-    Param('publish_rate', 100.0, 'Rate (Hz, sim time) of pose/twist/odom/clock. 1/(rate*dt) '
-          'must be a whole number of physics steps.', True, _positive),
+    Param('publish_rate', 100.0, 'Rate (Hz, sim time) of the published states (pose, twist, '
+          'odom, imu, accel, /tf) and /clock. 1/(rate*dt) must be a whole number of physics '
+          'steps.', True, _positive),
     Param('integrator', '',
           f'Integration method: one of {sorted(multistep.METHODS)}; empty: the scene '
           f"file's integrator, else {multistep.EQ27.name} (docs/integrators.md).", True,

@@ -1,0 +1,127 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The package as a ROS user installs it: launch file, parameters file, RViz and Foxglove
+layouts in share/rb_sim_ros, each consistent with the node's own parameter table."""
+
+import ast
+import importlib.util
+import json
+import os
+from pathlib import Path
+import subprocess
+import sys
+
+from geometry_msgs.msg import PoseStamped
+import pytest
+from rcl_interfaces.srv import GetParameters
+import yaml
+
+from rb_sim_ros.ros import node_params
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARE_FILES = ('launch/sim.launch.py', 'config/params.yaml', 'rviz/rb_sim.rviz',
+               'foxglove/rb_sim_layout.json', 'scenes/collisions.yaml', 'package.xml')
+
+
+def _params_file(path: Path) -> dict:
+    return yaml.safe_load(path.read_text())['rb_sim']['ros__parameters']
+
+
+def test_params_yaml_has_every_parameter_at_its_default_and_nothing_else():
+    values = _params_file(ROOT / 'config' / 'params.yaml')
+    assert list(values) == [p.name for p in node_params.PARAMS]
+    for p in node_params.PARAMS:
+        assert values[p.name] == p.default and type(values[p.name]) is type(p.default), p.name
+        node_params.check(p.name, values[p.name])
+    sys.path.insert(0, str(ROOT / 'tools'))
+    try:
+        import make_params_yaml
+    finally:
+        sys.path.remove(str(ROOT / 'tools'))
+    assert (ROOT / 'config' / 'params.yaml').read_text() == make_params_yaml.text()
+
+
+def test_the_launch_file_sets_only_parameters_the_node_has():
+    tree = ast.parse((ROOT / 'launch' / 'sim.launch.py').read_text())
+    names = [n for n in ast.walk(tree) if isinstance(n, ast.Assign)
+             and any(getattr(t, 'id', '') == 'NODE_PARAMETERS' for t in n.targets)]
+    assert len(names) == 1
+    params = ast.literal_eval(names[0].value)
+    assert params and all(p in node_params.BY_NAME for p in params)
+    declared = {n.args[0].value for n in ast.walk(tree) if isinstance(n, ast.Call)
+                and getattr(n.func, 'id', '') == 'DeclareLaunchArgument'}
+    assert set(params) <= declared and {'params_file', 'rviz'} <= declared
+
+
+def test_rviz_and_foxglove_layouts_show_the_world_frame_tf_and_markers():
+    rviz = yaml.safe_load((ROOT / 'rviz' / 'rb_sim.rviz').read_text())['Visualization Manager']
+    assert rviz['Global Options']['Fixed Frame'] == node_params.BY_NAME['world_frame'].default
+    classes = {d['Class'] for d in rviz['Displays']}
+    assert {'rviz_default_plugins/TF', 'rviz_default_plugins/MarkerArray',
+            'rviz_default_plugins/PoseArray'} <= classes
+    topics = {d['Topic']['Value'] for d in rviz['Displays'] if 'Topic' in d}
+    assert {'/collision_markers', '/poses'} <= topics
+    fox = json.loads((ROOT / 'foxglove' / 'rb_sim_layout.json').read_text())
+    assert fox['configById']['3D!rbsim']['followTf'] == 'world'
+    assert set(fox['configById']) >= {'3D!rbsim'}
+
+
+def test_share_files_are_installed(installed):
+    share = installed / 'share' / 'rb_sim_ros'
+    for f in SHARE_FILES:
+        assert (share / f).read_bytes() == (ROOT / f).read_bytes(), f
+    assert (installed / 'share' / 'doc' / 'rb_sim_ros' / 'LICENSE').is_file()
+
+
+def test_the_installed_params_yaml_loads_into_a_running_node(start_sim, probe, installed):
+    params = installed / 'share' / 'rb_sim_ros' / 'config' / 'params.yaml'
+    sim = start_sim('--params-file', str(params), '-p', 'imu_seed:=3')
+    poses = probe.collect(PoseStamped, 'pose')
+    probe.wait_for(lambda: poses, what='a pose from the node started with params.yaml')
+    names = ['dt', 'world_frame', 'inertia', 'publish_tf', 'imu_seed']
+    reply = probe.call(GetParameters, '/rb_sim/get_parameters', GetParameters.Request(
+        names=names))
+    got = {n: reply.values[i] for i, n in enumerate(names)}
+    file = _params_file(params)
+    assert got['dt'].double_value == file['dt']
+    assert got['world_frame'].string_value == file['world_frame']
+    assert list(got['inertia'].double_array_value) == file['inertia']
+    assert got['publish_tf'].bool_value is file['publish_tf']
+    assert got['imu_seed'].integer_value == 3  # the command line after the file wins
+    sim.stop()
+
+
+@pytest.mark.skipif(importlib.util.find_spec('launch_ros') is None,
+                    reason='launch_ros is not on PyPI; it runs on a ROS install')
+def test_the_launch_description_builds(installed, ros_env, monkeypatch):
+    monkeypatch.setenv('AMENT_PREFIX_PATH', ros_env['AMENT_PREFIX_PATH'])
+    spec = importlib.util.spec_from_file_location(
+        'sim_launch', installed / 'share' / 'rb_sim_ros' / 'launch' / 'sim.launch.py')
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    description = module.generate_launch_description()
+    assert len(description.entities) >= 5
+
+
+@pytest.mark.parametrize('ci', ['', 'true'])
+def test_a_module_needing_a_missing_pypi_package_is_skipped_with_why_and_fails_in_ci(
+        tmp_path, ci):
+    """What `colcon test` on a ROS install without mcap or rosbags does: skip, saying which
+    package is missing; in CI, where tools/test.sh installed everything, fail instead."""
+    for name in ('conftest.py', 'ros_harness.py'):
+        (tmp_path / name).write_text((ROOT / 'test' / name).read_text())
+    (tmp_path / 'test_needs.py').write_text(
+        '# pypi-only: no_such_package_xyz\nimport no_such_package_xyz\n\n\n'
+        'def test_it():\n    assert no_such_package_xyz\n')
+    (tmp_path / 'test_other.py').write_text('def test_other():\n    assert True\n')
+    env = {k: v for k, v in os.environ.items() if k != 'CI'}
+    if ci:
+        env['CI'] = ci
+    result = subprocess.run([sys.executable, '-m', 'pytest', '-rs', '-p', 'no:cacheprovider',
+                             str(tmp_path)], cwd=tmp_path, env=env, capture_output=True,
+                            text=True, timeout=300)
+    if ci:
+        assert result.returncode != 0 and 'needs no_such_package_xyz' in result.stdout
+    else:
+        assert result.returncode == 0, result.stdout + result.stderr
+        assert 'SKIPPED' in result.stdout and 'needs no_such_package_xyz' in result.stdout
