@@ -332,9 +332,9 @@ def test_ten_thousand_bodies_load(tmp_path):
 
 # -- properties: any input gives a valid scene or a SceneError ---------------------------------
 
-# What follows 'body i: ' in a message: a field of the body (with an index or a key under it),
-# or what is wrong with the body's mapping itself.
-_BODY_FIELD = re.compile(r'(%s)(\[\d+\])*(\.\S+)?: |must be a mapping of fields|unknown field|'
+# What follows 'body i: ' in a message: a field of the body (with an index or a key under it,
+# which may hold spaces: colliders[0].type.' '[0]), or what is wrong with the body's mapping.
+_BODY_FIELD = re.compile(r'(%s)(\[\d+\])*(\..*?)?: |must be a mapping of fields|unknown field|'
                          r'keys must be strings|not valid YAML|more than \d+ values'
                          % '|'.join(sorted(scene.BODY_KEYS)))
 

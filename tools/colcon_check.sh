@@ -1,0 +1,23 @@
+# Sourced by tools/test.sh after the test suite: the ROS user's path, with colcon from PyPI.
+# Builds this package in a colcon workspace (--symlink-install), sources install/setup.bash,
+# starts lib/rb_sim_ros/simulator from the install tree and waits for its first pose, then
+# runs `colcon test` and `colcon test-result --verbose`. Needs $venv, $root and $PY (venv.sh).
+ws=$(mktemp -d "${TMPDIR:-/tmp}/rb_sim_ros_ws.XXXXXX")
+trap 'rm -rf "$ws"' EXIT
+mkdir -p "$ws/src"
+ln -s "$root" "$ws/src/rb_sim_ros"
+echo "[rb_sim_ros] colcon build in $ws" >&2
+(
+  cd "$ws"
+  colcon --log-base log build --symlink-install --event-handlers console_cohesion+ \
+    >"$ws/build.log" 2>&1 || { cat "$ws/build.log"; exit 1; }
+  set +u  # the setup scripts read unset variables
+  . install/setup.bash
+  set -u
+  ROS_DOMAIN_ID=$((RANDOM % 100 + 1)) "$PY" "$root/tools/probe_installed.py" \
+    install/rb_sim_ros/lib/rb_sim_ros/simulator
+  echo "[rb_sim_ros] colcon test" >&2
+  colcon --log-base log test --packages-select rb_sim_ros --event-handlers console_direct+ \
+    --pytest-args -p no:cacheprovider
+  colcon --log-base log test-result --verbose
+)
