@@ -6,7 +6,7 @@ msgs_stamp="$venv/.rb_sim_ros-msgs.stamp"
 msgs_want=$(cd "$root" && cat requirements-msgs.txt $(find tools/msgs -type f | sort) \
   | sha256sum | cut -c1-16)
 if [ "$(cat "$msgs_stamp" 2>/dev/null || true)" != "$msgs_want" ]; then
-  echo "[rb_sim_ros] building tools/msgs into $venv (about 20 s the first time)" >&2
+  echo "[rb_sim_ros] building tools/msgs into $venv (about 2 min the first time)" >&2
   msgs_log="$venv/.rb_sim_ros-msgs.log"
   msgs_ok=yes
   (

@@ -47,6 +47,13 @@ try:  # not among ROS 2 Jazzy's PyPI wheels: tools/build_msgs.sh builds it into 
     from tf2_msgs.msg import TFMessage
 except ImportError:  # then no /tf, said once at start
     TFMessage = None
+try:  # the same
+    from rb_sim_ros.ros.sim_interfaces import EntityStateInput, SimulationInterfaces
+except ImportError:  # then no simulation_interfaces services, said once at start
+    SimulationInterfaces = None
+
+    class EntityStateInput:  # never made without them
+        pass
 
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import ZERO_WRENCH
@@ -153,6 +160,14 @@ class SimulatorNode(Node):
             self._markers = CollisionMarkers(self.config, values['world_frame'])
             self._pub_markers = self.create_publisher(MarkerArray, 'collision_markers', 1,
                                                       **over)
+        self.interfaces = None
+        if SimulationInterfaces is not None:
+            self.interfaces = SimulationInterfaces(self)
+        else:
+            self.get_logger().warning(
+                'simulation_interfaces is not installed, so no standard simulator services (on '
+                'a ROS install: ros-jazzy-simulation-interfaces; in the PyPI venv '
+                'tools/build_msgs.sh builds it)')
         self.create_service(Empty, 'reset', self._on_reset)
         self.create_service(SetBool, 'pause', self._on_pause)
         self.create_service(Trigger, 'step', self._on_step)
@@ -224,8 +239,12 @@ class SimulatorNode(Node):
         self.diagnostics.rejected += 1
         self.get_logger().warning(f'rejected {what}: {error}', throttle_duration_sec=1.0)
 
+    def reset_events(self) -> list:
+        """A reset of every moving body (applied together: at the same step)."""
+        return [Reset(body=spec.name) for spec in self.config.bodies if not spec.static]
+
     def _on_reset(self, request, response):
-        resets = [Reset(body=spec.name) for spec in self.config.bodies if not spec.static]
+        resets = self.reset_events()
         with self._lock:  # all together: every body is reset at the same step
             self._pending.extend(resets)
             ok = self._guarded(self._drain) if self._paused else True
@@ -359,8 +378,8 @@ class SimulatorNode(Node):
             self._anchor_period = self._periods + due
         return due
 
-    def _period(self) -> None:
-        """One publish period: apply inputs, step, publish."""
+    def _period(self, steps: int | None = None) -> None:
+        """One publish period (or ``steps`` physics steps): apply inputs, step, publish."""
         sim = self.sim
         self._drain()
         if self._timeout_steps:
@@ -373,7 +392,7 @@ class SimulatorNode(Node):
         try:
             # In chunks, so that a long period (many steps, many bodies) still stops at once
             # on shutdown; chunking does not change a run.
-            end = start + self.config.steps_per_publish
+            end = start + (self.config.steps_per_publish if steps is None else steps)
             while sim.step_count < end and not self._stop.is_set():
                 sim.run(min(end - sim.step_count, _CHUNK_STEPS))
         except IntegrationError as e:
@@ -392,6 +411,10 @@ class SimulatorNode(Node):
             self._publish()
 
     def _apply(self, event, command: bool = True) -> None:
+        if isinstance(event, EntityStateInput):  # pose and twist, now in the world frame
+            for e in event.events(self.sim):
+                self._apply(e)
+            return
         if isinstance(event, TwistInput):  # turned into the world frame now, at its step
             lin, ang = event.linear, event.angular
             if event.in_body:

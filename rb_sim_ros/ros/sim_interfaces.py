@@ -1,0 +1,347 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The standard simulator API, simulation_interfaces (ROS 2 Jazzy, release 1.2.0), on the node.
+
+Services (relative to the node's namespace): get_simulator_features, get_entities,
+get_entity_state, get_entities_states, set_entity_state, get_simulation_state,
+set_simulation_state, step_simulation, reset_simulation; the action simulate_steps. What is
+supported is what get_simulator_features says, truthfully: no spawning or deleting, no tags or
+bounds, no reset of sim time (time is step * dt, and recordings rely on it growing).
+
+Entities are the scene's bodies (the single body: its name 'body'); category STATIC_OBJECT for
+a static body, DYNAMIC_OBJECT for the others. States are ground truth in ``world_frame``:
+pose, twist (linear velocity of the centre of mass, angular velocity, both in the world frame)
+and acceleration (``Simulation.accelerations``). set_entity_state takes a reference frame: empty
+or ``world_frame`` ('world'), or the frame of another body, whose state at the step the change
+takes effect carries the given pose and twist into the world (v = v_F + w_F x (R_F p) + R_F v',
+w = w_F + R_F w'); the acceleration is ignored, as the standard allows.
+
+Every change goes through the node's inputs, so it is recorded at the step it took effect and
+replays bit for bit; a refused request changes nothing and says why in ``result``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from simulation_interfaces.action import SimulateSteps
+from simulation_interfaces.msg import (EntityCategory, EntityState, Result, SimulationState,
+                                       SimulatorFeatures)
+from simulation_interfaces.srv import (GetEntities, GetEntitiesStates, GetEntityState,
+                                       GetSimulationState, GetSimulatorFeatures,
+                                       ResetSimulation, SetEntityState, SetSimulationState,
+                                       StepSimulation)
+
+from rb_sim_ros.ros import ros_messages
+from rb_sim_ros.sim.simulation import SetPose, SetTwist
+
+# The most steps one step_simulation or simulate_steps call may ask for (1e9 s at 1 ms).
+MAX_STEPS = 10 ** 12
+FEATURES = (SimulatorFeatures.ENTITY_CATEGORIES, SimulatorFeatures.ENTITY_STATE_GETTING,
+            SimulatorFeatures.ENTITY_STATE_SETTING, SimulatorFeatures.SIMULATION_RESET,
+            SimulatorFeatures.SIMULATION_RESET_STATE, SimulatorFeatures.SIMULATION_STATE_GETTING,
+            SimulatorFeatures.SIMULATION_STATE_SETTING, SimulatorFeatures.SIMULATION_STATE_PAUSE,
+            SimulatorFeatures.STEP_SIMULATION_SINGLE, SimulatorFeatures.STEP_SIMULATION_MULTIPLE,
+            SimulatorFeatures.STEP_SIMULATION_ACTION)
+
+
+def _result(code: int = Result.RESULT_OK, message: str = '') -> Result:
+    return Result(result=code, error_message=message)
+
+
+class EntityStateInput:
+    """A set_entity_state, carried into the world frame at the step it takes effect (that
+    needs the reference body's state then)."""
+
+    def __init__(self, body: str, frame_body: str | None, position, orientation, linear,
+                 angular) -> None:
+        self.body, self.frame_body = body, frame_body
+        self.position, self.orientation = position, orientation
+        self.linear, self.angular = linear, angular
+
+    def events(self, sim) -> tuple:
+        """(SetPose, SetTwist) in the world frame, from the reference body's state now."""
+        x, q, v, w = self.position, self.orientation, self.linear, self.angular
+        if self.frame_body is not None:
+            fx, fq, fv, fw = sim.pose_twist(self.frame_body)
+            r = ros_messages.rotation_from_quaternion(fq)
+            rx = ros_messages.rotate(r, x)
+            x = tuple(a + b for a, b in zip(fx, rx))
+            q = _quaternion_product(fq, q)
+            rv, rw = ros_messages.rotate(r, v), ros_messages.rotate(r, w)
+            spin = _cross(fw, rx)
+            v = tuple(fv[k] + spin[k] + rv[k] for k in range(3))
+            w = tuple(fw[k] + rw[k] for k in range(3))
+        return SetPose(x, q, self.body), SetTwist(v, w, self.body)
+
+
+def _cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _quaternion_product(a, b):
+    """a * b of quaternions x, y, z, w (the rotation b, then a)."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
+
+
+class SimulationInterfaces:
+    """The services and the action on ``node`` (a SimulatorNode)."""
+
+    def __init__(self, node) -> None:
+        self.node = node
+        self._stopped_at = None  # the step of a stop (reset and paused), while it holds
+        n = node
+        n.create_service(GetSimulatorFeatures, 'get_simulator_features', self._features)
+        n.create_service(GetEntities, 'get_entities', self._entities)
+        n.create_service(GetEntitiesStates, 'get_entities_states', self._entities_states)
+        n.create_service(GetEntityState, 'get_entity_state', self._get_state)
+        n.create_service(SetEntityState, 'set_entity_state', self._set_state)
+        n.create_service(GetSimulationState, 'get_simulation_state', self._get_sim_state)
+        n.create_service(SetSimulationState, 'set_simulation_state', self._set_sim_state)
+        n.create_service(StepSimulation, 'step_simulation', self._step)
+        n.create_service(ResetSimulation, 'reset_simulation', self._reset)
+        self._action = ActionServer(n, SimulateSteps, 'simulate_steps', self._simulate,
+                                    goal_callback=self._goal,
+                                    cancel_callback=lambda _: CancelResponse.ACCEPT)
+
+    # -- entities --------------------------------------------------------------------------
+    def _names(self):
+        return [b.name for b in self.node.config.bodies]
+
+    def _category(self, name: str) -> int:
+        static = not self.node.sim.is_moving(name)
+        return EntityCategory.CATEGORY_STATIC_OBJECT if static else \
+            EntityCategory.CATEGORY_DYNAMIC_OBJECT
+
+    def _features(self, request, response):
+        f = response.features
+        f.features = list(FEATURES)
+        f.spawn_formats = []
+        f.custom_info = ('rb_sim_ros: entities are the scene bodies; reset keeps sim time '
+                         '(SCOPE_STATE); states in world_frame')
+        return response
+
+    def _filtered(self, filters):
+        """(Result, names) of the entities passing ``filters``."""
+        if filters.tags.tags:
+            return _result(Result.RESULT_FEATURE_UNSUPPORTED, 'entity tags are not supported'), []
+        if filters.bounds.type != 0 or filters.bounds.points:
+            return _result(Result.RESULT_FEATURE_UNSUPPORTED,
+                           'bounds filters are not supported'), []
+        try:
+            pattern = re.compile(filters.filter) if filters.filter else None
+        except re.error as e:
+            return _result(Result.RESULT_OPERATION_FAILED,
+                           f'filter {filters.filter!r} is not a regular expression: {e}'), []
+        wanted = {c.category for c in filters.categories}
+        names = [n for n in self._names()
+                 if (pattern is None or pattern.search(n))
+                 and (not wanted or self._category(n) in wanted)]
+        return _result(), names
+
+    def _entities(self, request, response):
+        response.result, response.entities = self._filtered(request.filters)
+        return response
+
+    def _entity_state(self, name: str) -> EntityState:
+        node = self.node
+        sim = node.sim
+        state = EntityState()
+        state.header.frame_id = node._v['world_frame']
+        state.header.stamp = ros_messages.time_msg(sim.time_ns)
+        x, q, v, w = sim.pose_twist(name)
+        a, b = sim.accelerations(name)
+        p, o = state.pose.position, state.pose.orientation
+        p.x, p.y, p.z = x
+        o.x, o.y, o.z, o.w = q
+        t, acc = state.twist, state.acceleration
+        t.linear.x, t.linear.y, t.linear.z = v
+        t.angular.x, t.angular.y, t.angular.z = w
+        acc.linear.x, acc.linear.y, acc.linear.z = a
+        acc.angular.x, acc.angular.y, acc.angular.z = b
+        return state
+
+    def _get_state(self, request, response):
+        if request.entity not in self._names():
+            response.result = _result(Result.RESULT_NOT_FOUND,
+                                      f"no entity named '{request.entity}'")
+            return response
+        with self.node._lock:
+            response.state = self._entity_state(request.entity)
+        response.result = _result()
+        return response
+
+    def _entities_states(self, request, response):
+        response.result, names = self._filtered(request.filters)
+        with self.node._lock:
+            response.entities = names
+            response.states = [self._entity_state(n) for n in names]
+        return response
+
+    def _set_state(self, request, response):
+        response.result = self._check_set_state(request.entity, request.state)
+        return response
+
+    def _check_set_state(self, name: str, state: EntityState) -> Result:
+        node = self.node
+        if name not in self._names():
+            return _result(Result.RESULT_NOT_FOUND, f"no entity named '{name}'")
+        if not node.sim.is_moving(name):
+            return _result(Result.RESULT_OPERATION_FAILED,
+                           f"entity '{name}' is static: it cannot be moved")
+        frame = state.header.frame_id.lstrip('/')
+        frames = {p.body_frame: p.name for p in node.ports.values()}
+        if frame in ('', node._v['world_frame'], 'world'):
+            frame_body = None
+        elif frame in frames:
+            frame_body = frames[frame]
+        else:
+            return _result(Result.RESULT_OPERATION_FAILED, (
+                f"reference frame '{frame}' is neither '{node._v['world_frame']}' nor a body "
+                f'frame ({", ".join(sorted(frames))})'))
+        p, o = state.pose.position, state.pose.orientation
+        position, q = (p.x, p.y, p.z), (o.x, o.y, o.z, o.w)
+        t = state.twist
+        linear = (t.linear.x, t.linear.y, t.linear.z)
+        angular = (t.angular.x, t.angular.y, t.angular.z)
+        values = position + q + linear + angular
+        if not all(math.isfinite(c) for c in values) or not any(q):
+            return _result(Result.RESULT_OPERATION_FAILED,
+                           f'state must be finite with a non-zero quaternion, got pose '
+                           f'{position}, {q}, twist {linear}, {angular}')
+        node._queue(EntityStateInput(name, frame_body, position, q, linear, angular))
+        return _result()
+
+    # -- simulation state ------------------------------------------------------------------
+    @property
+    def stopped(self) -> bool:
+        """Stopped (reset and paused) and neither run nor stepped since, by any interface."""
+        node = self.node
+        return (self._stopped_at is not None and node._paused
+                and node.sim.step_count == self._stopped_at)
+
+    def _state(self) -> int:
+        if self.stopped:
+            return SimulationState.STATE_STOPPED
+        return SimulationState.STATE_PAUSED if self.node._paused else \
+            SimulationState.STATE_PLAYING
+
+    def _get_sim_state(self, request, response):
+        response.state.state = self._state()
+        response.result = _result()
+        return response
+
+    def _set_sim_state(self, request, response):
+        want, now = request.state.state, self._state()
+        node = self.node
+        if want == now:
+            response.result = _result(SetSimulationState.Response.ALREADY_IN_TARGET_STATE,
+                                      'already in that state')
+            return response
+        if want == SimulationState.STATE_PLAYING:
+            with node._lock:
+                ok = node._guarded(node._resume)
+        elif want == SimulationState.STATE_PAUSED:
+            if now == SimulationState.STATE_STOPPED:
+                response.result = _result(SetSimulationState.Response.INCORRECT_TRANSITION,
+                                          'stopped: play to run, not pause')
+                return response
+            with node._lock:
+                node._paused, node._error_paused = True, False
+            ok = True
+        elif want == SimulationState.STATE_STOPPED:
+            with node._lock:
+                node._paused, node._error_paused = True, False
+                node._pending.extend(node.reset_events())
+                ok = node._guarded(node._drain)
+            self._stopped_at = node.sim.step_count if ok else None
+        else:
+            response.result = _result(Result.RESULT_FEATURE_UNSUPPORTED,
+                                      f'state {want} is not supported (playing, paused or '
+                                      'stopped)')
+            return response
+        response.result = _result() if ok else _result(
+            SetSimulationState.Response.STATE_TRANSITION_ERROR, node.diagnostics.error)
+        return response
+
+    def _reset(self, request, response):
+        scope = request.scope
+        if scope == ResetSimulation.Request.SCOPE_DEFAULT or \
+                scope & ResetSimulation.Request.SCOPE_TIME:
+            response.result = _result(Result.RESULT_FEATURE_UNSUPPORTED, (
+                'sim time is not reset (it is step * dt; recordings rely on it growing): ask '
+                'for SCOPE_STATE, which puts every body back to its initial state'))
+            return response
+        node = self.node
+        with node._lock:
+            node._pending.extend(node.reset_events())
+            ok = node._guarded(node._drain) if node._paused else True
+        response.result = _result() if ok else _result(Result.RESULT_OPERATION_FAILED,
+                                                       node.diagnostics.error)
+        return response
+
+    # -- stepping --------------------------------------------------------------------------
+    def _check_steps(self, steps: int) -> Result | None:
+        if not self.node._paused:
+            return _result(Result.RESULT_OPERATION_FAILED,
+                           'not paused: set_simulation_state to paused first')
+        if not 1 <= steps <= MAX_STEPS:
+            return _result(Result.RESULT_OPERATION_FAILED,
+                           f'steps must be from 1 to {MAX_STEPS}, got {steps}')
+        return None
+
+    def _run(self, steps: int, feedback=None, cancelled=lambda: False) -> Result:
+        """``steps`` physics steps in publish periods (the last one shorter), publishing after
+        each; False-free: a failure pauses the node with its reason, returned here."""
+        node = self.node
+        done = 0
+        while done < steps and not node._stop.is_set() and not cancelled():
+            chunk = min(steps - done, node.config.steps_per_publish)
+            with node._lock:
+                failures = node._failures
+                node._guarded(lambda: node._period(chunk))
+                node._error_paused = False
+                failed = node._failures != failures
+            done += chunk
+            if failed:
+                return _result(Result.RESULT_OPERATION_FAILED, node.diagnostics.error)
+            if feedback is not None:
+                feedback(done, steps - done)
+        if done < steps:
+            return _result(Result.RESULT_OPERATION_FAILED,
+                           f'stopped after {done} of {steps} steps')
+        return _result()
+
+    def _step(self, request, response):
+        response.result = self._check_steps(request.steps) or self._run(request.steps)
+        return response
+
+    def _goal(self, goal_request):
+        return GoalResponse.ACCEPT
+
+    def _simulate(self, goal_handle):
+        steps = goal_handle.request.steps
+        result = SimulateSteps.Result()
+        problem = self._check_steps(steps)
+        if problem is not None:
+            result.result = problem
+            goal_handle.abort()
+            return result
+
+        def feedback(done, left):
+            goal_handle.publish_feedback(SimulateSteps.Feedback(
+                completed_steps=done, remaining_steps=left))
+
+        result.result = self._run(steps, feedback, lambda: goal_handle.is_cancel_requested)
+        if goal_handle.is_cancel_requested:
+            goal_handle.canceled()
+        elif result.result.result == Result.RESULT_OK:
+            goal_handle.succeed()
+        else:
+            goal_handle.abort()
+        return result

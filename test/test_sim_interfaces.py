@@ -1,0 +1,220 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+# pypi-only: mcap rosbags
+"""The standard simulator API (simulation_interfaces, Jazzy's 1.2.0) on the node: its type
+hashes against a build of the release's own files, each service against the physics it
+claims, refusals that change nothing, and a recording of it all that replays bit for bit."""
+
+import importlib.util
+import json
+import os
+from pathlib import Path
+import struct
+import subprocess
+
+from geometry_msgs.msg import PoseStamped
+import pytest
+from rclpy.action import ActionClient
+from rosbags.highlevel import AnyReader
+from scipy.spatial.transform import Rotation
+
+from ros_harness import stamp_ns
+
+ROOT = Path(__file__).resolve().parent.parent
+HASHES = json.loads((ROOT / 'test' / 'fixtures' / 'simulation_interfaces_jazzy_hashes.json')
+                    .read_text())['hashes']
+
+if importlib.util.find_spec('simulation_interfaces') is None:
+    if os.environ.get('CI', '').lower() not in ('', '0', 'false'):
+        raise RuntimeError('simulation_interfaces is not installed: tools/build_msgs.sh failed '
+                           '(see .venv/.rb_sim_ros-msgs.log)')
+    pytest.skip('simulation_interfaces is not installed (tools/build_msgs.sh builds it)',
+                allow_module_level=True)
+from simulation_interfaces.action import SimulateSteps  # noqa: E402, I100
+from simulation_interfaces.msg import (EntityCategory, EntityState, Result,  # noqa: E402
+                                       SimulationState, SimulatorFeatures)
+from simulation_interfaces.srv import (GetEntities, GetEntityState,  # noqa: E402
+                                       GetSimulationState, GetSimulatorFeatures,
+                                       ResetSimulation, SetEntityState, SetSimulationState,
+                                       StepSimulation)
+
+OK = Result.RESULT_OK
+SCENE = ('bodies:\n'
+         '  - {name: a, mass: 1.0, inertia: [0.1, 0.2, 0.3], position: [1, 0, 0], '
+         'angular_velocity: [0, 0, 0.5]}\n'
+         '  - {name: b, mass: 2.0, inertia: [0.2, 0.2, 0.2], position: [0, 2, 0]}\n'
+         '  - {name: wall, static: true, position: [5, 0, 0]}\n')
+
+
+def _bits(*values) -> bytes:
+    return struct.pack(f'<{len(values)}d', *values)
+
+
+def test_every_interface_has_jazzys_type_hash():
+    """The hashes rosidl gave our files equal those it gives the 1.2.0 release's own files
+    (the fixture; how it was made is in its _source): real clients interoperate."""
+    share = Path(importlib.util.find_spec('simulation_interfaces').origin).parents[3] / \
+        'share' / 'simulation_interfaces'
+    if not share.is_dir():  # an install with share/ elsewhere: the ament index
+        from ament_index_python.packages import get_package_share_directory
+        share = Path(get_package_share_directory('simulation_interfaces'))
+    ours = {}
+    for f in sorted(share.glob('*/*.json')):
+        name = f'simulation_interfaces/{f.parent.name}/{f.stem}'
+        ours[name] = {h['type_name']: h['hash_string']
+                      for h in json.loads(f.read_text())['type_hashes']}[name]
+    assert len(HASHES) == 35 and ours == HASHES
+
+
+def _state(probe, name):
+    reply = probe.call(GetEntityState, 'get_entity_state', GetEntityState.Request(entity=name))
+    assert reply.result.result == OK, reply.result.error_message
+    return reply.state
+
+
+def _pose(state):
+    p, o = state.pose.position, state.pose.orientation
+    return (p.x, p.y, p.z), (o.x, o.y, o.z, o.w)
+
+
+def _set(probe, name, position, q, linear=(0.0,) * 3, angular=(0.0,) * 3, frame=''):
+    s = EntityState()
+    s.header.frame_id = frame
+    p, o = s.pose.position, s.pose.orientation
+    p.x, p.y, p.z = position
+    o.x, o.y, o.z, o.w = q
+    s.twist.linear.x, s.twist.linear.y, s.twist.linear.z = linear
+    s.twist.angular.x, s.twist.angular.y, s.twist.angular.z = angular
+    return probe.call(SetEntityState, 'set_entity_state',
+                      SetEntityState.Request(entity=name, state=s)).result
+
+
+def _sim_state(probe):
+    return probe.call(GetSimulationState, 'get_simulation_state',
+                      GetSimulationState.Request()).state.state
+
+
+def test_the_standard_api_drives_the_simulator(start_sim, probe, tmp_path, installed, ros_env):
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(SCENE)
+    f = tmp_path / 'run.mcap'
+    sim = start_sim('-p', f'scene_file:={scene}', '-p', 'start_paused:=true',
+                    '-p', f'record:={f}')
+    features = probe.call(GetSimulatorFeatures, 'get_simulator_features',
+                          GetSimulatorFeatures.Request()).features
+    # Truthful: what is served is listed, spawning and deleting are not (nor served).
+    assert {SimulatorFeatures.STEP_SIMULATION_ACTION, SimulatorFeatures.ENTITY_STATE_SETTING,
+            SimulatorFeatures.SIMULATION_RESET_STATE} <= set(features.features)
+    assert not {SimulatorFeatures.SPAWNING, SimulatorFeatures.DELETING,
+                SimulatorFeatures.SIMULATION_RESET_TIME} & set(features.features)
+    assert probe.node.get_service_names_and_types() and not any(
+        n.endswith('spawn_entity') for n, _ in probe.node.get_service_names_and_types())
+
+    # Entities, by name pattern and category.
+    def entities(pattern='', *categories):
+        req = GetEntities.Request()
+        req.filters.filter = pattern
+        req.filters.categories = [EntityCategory(category=c) for c in categories]
+        reply = probe.call(GetEntities, 'get_entities', req)
+        return reply.result.result, list(reply.entities)
+    assert entities() == (OK, ['a', 'b', 'wall'])
+    assert entities('^[ab]$') == (OK, ['a', 'b'])
+    assert entities('', EntityCategory.CATEGORY_STATIC_OBJECT) == (OK, ['wall'])
+    assert entities('(')[0] == Result.RESULT_OPERATION_FAILED
+    req = GetEntities.Request()
+    req.filters.tags.tags = ['red']
+    assert probe.call(GetEntities, 'get_entities', req).result.result == \
+        Result.RESULT_FEATURE_UNSUPPORTED
+
+    # Stepping, paused: time moves by exactly the steps asked (dt = 1 ms), a odd count too.
+    assert _sim_state(probe) == SimulationState.STATE_PAUSED
+    t0 = stamp_ns(_state(probe, 'a').header.stamp)
+    reply = probe.call(StepSimulation, 'step_simulation', StepSimulation.Request(steps=37))
+    assert reply.result.result == OK
+    state = _state(probe, 'a')
+    assert stamp_ns(state.header.stamp) - t0 == 37_000_000 and state.header.frame_id == 'world'
+    # Torque-free symmetric spin about z at 0.5 rad/s: angle 0.5 * 0.037 rad, omega unchanged.
+    assert state.twist.angular.z == pytest.approx(0.5, abs=1e-12)
+    q = _pose(state)[1]
+    assert Rotation.from_quat(q).as_rotvec() == pytest.approx([0, 0, 0.5 * 0.037], abs=1e-9)
+
+    # The action: feedback on the way, all steps done.
+    client = ActionClient(probe.node, SimulateSteps, 'simulate_steps')
+    probe.wait_for(client.server_is_ready, what='the simulate_steps action')
+    feedback = []
+    goal = client.send_goal_async(SimulateSteps.Goal(steps=45),
+                                  feedback_callback=lambda m: feedback.append(m.feedback))
+    probe.wait_for(goal.done, what='goal accepted')
+    result = goal.result().get_result_async()
+    probe.wait_for(result.done, what='the action result')
+    assert result.result().result.result.result == OK
+    assert [(m.completed_steps, m.remaining_steps) for m in feedback][-1] == (45, 0)
+    assert all(m.completed_steps + m.remaining_steps == 45 for m in feedback)
+    assert stamp_ns(_state(probe, 'a').header.stamp) - t0 == 82_000_000
+
+    # Set a state in the world frame, read it back bit for bit.
+    q_new = tuple(Rotation.from_rotvec([0.1, 0.2, 0.3]).as_quat())
+    assert _set(probe, 'b', (0.5, 2.5, -1.0), q_new, (0.1, 0.0, 0.0)).result == OK
+    x, q = _pose(_state(probe, 'b'))
+    assert _bits(*x) == _bits(0.5, 2.5, -1.0)
+    assert q == pytest.approx(q_new, abs=1e-15)
+    # ... and relative to body b's frame: composed with b's pose and motion.
+    rel_x, rel_q = (0.0, 1.0, 0.0), (0.0, 0.0, 0.0, 1.0)
+    assert _set(probe, 'a', rel_x, rel_q, frame='b').result == OK
+    a = _state(probe, 'a')
+    rb = Rotation.from_quat(q_new)
+    want = rb.apply(rel_x) + (0.5, 2.5, -1.0)
+    assert _pose(a)[0] == pytest.approx(tuple(want), abs=1e-12)
+    assert (a.twist.linear.x, a.twist.linear.y) == pytest.approx((0.1, 0.0), abs=1e-12)
+
+    # Refusals change nothing.
+    before = _pose(_state(probe, 'a'))
+    assert _set(probe, 'a', (float('nan'), 0, 0), (0, 0, 0, 1)).result == \
+        Result.RESULT_OPERATION_FAILED
+    assert _set(probe, 'a', (0, 0, 0), (0, 0, 0, 1), frame='elsewhere').result == \
+        Result.RESULT_OPERATION_FAILED
+    assert _set(probe, 'wall', (0, 0, 0), (0, 0, 0, 1)).result == Result.RESULT_OPERATION_FAILED
+    assert _set(probe, 'nobody', (0, 0, 0), (0, 0, 0, 1)).result == Result.RESULT_NOT_FOUND
+    assert probe.call(GetEntityState, 'get_entity_state',
+                      GetEntityState.Request(entity='nobody')).result.result == \
+        Result.RESULT_NOT_FOUND
+    assert _pose(_state(probe, 'a')) == before
+
+    # Reset: the state only (time goes on), and stop = reset + pause.
+    reply = probe.call(ResetSimulation, 'reset_simulation', ResetSimulation.Request())
+    assert reply.result.result == Result.RESULT_FEATURE_UNSUPPORTED  # SCOPE_DEFAULT is time too
+    assert _pose(_state(probe, 'a')) == before
+    reply = probe.call(ResetSimulation, 'reset_simulation', ResetSimulation.Request(
+        scope=ResetSimulation.Request.SCOPE_STATE))
+    assert reply.result.result == OK and _pose(_state(probe, 'b'))[0] == (0.0, 2.0, 0.0)
+
+    def set_state(s):
+        return probe.call(SetSimulationState, 'set_simulation_state', SetSimulationState.Request(
+            state=SimulationState(state=s))).result.result
+    assert set_state(SimulationState.STATE_PAUSED) == \
+        SetSimulationState.Response.ALREADY_IN_TARGET_STATE
+    assert set_state(SimulationState.STATE_PLAYING) == OK
+    assert probe.call(StepSimulation, 'step_simulation', StepSimulation.Request(
+        steps=1)).result.result == Result.RESULT_OPERATION_FAILED  # not paused
+    poses = probe.collect(PoseStamped, 'a/pose')
+    probe.wait_for(lambda: len(poses) > 5, what='the simulation playing')
+    assert _sim_state(probe) == SimulationState.STATE_PLAYING
+    assert set_state(SimulationState.STATE_STOPPED) == OK
+    assert _sim_state(probe) == SimulationState.STATE_STOPPED
+    assert _pose(_state(probe, 'a'))[0] == (1.0, 0.0, 0.0)
+    assert set_state(SimulationState.STATE_PAUSED) == \
+        SetSimulationState.Response.INCORRECT_TRANSITION
+    assert set_state(SimulationState.STATE_PLAYING) == OK
+    n = len(poses)
+    probe.wait_for(lambda: len(poses) > n + 5, what='playing after the stop')
+    sim.stop()
+
+    # All of it was recorded at the steps it took effect, and replays bit for bit.
+    result = subprocess.run([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), '--verify',
+                             str(f)], env=ros_env, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stdout + result.stderr
+    with AnyReader([f]) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+    # b: one world-frame set (pose and twist), then the reset and the stop; a: the relative set
+    assert counts['/rb_sim/input/b/set_pose'] == counts['/rb_sim/input/b/set_twist'] == 1
+    assert counts['/rb_sim/input/a/set_pose'] == 1 and counts['/rb_sim/input/a/reset'] == 2
