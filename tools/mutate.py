@@ -44,6 +44,7 @@ NODE = 'test/test_node.py::'
 HARDENING = 'test/test_node_hardening.py::'
 MOTION = 'test/test_motion_sensing.py::'
 TF_IMU = 'test/test_tf_imu_node.py::'
+SIM_API = 'test/test_sim_interfaces.py::'
 
 # Eq. (14) of the report as printed: R_{n+1} = (exp([w + (4 b - b_prev)/6 dt] dt)
 # - ([b][w] + [w][b]) dt^3 / 12) R_n, i.e. no (b x w) term in the rotation vector and the
@@ -258,6 +259,22 @@ MUTANTS = [
        'else None\n')],
      [TF_IMU + 'test_a_recording_with_imu_noise_tf_and_contacts_replays_bit_for_bit'],
      'replay draws the noise only for imu outputs: its stream no longer follows the node'),
+    # -- issue 16: simulation_interfaces ---------------------------------------------------
+    ('relative-pose-not-turned', 'rb_sim_ros/ros/sim_interfaces.py',
+     [('            rx = ros_messages.rotate(r, x)\n', '            rx = x\n')],
+     [SIM_API + 'test_the_standard_api_drives_the_simulator'],
+     "a pose relative to a body's frame taken with the world's axes"),
+    ('default-reset-scope-accepted', 'rb_sim_ros/ros/sim_interfaces.py',
+     [('        if scope == ResetSimulation.Request.SCOPE_DEFAULT or \\\n'
+       '                scope & ResetSimulation.Request.SCOPE_TIME:',
+       '        if scope & ResetSimulation.Request.SCOPE_TIME:')],
+     [SIM_API + 'test_the_standard_api_drives_the_simulator'],
+     'SCOPE_DEFAULT (which includes sim time) answered as if time were reset'),
+    ('step-simulation-whole-periods', 'rb_sim_ros/ros/sim_interfaces.py',
+     [('            chunk = min(steps - done, node.config.steps_per_publish)',
+       '            chunk = node.config.steps_per_publish')],
+     [SIM_API + 'test_the_standard_api_drives_the_simulator'],
+     'step_simulation rounds the steps asked up to whole publish periods'),
 ]
 
 
