@@ -12,6 +12,7 @@ from pathlib import Path
 import struct
 import subprocess
 
+from action_msgs.msg import GoalStatus
 from geometry_msgs.msg import PoseStamped
 import pytest
 from rclpy.action import ActionClient
@@ -151,6 +152,22 @@ def test_the_standard_api_drives_the_simulator(start_sim, probe, tmp_path, insta
     assert [(m.completed_steps, m.remaining_steps) for m in feedback][-1] == (45, 0)
     assert all(m.completed_steps + m.remaining_steps == 45 for m in feedback)
     assert stamp_ns(_state(probe, 'a').header.stamp) - t0 == 82_000_000
+    # A cancel stops a long one at the end of a publish period (10 steps here).
+    feedback.clear()
+    goal = client.send_goal_async(SimulateSteps.Goal(steps=10 ** 9),
+                                  feedback_callback=lambda m: feedback.append(m.feedback))
+    probe.wait_for(lambda: goal.done() and feedback, what='a long goal under way')
+    cancel = goal.result().cancel_goal_async()
+    probe.wait_for(cancel.done, what='the cancel answered')
+    result = goal.result().get_result_async()
+    probe.wait_for(result.done, what='the cancelled result')
+    assert result.result().status == GoalStatus.STATUS_CANCELED
+    ran = stamp_ns(_state(probe, 'a').header.stamp) - t0 - 82_000_000
+    assert 0 < ran < 10 ** 9 * 1_000_000 and ran % 10_000_000 == 0
+    # (feedback is a topic, the result a service: the last feedback may come after it)
+    probe.wait_for(lambda: feedback[-1].completed_steps * 1_000_000 == ran,
+                   what='the feedback of the last period run')
+    t0 += ran
 
     # Set a state in the world frame, read it back bit for bit.
     q_new = tuple(Rotation.from_rotvec([0.1, 0.2, 0.3]).as_quat())

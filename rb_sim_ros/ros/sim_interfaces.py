@@ -26,6 +26,7 @@ import math
 import re
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.task import Future
 from simulation_interfaces.action import SimulateSteps
 from simulation_interfaces.msg import (EntityCategory, EntityState, Result, SimulationState,
                                        SimulatorFeatures)
@@ -295,12 +296,13 @@ class SimulationInterfaces:
                            f'steps must be from 1 to {MAX_STEPS}, got {steps}')
         return None
 
-    def _run(self, steps: int, feedback=None, cancelled=lambda: False) -> Result:
-        """``steps`` physics steps in publish periods (the last one shorter), publishing after
-        each; False-free: a failure pauses the node with its reason, returned here."""
+    def _chunks(self, steps: int):
+        """Take ``steps`` physics steps in publish periods (the last one shorter), publishing
+        after each; yields the steps done after each period, and returns the Result (a
+        failure pauses the node with its reason, given here too)."""
         node = self.node
         done = 0
-        while done < steps and not node._stop.is_set() and not cancelled():
+        while done < steps and not node._stop.is_set():
             chunk = min(steps - done, node.config.steps_per_publish)
             with node._lock:
                 failures = node._failures
@@ -310,12 +312,19 @@ class SimulationInterfaces:
             done += chunk
             if failed:
                 return _result(Result.RESULT_OPERATION_FAILED, node.diagnostics.error)
-            if feedback is not None:
-                feedback(done, steps - done)
+            yield done
         if done < steps:
             return _result(Result.RESULT_OPERATION_FAILED,
-                           f'stopped after {done} of {steps} steps')
+                           f'stopped after {done} of {steps} steps (shutting down)')
         return _result()
+
+    def _run(self, steps: int) -> Result:
+        chunks = self._chunks(steps)
+        while True:
+            try:
+                next(chunks)
+            except StopIteration as end:
+                return end.value
 
     def _step(self, request, response):
         response.result = self._check_steps(request.steps) or self._run(request.steps)
@@ -324,7 +333,9 @@ class SimulationInterfaces:
     def _goal(self, goal_request):
         return GoalResponse.ACCEPT
 
-    def _simulate(self, goal_handle):
+    async def _simulate(self, goal_handle):
+        """The action: a period at a time, with feedback, giving the executor a turn between
+        periods (so a cancel is heard: it stops at the end of the period)."""
         steps = goal_handle.request.steps
         result = SimulateSteps.Result()
         problem = self._check_steps(steps)
@@ -332,16 +343,35 @@ class SimulationInterfaces:
             result.result = problem
             goal_handle.abort()
             return result
-
-        def feedback(done, left):
+        chunks = self._chunks(steps)
+        while True:
+            try:
+                done = next(chunks)
+            except StopIteration as end:
+                result.result = end.value
+                break
             goal_handle.publish_feedback(SimulateSteps.Feedback(
-                completed_steps=done, remaining_steps=left))
-
-        result.result = self._run(steps, feedback, lambda: goal_handle.is_cancel_requested)
-        if goal_handle.is_cancel_requested:
-            goal_handle.canceled()
-        elif result.result.result == Result.RESULT_OK:
+                completed_steps=done, remaining_steps=steps - done))
+            await self._executor_turn()
+            if goal_handle.is_cancel_requested:
+                chunks.close()
+                result.result = _result(Result.RESULT_OK, f'cancelled after {done} steps')
+                goal_handle.canceled()
+                return result
+        if result.result.result == Result.RESULT_OK:
             goal_handle.succeed()
         else:
             goal_handle.abort()
         return result
+
+    def _executor_turn(self) -> Future:
+        """A future the executor completes on its next turn (a one-shot timer): awaiting it
+        lets the executor serve what waits (a cancel, other services) in between."""
+        future = Future()
+
+        def fire():
+            timer.cancel()
+            self.node.destroy_timer(timer)
+            future.set_result(None)
+        timer = self.node.create_timer(0.0, fire)
+        return future
