@@ -151,3 +151,14 @@ def test_the_noise_is_a_function_of_seed_body_and_times():
 def test_bad_noise_is_refused_with_its_name(field, value):
     with pytest.raises(ValueError, match=field if field != 'seed' else 'seed'):
         ImuNoise(**{field: value})
+
+
+def test_an_undone_sample_leaves_the_stream_as_it_was():
+    """A publish that could not go out takes its draw back (as replay never saw it)."""
+    noise = ImuNoise(gyro_noise=0.1, accel_noise=0.2, gyro_bias_walk=0.3, seed=9)
+    a, b = ImuSensor(noise, 1), ImuSensor(noise, 1)
+    first = a.sample(10_000_000)
+    a.sample(20_000_000)
+    a.undo()
+    assert b.sample(10_000_000) == first
+    assert a.sample(30_000_000) == b.sample(30_000_000)

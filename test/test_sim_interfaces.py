@@ -195,6 +195,13 @@ def test_the_standard_api_drives_the_simulator(start_sim, probe, tmp_path, insta
     assert probe.call(GetEntityState, 'get_entity_state',
                       GetEntityState.Request(entity='nobody')).result.result == \
         Result.RESULT_NOT_FOUND
+    # In b's frame a finite request can still overflow in the world's: refused, both halves.
+    huge = (1.7e308,) * 3
+    assert _set(probe, 'a', huge, (0, 0, 0, 1), frame='b').result == \
+        Result.RESULT_OPERATION_FAILED
+    assert _pose(_state(probe, 'a')) == before
+    assert probe.call(ResetSimulation, 'reset_simulation', ResetSimulation.Request(
+        scope=ResetSimulation.Request.SCOPE_SPAWNED)).result.result == OK  # nothing spawned
     assert _pose(_state(probe, 'a')) == before
 
     # Reset: the state only (time goes on), and stop = reset + pause.
@@ -235,3 +242,16 @@ def test_the_standard_api_drives_the_simulator(start_sim, probe, tmp_path, insta
     # b: one world-frame set (pose and twist), then the reset and the stop; a: the relative set
     assert counts['/rb_sim/input/b/set_pose'] == counts['/rb_sim/input/b/set_twist'] == 1
     assert counts['/rb_sim/input/a/set_pose'] == 1 and counts['/rb_sim/input/a/reset'] == 2
+
+
+def test_a_name_pattern_that_backtracks_for_ever_cannot_hang_the_node():
+    from rb_sim_ros.ros.sim_interfaces import match_names
+    names = ['body', 'ball_1', 'wall']
+    assert match_names('all', names) == ['ball_1', 'wall']  # literal: a substring
+    assert match_names('^b.*[0-9]$', names) == ['ball_1']
+    with pytest.raises(ValueError, match='not a regular expression'):
+        match_names('(', names)
+    with pytest.raises(ValueError, match='took more than'):
+        match_names('(?:.?){400}z', names)  # exponential in a backtracking engine
+    with pytest.raises(ValueError, match='characters long'):
+        match_names('a' * 2000, names)

@@ -166,6 +166,7 @@ CASES = {
     'tf topics not a list': (_set(META, 'tf_topics', '{"/tf": 1}'), 'tf_topics'),
     'tf topics a body output': (_set(META, 'tf_topics', '["/pose"]'), 'tf_topics must list'),
     'tf topics twice': (_set(META, 'tf_topics', '["/tf", "/tf"]'), 'tf_topics must list'),
+    'tf topics nested': (_set(META, 'tf_topics', '[["/tf"]]'), 'tf_topics must list'),
     'format 2': (_set(META, 'format', '2'), "format '2'"),
     'no format': ({k: v for k, v in META.items() if k != 'format'}, 'format None'),
     'config not json': (_meta(config='{"dt": '), 'config is not JSON'),

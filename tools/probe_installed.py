@@ -27,7 +27,11 @@ def main(executable: str) -> int:
             rclpy.spin_once(node, timeout_sec=0.1)
     finally:
         sim.send_signal(signal.SIGINT)
-        code = sim.wait(60)
+        try:
+            code = sim.wait(60)
+        except subprocess.TimeoutExpired:
+            sim.kill()
+            code = sim.wait()
         node.destroy_node()
         rclpy.shutdown()
     ok = bool(poses) and code == 0

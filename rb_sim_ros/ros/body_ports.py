@@ -96,28 +96,39 @@ class BodyPorts:
     def publish(self, sim, recorder=None) -> bool:
         """Publish the body's state, and for a moving body its imu and accel, to whoever
         listens: a topic with no subscriber (and no recording) costs neither a fill nor a
-        serialisation. The IMU's noise is drawn at every publish, listened to or not, so that
-        it depends on sim time only. A non-finite state, or one whose body-frame twist or
-        acceleration overflows, is never published: False then."""
+        serialisation. The IMU's noise is drawn at every publish that goes out, listened to or
+        not, so that it depends only on the steps of the publishes (replay draws at the
+        recorded ones). A non-finite state, or one whose body-frame twist or acceleration
+        overflows, is never published: False then, and no noise drawn."""
         time_ns = sim.time_ns
         pose_twist = sim.pose_twist(self.name)
         if not all(math.isfinite(c) for vec in pose_twist for c in vec):
             return False
-        offsets = self.sensor.sample(time_ns) if self.sensor is not None else None
         pubs = [p for p in self.state_pubs if p[0].get_subscription_count()]
         motion = [p for p in self.motion_pubs if p[0].get_subscription_count()]
-        if pubs or motion or recorder is not None:
-            if not self.out.fill(time_ns, *pose_twist):
+        sensor = self.sensor if self.sensor is not None and self.sensor.noise.noisy else None
+        if not (pubs or motion or recorder is not None):
+            if sensor is not None:  # unheard, but drawn: the noise follows publishes only
+                sensor.sample(time_ns)
+            return True
+        if not self.out.fill(time_ns, *pose_twist):
+            return False
+        if motion or (recorder is not None and self.motion_pubs):
+            a, b = sim.accelerations(self.name)
+            # The noise is drawn only for a publish that goes out (and so is recorded, as
+            # replay draws it): taken back if the values are not finite.
+            offsets = sensor.sample(time_ns) if sensor is not None else None
+            if not self.out.fill_motion(time_ns, pose_twist[1], pose_twist[3], a, b,
+                                        sim.config.gravity, offsets):
+                if sensor is not None:
+                    sensor.undo()
                 return False
-            if motion or (recorder is not None and self.motion_pubs):
-                a, b = sim.accelerations(self.name)
-                if not self.out.fill_motion(time_ns, pose_twist[1], pose_twist[3], a, b,
-                                            sim.config.gravity, offsets):
-                    return False
-            for pub, msg in pubs + motion:
-                pub.publish(msg)
-            if recorder is not None:
-                recorder.output(self.name, sim.step_count, time_ns, self.out)
+        elif sensor is not None:
+            sensor.sample(time_ns)
+        for pub, msg in pubs + motion:
+            pub.publish(msg)
+        if recorder is not None:
+            recorder.output(self.name, sim.step_count, time_ns, self.out)
         return True
 
     def applied(self, wrench, time_ns: int) -> None:

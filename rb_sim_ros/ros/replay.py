@@ -274,8 +274,8 @@ def _tf_topics(meta: dict, path: str) -> list:
     if 'tf_topics' not in meta:
         return []
     data = _json(meta, 'tf_topics', path)
-    if not isinstance(data, list) or not set(data) <= {TF, TF_STATIC} or \
-            len(set(data)) != len(data):
+    if not isinstance(data, list) or not all(isinstance(t, str) for t in data) or \
+            not set(data) <= {TF, TF_STATIC} or len(set(data)) != len(data):
         raise _bad(path, f'tf_topics must list {TF!r} and/or {TF_STATIC!r}, got {data!r}')
     return data
 

@@ -22,8 +22,11 @@ replays bit for bit; a refused request changes nothing and says why in ``result`
 
 from __future__ import annotations
 
+import json
 import math
 import re
+import subprocess
+import sys
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.task import Future
@@ -38,8 +41,10 @@ from simulation_interfaces.srv import (GetEntities, GetEntitiesStates, GetEntity
 from rb_sim_ros.ros import ros_messages
 from rb_sim_ros.sim.simulation import SetPose, SetTwist
 
-# The most steps one step_simulation or simulate_steps call may ask for (1e9 s at 1 ms).
+# The most steps one simulate_steps goal may ask for (1e9 s at 1 ms), and one step_simulation
+# call, which holds the executor until it is done (a few seconds for one body).
 MAX_STEPS = 10 ** 12
+MAX_SERVICE_STEPS = 10 ** 6
 FEATURES = (SimulatorFeatures.ENTITY_CATEGORIES, SimulatorFeatures.ENTITY_STATE_GETTING,
             SimulatorFeatures.ENTITY_STATE_SETTING, SimulatorFeatures.SIMULATION_RESET,
             SimulatorFeatures.SIMULATION_RESET_STATE, SimulatorFeatures.SIMULATION_STATE_GETTING,
@@ -75,7 +80,46 @@ class EntityStateInput:
             spin = _cross(fw, rx)
             v = tuple(fv[k] + spin[k] + rv[k] for k in range(3))
             w = tuple(fw[k] + rw[k] for k in range(3))
+        if not all(math.isfinite(c) for c in x + tuple(q) + v + w):
+            raise ValueError(f"entity '{self.body}': the state in the world frame is not "
+                             f'finite: pose {x}, {q}, twist {v}, {w}')
         return SetPose(x, q, self.body), SetTwist(v, w, self.body)
+
+
+def match_names(pattern: str, names: list) -> list:
+    """The names ``pattern`` (a regular expression, Python's syntax) finds a match in.
+
+    A backtracking engine can take exponential time on some patterns, and the request is
+    untrusted: a pattern with no special character is a plain substring search, any other is
+    matched in a separate process killed after MATCH_TIMEOUT_S, so the node never hangs.
+    ValueError, saying why, for a bad, too long or too slow pattern."""
+    if len(pattern) > MAX_PATTERN:
+        raise ValueError(f'filter is {len(pattern)} characters long; at most {MAX_PATTERN}')
+    if re.escape(pattern) == pattern:
+        return [n for n in names if pattern in n]
+    try:
+        re.compile(pattern)
+    except re.error as e:
+        raise ValueError(f'filter {pattern!r} is not a regular expression: {e}') from None
+    try:
+        done = subprocess.run(
+            [sys.executable, '-c', _MATCHER], input=json.dumps([pattern, names]),
+            capture_output=True, text=True, timeout=MATCH_TIMEOUT_S, check=True)
+        found = set(json.loads(done.stdout))
+    except subprocess.TimeoutExpired:
+        raise ValueError(f'filter {pattern!r} took more than {MATCH_TIMEOUT_S:g} s to match '
+                         'the entity names (catastrophic backtracking?)') from None
+    except (subprocess.CalledProcessError, ValueError, OSError) as e:
+        raise ValueError(f'filter {pattern!r} could not be matched: {e}') from None
+    return [n for n in names if n in found]
+
+
+MAX_PATTERN = 1000
+MATCH_TIMEOUT_S = 2.0
+_MATCHER = ('import json, re, sys\n'
+            'pattern, names = json.load(sys.stdin)\n'
+            'p = re.compile(pattern)\n'
+            'print(json.dumps([n for n in names if p.search(n)]))\n')
 
 
 def _cross(a, b):
@@ -96,6 +140,7 @@ class SimulationInterfaces:
     def __init__(self, node) -> None:
         self.node = node
         self._stopped_at = None  # the step of a stop (reset and paused), while it holds
+        self._epoch = 0  # counts changes of the simulation state: a stepping call stops then
         n = node
         n.create_service(GetSimulatorFeatures, 'get_simulator_features', self._features)
         n.create_service(GetEntities, 'get_entities', self._entities)
@@ -134,15 +179,13 @@ class SimulationInterfaces:
         if filters.bounds.type != 0 or filters.bounds.points:
             return _result(Result.RESULT_FEATURE_UNSUPPORTED,
                            'bounds filters are not supported'), []
-        try:
-            pattern = re.compile(filters.filter) if filters.filter else None
-        except re.error as e:
-            return _result(Result.RESULT_OPERATION_FAILED,
-                           f'filter {filters.filter!r} is not a regular expression: {e}'), []
         wanted = {c.category for c in filters.categories}
-        names = [n for n in self._names()
-                 if (pattern is None or pattern.search(n))
-                 and (not wanted or self._category(n) in wanted)]
+        names = [n for n in self._names() if not wanted or self._category(n) in wanted]
+        if filters.filter:
+            try:
+                names = match_names(filters.filter, names)
+            except ValueError as e:
+                return _result(Result.RESULT_OPERATION_FAILED, str(e)), []
         return _result(), names
 
     def _entities(self, request, response):
@@ -165,6 +208,9 @@ class SimulationInterfaces:
         t.angular.x, t.angular.y, t.angular.z = w
         acc.linear.x, acc.linear.y, acc.linear.z = a
         acc.angular.x, acc.angular.y, acc.angular.z = b
+        if not all(math.isfinite(c) for vec in (x, q, v, w, a, b) for c in vec):
+            raise ValueError(f"the state of '{name}' is not finite (its acceleration "
+                             'overflows): not sent')
         return state
 
     def _get_state(self, request, response):
@@ -172,16 +218,25 @@ class SimulationInterfaces:
             response.result = _result(Result.RESULT_NOT_FOUND,
                                       f"no entity named '{request.entity}'")
             return response
-        with self.node._lock:
-            response.state = self._entity_state(request.entity)
+        try:
+            with self.node._lock:
+                response.state = self._entity_state(request.entity)
+        except ValueError as e:
+            response.state = EntityState()
+            response.result = _result(Result.RESULT_OPERATION_FAILED, str(e))
+            return response
         response.result = _result()
         return response
 
     def _entities_states(self, request, response):
         response.result, names = self._filtered(request.filters)
-        with self.node._lock:
-            response.entities = names
-            response.states = [self._entity_state(n) for n in names]
+        try:
+            with self.node._lock:
+                states = [self._entity_state(n) for n in names]
+        except ValueError as e:
+            response.result = _result(Result.RESULT_OPERATION_FAILED, str(e))
+            return response
+        response.entities, response.states = names, states
         return response
 
     def _set_state(self, request, response):
@@ -215,7 +270,18 @@ class SimulationInterfaces:
             return _result(Result.RESULT_OPERATION_FAILED,
                            f'state must be finite with a non-zero quaternion, got pose '
                            f'{position}, {q}, twist {linear}, {angular}')
-        node._queue(EntityStateInput(name, frame_body, position, q, linear, angular))
+        event = EntityStateInput(name, frame_body, position, q, linear, angular)
+        with node._lock:
+            if not node._paused:  # at the next period: checked then (a refusal is logged)
+                node._pending.append(event)
+                return _result()
+            rejected = node.diagnostics.rejected
+            node._pending.append(event)
+            node._guarded(node._drain)  # paused: now, so the answer can say how it went
+            if node.diagnostics.rejected != rejected:
+                return _result(Result.RESULT_OPERATION_FAILED,
+                               f"entity '{name}': the state in the world frame is not finite "
+                               'or not valid; nothing changed')
         return _result()
 
     # -- simulation state ------------------------------------------------------------------
@@ -240,6 +306,7 @@ class SimulationInterfaces:
     def _set_sim_state(self, request, response):
         want, now = request.state.state, self._state()
         node = self.node
+        self._epoch += 1
         if want == now:
             response.result = _result(SetSimulationState.Response.ALREADY_IN_TARGET_STATE,
                                       'already in that state')
@@ -278,22 +345,24 @@ class SimulationInterfaces:
                 'sim time is not reset (it is step * dt; recordings rely on it growing): ask '
                 'for SCOPE_STATE, which puts every body back to its initial state'))
             return response
-        node = self.node
-        with node._lock:
-            node._pending.extend(node.reset_events())
-            ok = node._guarded(node._drain) if node._paused else True
+        if not scope & ResetSimulation.Request.SCOPE_STATE:  # SCOPE_SPAWNED alone
+            response.result = _result(Result.RESULT_OK, 'nothing was spawned: nothing to do')
+            return response
+        self._epoch += 1
+        ok = self.node.reset_all()
         response.result = _result() if ok else _result(Result.RESULT_OPERATION_FAILED,
-                                                       node.diagnostics.error)
+                                                       self.node.diagnostics.error)
         return response
 
     # -- stepping --------------------------------------------------------------------------
-    def _check_steps(self, steps: int) -> Result | None:
+    def _check_steps(self, steps: int, most: int = MAX_STEPS) -> Result | None:
         if not self.node._paused:
             return _result(Result.RESULT_OPERATION_FAILED,
                            'not paused: set_simulation_state to paused first')
-        if not 1 <= steps <= MAX_STEPS:
+        if not 1 <= steps <= most:
+            more = ' (more with the simulate_steps action)' if most < MAX_STEPS else ''
             return _result(Result.RESULT_OPERATION_FAILED,
-                           f'steps must be from 1 to {MAX_STEPS}, got {steps}')
+                           f'steps must be from 1 to {most}{more}, got {steps}')
         return None
 
     def _chunks(self, steps: int):
@@ -302,7 +371,13 @@ class SimulationInterfaces:
         failure pauses the node with its reason, given here too)."""
         node = self.node
         done = 0
+        epoch = self._epoch
         while done < steps and not node._stop.is_set():
+            if not node._paused or self._epoch != epoch:
+                return _result(Result.RESULT_OPERATION_FAILED,
+                               f'the simulation state changed after {done} of {steps} steps: '
+                               'stopped there')
+            node._wait_for_recorder()  # as the step loop: never outpace the recording
             chunk = min(steps - done, node.config.steps_per_publish)
             with node._lock:
                 failures = node._failures
@@ -318,17 +393,21 @@ class SimulationInterfaces:
                            f'stopped after {done} of {steps} steps (shutting down)')
         return _result()
 
-    def _run(self, steps: int) -> Result:
-        chunks = self._chunks(steps)
+    def _step(self, request, response):
+        """step_simulation: answered when done (as the standard has it), so at most
+        MAX_SERVICE_STEPS a call: the executor serves nothing else meanwhile. Longer runs are
+        for the simulate_steps action, which gives the executor a turn after each period."""
+        problem = self._check_steps(request.steps, MAX_SERVICE_STEPS)
+        if problem is not None:
+            response.result = problem
+            return response
+        chunks = self._chunks(request.steps)
         while True:
             try:
                 next(chunks)
             except StopIteration as end:
-                return end.value
-
-    def _step(self, request, response):
-        response.result = self._check_steps(request.steps) or self._run(request.steps)
-        return response
+                response.result = end.value
+                return response
 
     def _goal(self, goal_request):
         return GoalResponse.ACCEPT

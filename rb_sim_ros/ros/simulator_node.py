@@ -244,15 +244,22 @@ class SimulatorNode(Node):
         return [Reset(body=spec.name) for spec in self.config.bodies if not spec.static]
 
     def _on_reset(self, request, response):
+        self.reset_all()
+        return response
+
+    def reset_all(self) -> bool:
+        """Every moving body back to its initial state, all at the same step (now if paused,
+        else at the next period); an error pause is cleared and the run goes on. False if
+        applying it failed (the reason in diagnostics)."""
         resets = self.reset_events()
-        with self._lock:  # all together: every body is reset at the same step
+        with self._lock:
             self._pending.extend(resets)
             ok = self._guarded(self._drain) if self._paused else True
             if ok:
                 self.diagnostics.error = ''
                 if self._error_paused:  # the state that failed is gone: run again
                     self._guarded(self._resume)
-        return response
+        return ok
 
     def _resume(self) -> None:
         """Run (again) from the current step; clears an error that had paused the node."""
@@ -412,7 +419,12 @@ class SimulatorNode(Node):
 
     def _apply(self, event, command: bool = True) -> None:
         if isinstance(event, EntityStateInput):  # pose and twist, now in the world frame
-            for e in event.events(self.sim):
+            try:  # both or neither
+                events = event.events(self.sim)
+            except ValueError as e:
+                self._reject('set_entity_state', e)
+                return
+            for e in events:
                 self._apply(e)
             return
         if isinstance(event, TwistInput):  # turned into the world frame now, at its step

@@ -68,6 +68,7 @@ class ImuSensor:
         self._gyro_bias = [0.0, 0.0, 0.0]
         self._accel_bias = [0.0, 0.0, 0.0]
         self._last_ns: int | None = None
+        self._undo = None
 
     def sample(self, time_ns: int):
         """The noise of the sample at sim time ``time_ns``: (gyroscope rad/s, accelerometer
@@ -77,6 +78,8 @@ class ImuSensor:
         n = self.noise
         if not n.noisy:
             return None
+        self._undo = (self._rng.bit_generator.state, list(self._gyro_bias),
+                      list(self._accel_bias), self._last_ns)
         draw = self._rng.standard_normal(12).tolist()
         root = math.sqrt((time_ns - self._last_ns) * 1e-9) if self._last_ns is not None \
             else 0.0
@@ -87,3 +90,10 @@ class ImuSensor:
             ab[c] += n.accel_bias_walk * root * draw[9 + c]
         return (tuple(gb[c] + n.gyro_noise * draw[c] for c in range(3)),
                 tuple(ab[c] + n.accel_noise * draw[3 + c] for c in range(3)))
+
+    def undo(self) -> None:
+        """Take back the last ``sample`` (its sample was not sent): the stream is as before."""
+        if self._undo is not None:
+            state, self._gyro_bias, self._accel_bias, self._last_ns = self._undo
+            self._rng.bit_generator.state = state
+            self._undo = None
