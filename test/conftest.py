@@ -22,28 +22,32 @@ settings.load_profile(os.environ.get(
 
 
 # Test modules that need a package with no rosdep key (PyPI only) say so in a line
-# '# pypi-only: mcap rosbags'. On a ROS install without it (colcon test) the module is skipped
-# with that reason; in CI (CI set), where tools/test.sh installed them all, a missing one fails.
-PYPI_ONLY = re.compile(r'^# pypi-only:(.*)$', re.MULTILINE)
+# '# pypi-only: mcap rosbags'; those that need a message package PyPI lacks, which
+# tools/build_msgs.sh builds into the venv, in a line '# built-msgs: tf2_msgs'. Where one is
+# missing (colcon test on a ROS install without it) the module is skipped with the reason; in CI
+# (CI set), where tools/test.sh installed and built them all, a missing one fails.
+NEEDS = re.compile(r'^# (pypi-only|built-msgs):(.*)$', re.MULTILINE)
 IN_CI = os.environ.get('CI', '').lower() not in ('', '0', 'false')
+HOW = {'pypi-only': 'on PyPI only (pip install {}; ./tools/test.sh installs them)',
+       'built-msgs': 'not on PyPI: tools/build_msgs.sh builds {} (see '
+                     '.venv/.rb_sim_ros-msgs.log), a ROS install has it'}
 
 
-class _NeedsPyPI(pytest.Module):
+class _Needs(pytest.Module):
     def collect(self):
-        match = PYPI_ONLY.search(self.path.read_text())
-        missing = [m for m in match.group(1).split() if importlib.util.find_spec(m) is None]
-        if missing:
-            why = (f"needs {', '.join(missing)}, on PyPI only (pip install "
-                   f"{' '.join(missing)}; ./tools/test.sh installs them)")
-            if IN_CI:
-                raise RuntimeError(why)
-            pytest.skip(why)
+        for kind, names in NEEDS.findall(self.path.read_text()):
+            missing = [m for m in names.split() if importlib.util.find_spec(m) is None]
+            if missing:
+                why = f"needs {', '.join(missing)}, " + HOW[kind].format(' '.join(missing))
+                if IN_CI:
+                    raise RuntimeError(why)
+                pytest.skip(why)
         return super().collect()
 
 
 def pytest_pycollect_makemodule(module_path, parent):
-    if module_path.name.startswith('test_') and PYPI_ONLY.search(module_path.read_text()):
-        return _NeedsPyPI.from_parent(parent, path=module_path)
+    if module_path.name.startswith('test_') and NEEDS.search(module_path.read_text()):
+        return _Needs.from_parent(parent, path=module_path)
     return None
 
 

@@ -1,13 +1,13 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
 # pypi-only: mcap rosbags
+# built-msgs: simulation_interfaces
 """The standard simulator API (simulation_interfaces, Jazzy's 1.2.0) on the node: its type
 hashes against a build of the release's own files, each service against the physics it
 claims, refusals that change nothing, and a recording of it all that replays bit for bit."""
 
 import importlib.util
 import json
-import os
 from pathlib import Path
 import struct
 import subprocess
@@ -18,26 +18,18 @@ import pytest
 from rclpy.action import ActionClient
 from rosbags.highlevel import AnyReader
 from scipy.spatial.transform import Rotation
+from simulation_interfaces.action import SimulateSteps
+from simulation_interfaces.msg import (EntityCategory, EntityState, Result, SimulationState,
+                                       SimulatorFeatures)
+from simulation_interfaces.srv import (GetEntities, GetEntityState, GetSimulationState,
+                                       GetSimulatorFeatures, ResetSimulation, SetEntityState,
+                                       SetSimulationState, StepSimulation)
 
 from ros_harness import stamp_ns
 
 ROOT = Path(__file__).resolve().parent.parent
 HASHES = json.loads((ROOT / 'test' / 'fixtures' / 'simulation_interfaces_jazzy_hashes.json')
                     .read_text())['hashes']
-
-if importlib.util.find_spec('simulation_interfaces') is None:
-    if os.environ.get('CI', '').lower() not in ('', '0', 'false'):
-        raise RuntimeError('simulation_interfaces is not installed: tools/build_msgs.sh failed '
-                           '(see .venv/.rb_sim_ros-msgs.log)')
-    pytest.skip('simulation_interfaces is not installed (tools/build_msgs.sh builds it)',
-                allow_module_level=True)
-from simulation_interfaces.action import SimulateSteps  # noqa: E402, I100
-from simulation_interfaces.msg import (EntityCategory, EntityState, Result,  # noqa: E402
-                                       SimulationState, SimulatorFeatures)
-from simulation_interfaces.srv import (GetEntities, GetEntityState,  # noqa: E402
-                                       GetSimulationState, GetSimulatorFeatures,
-                                       ResetSimulation, SetEntityState, SetSimulationState,
-                                       StepSimulation)
 
 OK = Result.RESULT_OK
 SCENE = ('bodies:\n'

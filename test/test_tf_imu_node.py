@@ -1,11 +1,10 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
 # pypi-only: mcap rosbags
+# built-msgs: tf2_msgs
 """What a ROS user expects of a simulated body, over DDS: /tf and /tf_static as tf2 has them,
 frame_prefix, <body>/imu and <body>/accel against Newton, and refusals of bad noise."""
 
-import importlib.util
-import os
 import struct
 import subprocess
 
@@ -17,19 +16,11 @@ from rosbags.highlevel import AnyReader
 from rosbags.typesys import get_typestore, Stores
 from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import Imu
+from tf2_msgs.msg import TFMessage
 
 from rb_sim_ros.ros import replay
 from rb_sim_ros.ros.simulator_node import APPLIED_QOS
 from ros_harness import stamp_ns
-
-# tf2_msgs is built into the venv by tools/build_msgs.sh; in CI it must be there.
-if importlib.util.find_spec('tf2_msgs') is None:
-    if os.environ.get('CI', '').lower() not in ('', '0', 'false'):
-        raise RuntimeError('tf2_msgs is not installed: tools/build_msgs.sh failed '
-                           '(see .venv/.rb_sim_ros-msgs.log)')
-    pytest.skip('tf2_msgs is not installed (tools/build_msgs.sh builds it)',
-                allow_module_level=True)
-from tf2_msgs.msg import TFMessage  # noqa: E402, I100
 
 STATIC = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
