@@ -149,6 +149,12 @@ def test_the_standard_api_drives_the_simulator(start_sim, probe, tmp_path, insta
     goal = client.send_goal_async(SimulateSteps.Goal(steps=10 ** 9),
                                   feedback_callback=lambda m: feedback.append(m.feedback))
     probe.wait_for(lambda: goal.done() and feedback, what='a long goal under way')
+    second = client.send_goal_async(SimulateSteps.Goal(steps=10))
+    probe.wait_for(second.done, what='a second goal')
+    refused = second.result().get_result_async()
+    probe.wait_for(refused.done, what='the second goal refused')
+    assert refused.result().result.result.result == Result.RESULT_OPERATION_FAILED
+    assert 'under way' in refused.result().result.result.error_message
     cancel = goal.result().cancel_goal_async()
     probe.wait_for(cancel.done, what='the cancel answered')
     result = goal.result().get_result_async()
@@ -247,3 +253,6 @@ def test_a_name_pattern_that_backtracks_for_ever_cannot_hang_the_node():
         match_names('(?:.?){400}z', names)  # exponential in a backtracking engine
     with pytest.raises(ValueError, match='characters long'):
         match_names('a' * 2000, names)
+    for bad in ('a{4294967296}', '(' * 499 + ')' * 499):  # not re.error: overflow, recursion
+        with pytest.raises(ValueError, match='not a regular expression'):
+            match_names(bad, names)

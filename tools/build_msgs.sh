@@ -23,7 +23,7 @@ if [ "$(cat "$msgs_stamp" 2>/dev/null || true)" != "$msgs_want" ]; then
         cmake -S "$pkg" -B "$build" -DCMAKE_INSTALL_PREFIX="$venv" -DBUILD_TESTING=OFF \
         -DPython3_EXECUTABLE="$venv/bin/python" -DCMAKE_BUILD_TYPE=Release || exit 1
       PATH="$venv/bin:$PATH" cmake --build "$build" -j 2 || exit 1
-      cmake --install "$build" || exit 1
+      PATH="$venv/bin:$PATH" cmake --install "$build" || exit 1
     done
   ) >"$msgs_log" 2>&1 || msgs_ok=no
   if [ "$msgs_ok" = yes ]; then

@@ -29,6 +29,7 @@ import subprocess
 import sys
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.task import Future
 from simulation_interfaces.action import SimulateSteps
 from simulation_interfaces.msg import (EntityCategory, EntityState, Result, SimulationState,
@@ -99,11 +100,12 @@ def match_names(pattern: str, names: list) -> list:
         return [n for n in names if pattern in n]
     try:
         re.compile(pattern)
-    except re.error as e:
-        raise ValueError(f'filter {pattern!r} is not a regular expression: {e}') from None
+    except (re.error, OverflowError, RecursionError, ValueError) as e:
+        raise ValueError(f'filter {pattern!r} is not a regular expression: '
+                         f'{type(e).__name__}: {e}') from None
     try:
-        done = subprocess.run(
-            [sys.executable, '-c', _MATCHER], input=json.dumps([pattern, names]),
+        done = subprocess.run(  # isolated (-I -S): nothing of the node's directory is imported
+            [sys.executable, '-I', '-S', '-c', _MATCHER], input=json.dumps([pattern, names]),
             capture_output=True, text=True, timeout=MATCH_TIMEOUT_S, check=True)
         found = set(json.loads(done.stdout))
     except subprocess.TimeoutExpired:
@@ -141,6 +143,8 @@ class SimulationInterfaces:
         self.node = node
         self._stopped_at = None  # the step of a stop (reset and paused), while it holds
         self._epoch = 0  # counts changes of the simulation state: a stepping call stops then
+        self.stepping = False  # a step_simulation or simulate_steps is under way
+        self._turns = ReentrantCallbackGroup()  # _executor_turn's timers: never held up
         n = node
         n.create_service(GetSimulatorFeatures, 'get_simulator_features', self._features)
         n.create_service(GetEntities, 'get_entities', self._entities)
@@ -275,9 +279,12 @@ class SimulationInterfaces:
             if not node._paused:  # at the next period: checked then (a refusal is logged)
                 node._pending.append(event)
                 return _result()
+            node._guarded(node._drain)  # what was queued before it goes first
             rejected = node.diagnostics.rejected
             node._pending.append(event)
-            node._guarded(node._drain)  # paused: now, so the answer can say how it went
+            ok = node._guarded(node._drain)  # paused: now, so the answer can say how it went
+            if not ok:
+                return _result(Result.RESULT_OPERATION_FAILED, node.diagnostics.error)
             if node.diagnostics.rejected != rejected:
                 return _result(Result.RESULT_OPERATION_FAILED,
                                f"entity '{name}': the state in the world frame is not finite "
@@ -306,11 +313,11 @@ class SimulationInterfaces:
     def _set_sim_state(self, request, response):
         want, now = request.state.state, self._state()
         node = self.node
-        self._epoch += 1
         if want == now:
             response.result = _result(SetSimulationState.Response.ALREADY_IN_TARGET_STATE,
                                       'already in that state')
             return response
+        self._epoch += 1  # a stepping call under way stops at its next period
         if want == SimulationState.STATE_PLAYING:
             with node._lock:
                 ok = node._guarded(node._resume)
@@ -356,6 +363,9 @@ class SimulationInterfaces:
 
     # -- stepping --------------------------------------------------------------------------
     def _check_steps(self, steps: int, most: int = MAX_STEPS) -> Result | None:
+        if self.stepping:
+            return _result(Result.RESULT_OPERATION_FAILED,
+                           'another step_simulation or simulate_steps is under way')
         if not self.node._paused:
             return _result(Result.RESULT_OPERATION_FAILED,
                            'not paused: set_simulation_state to paused first')
@@ -368,10 +378,18 @@ class SimulationInterfaces:
     def _chunks(self, steps: int):
         """Take ``steps`` physics steps in publish periods (the last one shorter), publishing
         after each; yields the steps done after each period, and returns the Result (a
-        failure pauses the node with its reason, given here too)."""
+        failure pauses the node with its reason, given here too). One at a time
+        (``stepping``); a change of the simulation state or a reset stops it."""
+        epoch = self._epoch
+        self.stepping = True
+        try:
+            return (yield from self._periods(steps, epoch))
+        finally:
+            self.stepping = False
+
+    def _periods(self, steps: int, epoch: int):
         node = self.node
         done = 0
-        epoch = self._epoch
         while done < steps and not node._stop.is_set():
             if not node._paused or self._epoch != epoch:
                 return _result(Result.RESULT_OPERATION_FAILED,
@@ -424,6 +442,10 @@ class SimulationInterfaces:
             return result
         chunks = self._chunks(steps)
         while True:
+            if goal_handle.is_cancel_requested and not self.stepping:  # before it began
+                result.result = _result(Result.RESULT_OK, 'cancelled before any step')
+                goal_handle.canceled()
+                return result
             try:
                 done = next(chunks)
             except StopIteration as end:
@@ -452,5 +474,5 @@ class SimulationInterfaces:
             timer.cancel()
             self.node.destroy_timer(timer)
             future.set_result(None)
-        timer = self.node.create_timer(0.0, fire)
+        timer = self.node.create_timer(0.0, fire, callback_group=self._turns)
         return future

@@ -252,6 +252,8 @@ class SimulatorNode(Node):
         else at the next period); an error pause is cleared and the run goes on. False if
         applying it failed (the reason in diagnostics)."""
         resets = self.reset_events()
+        if self.interfaces is not None:
+            self.interfaces._epoch += 1  # a stepping call under way stops at its next period
         with self._lock:
             self._pending.extend(resets)
             ok = self._guarded(self._drain) if self._paused else True
@@ -292,6 +294,10 @@ class SimulatorNode(Node):
         return response
 
     def _on_step(self, request, response):
+        if self.interfaces is not None and self.interfaces.stepping:
+            response.success = False
+            response.message = 'a step_simulation or simulate_steps is under way'
+            return response
         if not self._paused:
             response.success = False
             response.message = 'not paused: call pause with data: true first'
