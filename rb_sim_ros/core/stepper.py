@@ -278,10 +278,7 @@ class Stepper(FixedStep):
         """(a m/s^2, beta rad/s^2), world frame: Thm 1 at the current state under the held
         wrench, gravity and damping, the derivative every method integrates (whatever it keeps
         in its row: the splittings keep none)."""
-        row = self._store.state[self._row]
-        r = row[K.R:K.R + 9].tolist()
-        w = row[K.W:K.W + 3].tolist()
-        v = row[K.V:K.V + 3].tolist()
+        _, r, v, w = self._row_components()
         a0, a1, a2, b0, b1, b2 = K.accelerations(self._store.params, self._row, *r, *w, *v,
                                                  False)
         return (float(a0), float(a1), float(a2)), (float(b0), float(b1), float(b2))

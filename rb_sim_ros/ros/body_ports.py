@@ -106,7 +106,7 @@ class BodyPorts:
             return False
         pubs = [p for p in self.state_pubs if p[0].get_subscription_count()]
         motion = [p for p in self.motion_pubs if p[0].get_subscription_count()]
-        sensor = self.sensor if self.sensor is not None and self.sensor.noise.noisy else None
+        sensor = self.sensor
         if not (pubs or motion or recorder is not None):
             if sensor is not None:  # unheard, but drawn: the noise follows publishes only
                 sensor.sample(time_ns)

@@ -132,6 +132,12 @@ def imu_noise(values: dict):
                     int(values['imu_seed']))
 
 
+def body_frame(values: dict, name: str, single: bool) -> str:
+    """The frame id of body ``name`` under the parameters ``values``: frame_prefix +
+    body_frame for the single body, frame_prefix + its name for a scene's."""
+    return values.get('frame_prefix', '') + (values['body_frame'] if single else name)
+
+
 def _orientation(name: str, v: Any) -> None:
     _vector(4)(name, v)
     if not any(v):

@@ -29,13 +29,12 @@ import os
 from geometry_msgs.msg import AccelStamped, PoseStamped, Twist, TwistStamped, WrenchStamped
 from mcap.writer import LIBRARY_IDENTIFIER
 from nav_msgs.msg import Odometry
-from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import Imu
 
 from rb_sim_ros import __version__
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.recording import RecordingWriter, WriterError
-from rb_sim_ros.ros.ros_messages import TF_STATIC, time_msg
+from rb_sim_ros.ros.ros_messages import tf_qos, time_msg
 from rb_sim_ros.sim.simulation import Config, Reset, SetPose, SetTwist, SetWrench
 
 METADATA = 'rb_sim_ros'
@@ -161,9 +160,7 @@ class NodeRecorder:
         if tf_topics:
             from tf2_msgs.msg import TFMessage  # only when the node has it: publish_tf
             for topic in tf_topics:
-                qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL) \
-                    if topic == TF_STATIC else QoSProfile(depth=100)
-                self._writer.register_topic(topic, TFMessage, qos)
+                self._writer.register_topic(topic, TFMessage, tf_qos(topic))
         self._writer.write_metadata(METADATA, {
             'format': str(FORMAT), 'version': __version__,
             'config': json.dumps(config.to_dict()),

@@ -23,14 +23,12 @@ import struct
 import sys
 import time
 
-from rclpy.qos import DurabilityPolicy, QoSProfile
-
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.recording import ReaderError, RecordingReader, recover, WriterError
 from rb_sim_ros.recording.schemas import type_name_of
 from rb_sim_ros.ros import node_params, node_recorder, ros_arguments
-from rb_sim_ros.ros.ros_messages import (new_transform, OutputMessages, TF, TF_STATIC,
-                                         time_msg, transform)
+from rb_sim_ros.ros.ros_messages import (fill_tf, OutputMessages, TF, tf_message, tf_qos,
+                                         TF_STATIC, time_msg)
 from rb_sim_ros.sim.imu import ImuSensor
 from rb_sim_ros.sim.simulation import Config, Simulation
 
@@ -90,10 +88,8 @@ class Recording:
 
     def frames(self, body: str) -> tuple[str, str]:
         """(world frame, body frame) the node stamped ``body``'s outputs with."""
-        p = self.parameters
-        single = not p.get('scene_file')
-        return (p.get('world_frame', 'odom'), p.get('frame_prefix', '')
-                + (p.get('body_frame', 'base_link') if single else body))
+        p = {**FRAME_PARAMS, **self.parameters}
+        return p['world_frame'], node_params.body_frame(p, body, not p.get('scene_file'))
 
     def tf_bodies(self, kind: str) -> list[str]:
         """The bodies of a /tf ('tf': the moving ones with topics) or /tf_static message
@@ -473,13 +469,10 @@ def resimulate(rec: Recording, errors: list | None = None):
 
 def _tf_message(rec: Recording, sim: Simulation, kind: str, msg_type):
     """The /tf (or /tf_static) message the node would publish now."""
-    world = rec.parameters.get('world_frame', 'odom')
-    mine = msg_type()
-    for body in rec.tf_bodies(kind):
-        t = new_transform(world, rec.frames(body)[1])
-        x, q = sim.pose_twist(body)[:2]
-        transform(t, sim.time_ns, x, q)
-        mine.transforms.append(t)
+    bodies = rec.tf_bodies(kind)
+    world = {**FRAME_PARAMS, **rec.parameters}['world_frame']
+    mine = tf_message(msg_type, world, [rec.frames(b)[1] for b in bodies])
+    fill_tf(mine, sim.time_ns, [sim.pose_twist(b)[:2] for b in bodies])
     return mine
 
 
@@ -514,7 +507,7 @@ def play(path: str, rate: float, clock: bool = True, wait: float = 0.0) -> int:
     (0: as fast as possible); first wait up to ``wait`` seconds for a subscriber on one of
     them. Ctrl-C raises KeyboardInterrupt (rclpy's signal handler is not installed)."""
     import rclpy
-    from rclpy.qos import ReliabilityPolicy
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rclpy.signals import SignalHandlerOptions
     from rosgraph_msgs.msg import Clock
 
@@ -543,9 +536,8 @@ def _sleep_until(deadline: float) -> None:
 
 
 def _publish(rclpy, node, outputs, rate: float, wait: float, clock_type, clock_qos) -> None:
-    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
     pubs = {topic: node.create_publisher(type(msg), topic,
-                                         latched if topic == TF_STATIC else 10)
+                                         tf_qos(topic) if topic in (TF, TF_STATIC) else 10)
             for topic, msg, _ in outputs}
     clock_pub = (node.create_publisher(clock_type, '/clock', clock_qos)
                  if clock_type is not None else None)

@@ -17,6 +17,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import AccelStamped, PoseStamped, TransformStamped, Twist, \
     Wrench as WrenchMsg
 from nav_msgs.msg import Odometry
+from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import Imu
 
 from rb_sim_ros.core import so3
@@ -171,17 +172,33 @@ class OutputMessages:
                    + tuple(angular_acceleration))
 
 
-def transform(msg: TransformStamped, time_ns: int, position, quaternion_xyzw) -> None:
-    """Fill a TransformStamped's stamp and transform (its frame ids are set once) from a
-    pose: parent = the pose's frame, child = the body's, translation and rotation as the
-    published PoseStamped has them, bit for bit."""
-    msg.header.stamp = time_msg(time_ns)
-    t, q = msg.transform.translation, msg.transform.rotation
-    t.x, t.y, t.z = position
-    q.x, q.y, q.z, q.w = quaternion_xyzw
+def tf_qos(topic: str) -> QoSProfile:
+    """A new profile for ``topic`` as tf2_ros's broadcasters offer it: /tf_static transient
+    local, depth 1 (a late listener gets it); /tf depth 100. New each time: rclpy writes QoS
+    overrides into the profile it is given."""
+    if topic == TF_STATIC:
+        return QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    return QoSProfile(depth=100)
 
 
-def new_transform(parent: str, child: str) -> TransformStamped:
-    msg = TransformStamped()
-    msg.header.frame_id, msg.child_frame_id = parent, child
+def tf_message(msg_type, parent: str, children) -> object:
+    """A tf2_msgs/TFMessage (``msg_type``: that class) with a transform parent -> child for
+    each child frame, in order; ``fill_tf`` fills their stamps and poses."""
+    msg = msg_type()
+    for child in children:
+        t = TransformStamped()
+        t.header.frame_id, t.child_frame_id = parent, child
+        msg.transforms.append(t)
     return msg
+
+
+def fill_tf(msg, time_ns: int, poses) -> None:
+    """Stamp every transform of ``msg`` with ``time_ns`` and set it from ``poses``, one
+    (position, quaternion x-y-z-w) each in order: the published PoseStamped's values, bit for
+    bit."""
+    stamp = time_msg(time_ns)
+    for t, (position, quaternion_xyzw) in zip(msg.transforms, poses):
+        t.header.stamp = stamp
+        tr, q = t.transform.translation, t.transform.rotation
+        tr.x, tr.y, tr.z = position
+        q.x, q.y, q.z, q.w = quaternion_xyzw

@@ -36,7 +36,7 @@ import rclpy
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.qos_overriding_options import InvalidQosOverridesError
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -134,7 +134,7 @@ class SimulatorNode(Node):
                 self.config.bodies[:values['max_body_topics'] if not single else 1]):
             self.ports[spec.name] = BodyPorts(
                 self, spec.name, '' if single else spec.name + '/', values['world_frame'],
-                body_frame(values, spec.name, single), values['twist_frame'],
+                node_params.body_frame(values, spec.name, single), values['twist_frame'],
                 _Settings(self), self._queue, self._reject, spec.points,
                 self.sim.is_moving(spec.name), noise, index)
         self._moving = [p for p in self.ports.values() if self.sim.is_moving(p.name)]
@@ -196,21 +196,18 @@ class SimulatorNode(Node):
             return
         over = {'qos_overriding_options': OVERRIDABLE}
         world = values['world_frame']
-        moving = [p for p in self.ports.values() if self.sim.is_moving(p.name)]
-        static = [p for p in self.ports.values() if not self.sim.is_moving(p.name)]
-        self._tf_ports = moving
-        self._tf_msg = TFMessage(transforms=[
-            ros_messages.new_transform(world, p.body_frame) for p in moving])
-        if moving:
-            self._tf = self.create_publisher(TFMessage, TF, QoSProfile(depth=100), **over)
+        static = [p for p in self.ports.values() if p not in self._moving]
+        self._tf_msg = ros_messages.tf_message(TFMessage, world,
+                                               [p.body_frame for p in self._moving])
+        if self._moving:
+            self._tf = self.create_publisher(TFMessage, TF, ros_messages.tf_qos(TF), **over)
         if static:
-            self._tf_static = TFMessage(transforms=[
-                ros_messages.new_transform(world, p.body_frame) for p in static])
-            for port, msg in zip(static, self._tf_static.transforms):
-                x, q = self.sim.pose_twist(port.name)[:2]
-                ros_messages.transform(msg, 0, x, q)
-            self._pub_tf_static = self.create_publisher(TFMessage, TF_STATIC, QoSProfile(
-                depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL), **over)
+            self._tf_static = ros_messages.tf_message(TFMessage, world,
+                                                      [p.body_frame for p in static])
+            ros_messages.fill_tf(self._tf_static, 0,
+                                 [self.sim.pose_twist(p.name)[:2] for p in static])
+            self._pub_tf_static = self.create_publisher(
+                TFMessage, TF_STATIC, ros_messages.tf_qos(TF_STATIC), **over)
             self._pub_tf_static.publish(self._tf_static)
 
     # -- inputs (callbacks only queue; the step loop applies) ------------------------------
@@ -472,9 +469,8 @@ class SimulatorNode(Node):
                            f'{sim.step_count}; not published')
         if self._tf is not None and not failed and (
                 self._recorder is not None or self._tf.get_subscription_count()):
-            for port, msg in zip(self._tf_ports, self._tf_msg.transforms):
-                x, q = sim.pose_twist(port.name)[:2]
-                ros_messages.transform(msg, t_ns, x, q)
+            ros_messages.fill_tf(self._tf_msg, t_ns,
+                                 [sim.pose_twist(p.name)[:2] for p in self._moving])
             self._tf.publish(self._tf_msg)
             if self._recorder is not None:
                 self._recorder.tf(TF, sim.step_count, t_ns, self._tf_msg)
@@ -547,12 +543,6 @@ class SimulatorNode(Node):
         recorder, self._recorder = self._recorder, None
         if recorder is not None:
             recorder.close()
-
-
-def body_frame(values: dict, name: str, single: bool) -> str:
-    """The frame id of body ``name``: frame_prefix + body_frame for the single body, frame_prefix
-    + its name for a scene's."""
-    return values.get('frame_prefix', '') + (values['body_frame'] if single else name)
 
 
 def _timeout_steps(v: dict, config: Config) -> int:

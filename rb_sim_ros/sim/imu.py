@@ -73,8 +73,8 @@ class ImuSensor:
     def sample(self, time_ns: int):
         """The noise of the sample at sim time ``time_ns``: (gyroscope rad/s, accelerometer
         m/s^2) to add to the true body-frame values; None without noise. Call it once for
-        every sample, in time order, whether or not the sample is sent: the noise stream
-        then depends on the samples' times only."""
+        every sample, in time order (``undo`` takes back one that could not be sent): the
+        noise stream then depends on the samples' times only."""
         n = self.noise
         if not n.noisy:
             return None
