@@ -150,6 +150,15 @@ class CollisionWorld:
                  batch_threshold: int = 48, sleep_time: float = 0.5,
                  sleep_speed: float = 1e-3, rolling_resistance: float = 0.0,
                  torsional_friction: float = 0.0) -> None:
+        # What a world rebuilt around other bodies is made with (``rebuilt``).
+        self._arguments = dict(
+            dt=dt, gravity=gravity, restitution=restitution, friction=friction, planes=planes,
+            integrator=integrator, velocity_iterations=velocity_iterations,
+            position_iterations=position_iterations, slop=slop,
+            position_fraction=position_fraction, bounce_threshold=bounce_threshold,
+            tolerance=tolerance, speculative=speculative, warm_start=warm_start,
+            batch_threshold=batch_threshold, sleep_time=sleep_time, sleep_speed=sleep_speed,
+            rolling_resistance=rolling_resistance, torsional_friction=torsional_friction)
         bodies = tuple(bodies)
         if not bodies or not all(isinstance(b, BodySpec) for b in bodies):
             raise ValueError('bodies must be one or more BodySpec')
@@ -205,9 +214,14 @@ class CollisionWorld:
         moving: list[int] = []         # BodySpec index of each moving body with colliders
         colliders: list[_Collider] = []
         plane_normals, plane_points, plane_owner, plane_shapes = [], [], [], []
+        # Each collider's and plane's (body name, index among its colliders): what a rebuilt
+        # world matches its warm starts by.
+        collider_ids, plane_ids = [], []
         for owner, spec in enumerate(self.bodies):
             if not spec.colliders:
                 continue
+            for k, shape in enumerate(spec.colliders):
+                (plane_ids if isinstance(shape, Plane) else collider_ids).append((spec.name, k))
             if spec.static:
                 st = self.static[spec.name]
                 for shape in spec.colliders:
@@ -227,12 +241,14 @@ class CollisionWorld:
                     colliders.append(_Collider(shape, owner, index,
                                                np.array(shape.position, dtype=float),
                                                np.array(shape.rotation)))
-        for p in planes:
+        for k, p in enumerate(planes):
+            plane_ids.append(('', k))
             plane_normals.append(np.array(p.normal))
             plane_points.append(np.array(p.position))
             plane_owner.append(-1)
             plane_shapes.append(p)
         self._moving_specs = moving
+        self._collider_ids = collider_ids + plane_ids
         self._moving_steppers = [self.steppers[self.bodies[i].name] for i in moving]
         self._colliders = colliders
         self._plane_normals = np.array(plane_normals, dtype=float).reshape(-1, 3)
@@ -528,6 +544,77 @@ class CollisionWorld:
             near = np.all((self._lower[:, None, :] <= upper[None]) &
                           (lower[None] <= self._upper[:, None, :]), axis=2).any(axis=1)
             self._wake(np.unique(np.append(self._cbody[near], i)), self._step_count)
+
+    def rebuilt(self, bodies: Sequence[BodySpec], recheck: bool) -> 'CollisionWorld':
+        """A world of ``bodies`` with this one's settings that goes on from here: the bodies
+        of both keep their motion bit for bit (``Stepper.take_over``), sleep state, the
+        velocities their accelerations are read against and their contacts' warm starts; a
+        new body starts at its initial state on this world's clock. ``recheck``: check
+        contacts before the next step integrates (as after a teleport: a new body may
+        touch). This world is left as it was; ValueError (nothing built) for bad bodies."""
+        new = CollisionWorld(bodies, **self._arguments)
+        new.carry(self, self.steppers, self._step_count, recheck)
+        return new
+
+    def carry(self, old: 'CollisionWorld | None', steppers: dict, step_count: int,
+              recheck: bool) -> None:
+        """Take over the run of ``old`` (a world, or None for bodies stepped without one,
+        ``steppers`` by name) at ``step_count``: see ``rebuilt``."""
+        for name, s in self.steppers.items():
+            before = steppers.get(name)
+            if before is not None:
+                s.take_over(before)
+            else:  # a new body: its clock is the run's
+                s.rest(step_count)
+        self._step_count = step_count
+        self._unchecked = True if recheck or old is None else old._unchecked
+        if old is not None:
+            self.totals, self.last_stats = old.totals, old.last_stats
+        if not self.enabled:
+            return
+        was = old._index if old is not None and old.enabled else {}
+        for name, i in self._index.items():
+            j = was.get(name)
+            s = self.steppers[name]
+            if j is None:  # new here: its velocities now (no acceleration from before)
+                _, _, self._v[i], self._w[i] = s.components()
+                self._wrench_seen[i] = s.wrench
+                continue
+            self._v[i], self._w[i] = old._v[j], old._w[j]
+            self._asleep[i], self._slow_steps[i] = old._asleep[j], old._slow_steps[j]
+            self._wrench_seen[i] = old._wrench_seen[j]
+        if not was:
+            return
+        self._asleep[-1] = old._asleep[-1]
+        if self._asleep.any() and not old.warm_start:
+            # Without warm starts no record says what rested on a deleted body: wake all.
+            self._wake(np.arange(len(self._asleep)), step_count)
+        if not len(old._warm_keys):
+            return
+        # Warm starts keyed by (collider a, collider b, feature): renumbered, the pairs of a
+        # deleted collider dropped, sorted again (in the same order: both numberings follow
+        # the bodies' order, which a spawn or a delete keeps).
+        position = {cid: i for i, cid in enumerate(self._collider_ids)}
+        mapping = np.array([position.get(cid, -1) for cid in old._collider_ids],
+                           dtype=np.int64)
+        old_total = max(len(old._collider_ids), 1)
+        total = max(len(self._collider_ids), 1)
+        keys = old._warm_keys
+        pair, feature = keys >> ws.FEATURE_BITS, keys & ((1 << ws.FEATURE_BITS) - 1)
+        a, b = mapping[pair // old_total], mapping[pair % old_total]
+        keep = (a >= 0) & (b >= 0)
+        new_keys = ((a * total + b) << ws.FEATURE_BITS) + feature
+        order = np.argsort(new_keys[keep], kind='mergesort')
+        self._warm_keys = new_keys[keep][order]
+        self._warm_normal = old._warm_normal[keep][order]
+        self._warm_tangent = old._warm_tangent[keep][order]
+        # A sleeper that rested on a deleted body (their contact is among the warm starts
+        # kept while asleep) wakes, or it would hang in the air; its neighbours wake at the
+        # next broad phase.
+        gone = np.concatenate([a[~keep & (a >= 0)], b[~keep & (b >= 0)]])
+        touched = np.unique(self._cbody[gone[gone < len(self._cbody)]])
+        if len(touched):
+            self._wake(touched, step_count)
 
     @property
     def sleeping(self) -> list[str]:

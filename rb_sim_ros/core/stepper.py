@@ -364,6 +364,22 @@ class Stepper(FixedStep):
         row[K.HISTORY] = K.HISTORY_NONE
         K.evaluate(self._store.state, self._store.params, self._row)
 
+    def take_over(self, other: 'Stepper') -> None:
+        """Go on with ``other``'s motion as if it had always been this stepper's: its row
+        (state, history, held wrench, damping and gravity), clock and work counts are copied
+        bit for bit. For a world rebuilt around its bodies (a body spawned or deleted): the
+        same body, dt and method, else ValueError."""
+        if not isinstance(other, Stepper) or other._dt != self._dt or \
+                other._method != self._method or other._body.mass != self._body.mass or \
+                not np.array_equal(other._body.inertia, self._body.inertia):
+            raise ValueError('take_over needs a stepper of the same body, dt and method')
+        store, row = self._store, self._row
+        store.state[row] = other._store.state[other._row]
+        store.params[row] = other._store.params[other._row]
+        store.work[row] = other._store.work[other._row]
+        store.clock[row] = other._store.clock[other._row]
+        self._wrench, self._has_state = other._wrench, other._has_state
+
     def rest(self, n: int) -> None:
         """Count ``n`` >= 0 steps spent asleep (the collision world's): the clock advances,
         the state, at rest, does not."""

@@ -11,7 +11,7 @@ events at the same steps reproduce a run bit for bit, whatever the scheduling wa
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Any, Union
 
 from rb_sim_ros.contact.bodies import BodySpec, ContactSettings, make_steppers
@@ -21,8 +21,8 @@ from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import finite_floats, State, Wrench, ZERO_WRENCH
 from rb_sim_ros.core.stepper import step_all, Stepper
 
-__all__ = ['BodySpec', 'Config', 'ContactSettings', 'Event', 'make_steppers', 'Reset',
-           'SetPose', 'SetTwist', 'SetWrench', 'Simulation']
+__all__ = ['BodySpec', 'Config', 'ContactSettings', 'Delete', 'Event', 'make_steppers', 'Reset',
+           'SetPose', 'SetTwist', 'SetWrench', 'Simulation', 'Spawn']
 
 
 @dataclass(frozen=True)
@@ -155,7 +155,27 @@ class Reset:
                                           self.angular)
 
 
-Event = Union[SetWrench, SetPose, SetTwist, Reset]
+@dataclass(frozen=True)
+class Spawn:
+    """Add the body ``spec`` to the run, at its initial state (which a reset goes back to);
+    its name must be new. The other bodies go on as they were."""
+
+    spec: BodySpec
+
+    @property
+    def body(self) -> str:
+        return self.spec.name
+
+
+@dataclass(frozen=True)
+class Delete:
+    """Take the body called ``body`` out of the run (a run keeps at least one body)."""
+
+    body: str
+
+
+Event = Union[SetWrench, SetPose, SetTwist, Reset, Spawn, Delete]
+EVENTS = (SetWrench, SetPose, SetTwist, Reset, Spawn, Delete)
 
 
 class Simulation:
@@ -169,17 +189,30 @@ class Simulation:
     """
 
     def __init__(self, config: Config) -> None:
-        self.config = config
         self._step_count = 0
-        self.world = None
-        if config.collides:
-            self.world = CollisionWorld.from_config(config, **config.contact.world_arguments())
-            self.steppers = self.world.steppers
-            self.static = self.world.static
+        self._use(config, *_build(config))
+        self.spawned: list[str] = []  # bodies spawned and not deleted since, in order
+
+    def _use(self, config: Config, world, steppers, static) -> None:
+        self.config, self.world, self.steppers, self.static = config, world, steppers, static
+        self._moving = tuple(steppers.values())
+
+    def _rebuild(self, config: Config, recheck: bool) -> None:
+        """Go on with the bodies of ``config``: those of the run keep their motion bit for
+        bit, a new one starts at its initial state (see CollisionWorld.rebuilt). Built in
+        full before anything changes: a ValueError leaves the run as it was."""
+        world, steppers, static = _build(config)
+        if world is not None:
+            world.carry(self.world, self.steppers, self._step_count, recheck)
+            if self.world is None:
+                world.warm_up()  # the first world of this run: compiled (or loaded) now
         else:
-            self.steppers, self.static = make_steppers(config.bodies, config.dt,
-                                                       config.integrator, config.gravity)
-        self._moving = tuple(self.steppers.values())
+            for name, s in steppers.items():
+                if name in self.steppers:
+                    s.take_over(self.steppers[name])
+                else:
+                    s.rest(self._step_count)  # a new body: its clock is the run's
+        self._use(config, world, steppers, static)
 
     @property
     def stepper(self) -> Stepper:
@@ -271,10 +304,16 @@ class Simulation:
 
     def apply(self, event: Event) -> None:
         """Apply ``event`` now: it takes effect from the next step. Validated first."""
-        if not isinstance(event, (SetWrench, SetPose, SetTwist, Reset)):
-            raise ValueError(f'event must be SetWrench, SetPose, SetTwist or Reset, '
+        if not isinstance(event, EVENTS):
+            raise ValueError(f'event must be one of {", ".join(e.__name__ for e in EVENTS)}, '
                              f'got {event!r}')
+        if isinstance(event, Spawn):
+            self._spawn(event.spec)
+            return
         spec = self.config.body(event.body)
+        if isinstance(event, Delete):
+            self._delete(spec.name)
+            return
         if spec.static:
             raise ValueError(f"body '{spec.name}' is static")
         s = self.steppers[spec.name]
@@ -294,6 +333,23 @@ class Simulation:
             self.world.set_state(spec.name, state)  # contacts are checked before the next step
         else:
             s.set_state(state)
+
+    def _spawn(self, spec: BodySpec) -> None:
+        if not isinstance(spec, BodySpec):
+            raise ValueError(f'a spawned body must be a BodySpec, got {spec!r}')
+        if any(b.name == spec.name for b in self.config.bodies):
+            raise ValueError(f"there is a body named '{spec.name}' already")
+        # Checked against a new body: contacts before the next step integrates.
+        self._rebuild(replace(self.config, bodies=self.config.bodies + (spec,)), True)
+        self.spawned.append(spec.name)
+
+    def _delete(self, name: str) -> None:
+        bodies = tuple(b for b in self.config.bodies if b.name != name)
+        if not bodies:
+            raise ValueError(f"'{name}' is the last body: a run keeps at least one")
+        self._rebuild(replace(self.config, bodies=bodies), False)
+        if name in self.spawned:
+            self.spawned.remove(name)
 
     def warm_up(self) -> None:
         """Compile (or load from the compilation cache) every kernel this run's steps need,
@@ -339,3 +395,12 @@ class Simulation:
             raise ValueError(f'event at step {events[i][0]} is in the past '
                              f'(now at step {self.step_count})')
         return events[i:]
+
+
+def _build(config: Config):
+    """(collision world or None, steppers by name, static states by name) of ``config``'s
+    bodies at their initial states."""
+    if config.collides:
+        world = CollisionWorld.from_config(config, **config.contact.world_arguments())
+        return world, world.steppers, world.static
+    return (None, *make_steppers(config.bodies, config.dt, config.integrator, config.gravity))

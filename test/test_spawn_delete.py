@@ -1,0 +1,173 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Spawning and deleting bodies mid-run, without ROS: the bodies that stay go on bit for bit
+as in a run without the change, a spawned body moves as the same body alone would from its
+state, contacts start and stop with the bodies, and a bad change changes nothing."""
+
+import math
+
+import pytest
+
+from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
+from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.core import multistep
+from rb_sim_ros.core.rigid_body import Wrench
+from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Delete, Reset,
+                                       SetWrench, Simulation, Spawn)
+
+G = (0.0, 0.0, -9.81)
+SPIN = BodySpec('spin', 2.0, (0.1, 0.2, 0.3), initial_position=(0.0, 0.0, 5.0),
+                initial_angular_velocity=(0.3, 1.0, 2.0))
+PUSHED = BodySpec('pushed', 1.0, (0.1, 0.1, 0.1), initial_position=(3.0, 0.0, 5.0))
+FAR = BodySpec('far', 0.5, (0.01, 0.02, 0.015), initial_position=(100.0, 0.0, 0.0),
+               initial_linear_velocity=(1.0, 0.0, 2.0),
+               initial_angular_velocity=(0.0, 3.0, 0.1))
+WRENCH = Wrench((1.0, 0.0, 0.0), (0.0, 0.02, 0.01))
+
+
+def _with(spec, **colliders):
+    from dataclasses import replace
+    return replace(spec, **colliders)
+
+
+def _pair(bodies, method):
+    config = Config(gravity=G, bodies=bodies, integrator=method)
+    return Simulation(config), Simulation(config)
+
+
+@pytest.mark.parametrize('method', sorted(multistep.METHODS))
+@pytest.mark.parametrize('collide', [False, True])
+def test_the_bodies_that_stay_go_on_bit_for_bit(method, collide):
+    """Spawn a body far away and delete another: the remaining body's every bit is that of
+    the run with neither (its history, held wrench and clock carried over), with or without
+    a collision world, for every method."""
+    extra = {'colliders': (Sphere(0.1),)} if collide else {}
+    spin, pushed, far = (_with(b, **extra) for b in (SPIN, PUSHED, FAR))
+    plain, changed = _pair((spin, pushed), method)
+    for sim in (plain, changed):
+        sim.run(23)
+        sim.apply(SetWrench(WRENCH, 'spin'))
+        sim.run(7)
+    changed.apply(Spawn(far))
+    changed.run(40)
+    changed.apply(Delete('pushed'))
+    plain.run(40)
+    for sim in (plain, changed):
+        sim.run(61)
+    assert changed.pose_twist('spin') == plain.pose_twist('spin')
+    assert changed.wrench('spin') == WRENCH
+    assert changed.step_count == plain.step_count == 131
+    assert changed.steppers['spin'].step_count == 131
+    assert [b.name for b in changed.config.bodies] == ['spin', 'far']
+    assert changed.spawned == ['far']
+    assert (changed.world is not None) == collide
+    # The spawned body moved as it would alone from its initial state: dynamics do not
+    # depend on the clock.
+    alone = Simulation(Config(gravity=G, bodies=(far,), integrator=method))
+    alone.run(101)
+    assert changed.pose_twist('far') == alone.pose_twist('far')
+    assert changed.steppers['far'].step_count == 131  # on the run's clock
+
+
+def test_a_spawned_ball_lands_on_the_ground_and_rests():
+    """A ball spawned over a scene without colliders brings the collision world in: it falls
+    freely (x = x0 - g t^2 / 2 while in the air) and comes to rest on the ground."""
+    ground = BodySpec('ground', static=True)  # no colliders yet: no collision code
+    sim = Simulation(Config(gravity=G, bodies=(SPIN, ground)))
+    sim.run(10)
+    assert sim.world is None
+    sim.apply(Delete('ground'))
+    sim.apply(Spawn(BodySpec('ground', static=True,
+                             colliders=(Plane((0.0, 0.0, 1.0)),))))
+    ball = BodySpec('ball', 1.0, (0.004,) * 3, initial_position=(5.0, 0.0, 1.0),
+                    colliders=(Sphere(0.1),))
+    sim.apply(Spawn(ball))
+    assert sim.world is not None
+    sim.run(200)  # 0.2 s: 0.196 m down, still in the air
+    t = 0.2
+    z = sim.pose_twist('ball')[0][2]
+    assert z == pytest.approx(1.0 - 0.5 * 9.81 * t * t, abs=0.01)
+    sim.run(3000)
+    x, _, v, _ = sim.pose_twist('ball')
+    assert x[2] == pytest.approx(0.1, abs=2e-3)
+    assert math.hypot(*v) < 1e-2
+
+
+def test_deleting_the_ground_drops_what_rested_on_it():
+    """A box asleep on a static plane wakes and falls freely once the plane is deleted."""
+    box = BodySpec('box', 1.0, (1 / 6,) * 3, initial_position=(0.0, 0.0, 0.25),
+                   colliders=(Box((0.5, 0.5, 0.5)),))
+    ground = BodySpec('ground', static=True, colliders=(Plane((0.0, 0.0, 1.0)),))
+    sim = Simulation(Config(gravity=G, bodies=(box, ground),
+                            contact=ContactSettings(sleep_time=0.2)))
+    sim.run(1000)
+    assert sim.world.sleeping == ['box']
+    z0 = sim.pose_twist('box')[0][2]
+    assert z0 == pytest.approx(0.25, abs=2e-3)  # half of the 0.5 m edge
+    sim.apply(Delete('ground'))
+    sim.run(300)
+    z, v = sim.pose_twist('box')[0][2], sim.pose_twist('box')[2][2]
+    assert v == pytest.approx(-9.81 * 0.3, rel=1e-9)
+    assert z == pytest.approx(z0 - 0.5 * 9.81 * 0.3 ** 2, abs=1e-3)
+
+
+def test_without_warm_starts_a_delete_wakes_every_sleeper():
+    """No warm start records what rested on what: every sleeper wakes (and falls)."""
+    box = BodySpec('box', 1.0, (1 / 6,) * 3, initial_position=(0.0, 0.0, 0.25),
+                   colliders=(Box((0.5, 0.5, 0.5)),))
+    ground = BodySpec('ground', static=True, colliders=(Plane((0.0, 0.0, 1.0)),))
+    world = CollisionWorld((box, ground), 1e-3, G, warm_start=False, sleep_time=0.2)
+    world.step(1000)
+    assert world.sleeping == ['box']
+    world = world.rebuilt((box,), recheck=False)
+    assert world.sleeping == []
+    world.step(100)
+    assert world.state('box').linear_velocity[2] == pytest.approx(-9.81 * 0.1, rel=1e-9)
+
+
+def test_a_resting_pile_stays_put_when_a_body_appears_elsewhere():
+    """Sleep state and warm starts carry over: a box asleep on the ground stays asleep and
+    exactly where it was when a ball is spawned far away, and keeps resting after it lands."""
+    box = BodySpec('box', 1.0, (1 / 6,) * 3, initial_position=(0.0, 0.0, 0.25),
+                   colliders=(Box((0.5, 0.5, 0.5)),))
+    ground = BodySpec('ground', static=True, colliders=(Plane((0.0, 0.0, 1.0)),))
+    sim = Simulation(Config(gravity=G, bodies=(box, ground),
+                            contact=ContactSettings(sleep_time=0.2)))
+    sim.run(1000)
+    assert sim.world.sleeping == ['box']
+    rest = sim.pose_twist('box')
+    sim.apply(Spawn(BodySpec('ball', 1.0, (0.004,) * 3, initial_position=(20.0, 0.0, 1.0),
+                             colliders=(Sphere(0.1),))))
+    sim.run(1000)
+    assert 'box' in sim.world.sleeping
+    assert sim.pose_twist('box') == rest
+
+
+def test_reset_puts_a_spawned_body_back_where_it_appeared():
+    sim = Simulation(Config(gravity=G, bodies=(SPIN,)))
+    sim.run(5)
+    sim.apply(Spawn(FAR))
+    sim.run(50)
+    assert sim.pose_twist('far')[0] != FAR.initial_position
+    sim.apply(Reset(body='far'))
+    assert sim.pose_twist('far') == (FAR.initial_position, FAR.initial_orientation_xyzw,
+                                     FAR.initial_linear_velocity, FAR.initial_angular_velocity)
+
+
+def test_bad_changes_change_nothing():
+    sim = Simulation(Config(gravity=G, bodies=(SPIN, PUSHED)))
+    sim.run(3)
+    before = (sim.config, sim.pose_twist('spin'), sim.pose_twist('pushed'))
+    with pytest.raises(ValueError, match="a body named 'pushed' already"):
+        sim.apply(Spawn(_with(FAR, name='pushed')))
+    with pytest.raises(ValueError, match="no body named 'nobody'"):
+        sim.apply(Delete('nobody'))
+    with pytest.raises(ValueError, match='must be a BodySpec'):
+        sim.apply(Spawn('far'))
+    sim.apply(Delete('pushed'))
+    with pytest.raises(ValueError, match='last body'):
+        sim.apply(Delete('spin'))
+    with pytest.raises(ValueError, match="no body named 'pushed'"):
+        sim.apply(SetWrench(WRENCH, 'pushed'))
+    assert sim.pose_twist('spin') == before[1]
+    assert [b.name for b in sim.config.bodies] == ['spin']
