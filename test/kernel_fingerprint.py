@@ -77,7 +77,7 @@ def _sim_digest(sim, names) -> str:
 def demo() -> str:
     """The collision demo scene, 1.5 s of it (the bodies fall, hit and roll), with a wrench
     on the crate half way."""
-    gravity, bodies, contact, _ = load_scene(str(SCENES / 'collisions.yaml'))
+    gravity, bodies, contact = load_scene(str(SCENES / 'collisions.yaml'))[:3]
     sim = Simulation(Config(gravity=gravity, bodies=tuple(bodies), contact=contact))
     sim.run(750)
     sim.apply(SetWrench(Wrench(force=(3.0, 0.0, 0.0), torque=(0.0, 0.0, 0.5)), 'crate'))
@@ -134,7 +134,7 @@ def high_order() -> str:
                      rng.normal(size=(len(torqued), 3)), ['world', 'body'] * (len(torqued) // 2))
         b.step(20)
         out.extend(_batch_reads(b))
-    gravity, bodies, contact, _ = load_scene(str(SCENES / 'collisions.yaml'))
+    gravity, bodies, contact = load_scene(str(SCENES / 'collisions.yaml'))[:3]
     digest = _digest(*out)
     for method in ('lie4', 'flow4'):
         sim = Simulation(Config(gravity=gravity, bodies=tuple(bodies), contact=contact,

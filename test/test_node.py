@@ -315,7 +315,7 @@ def test_a_scene_gives_each_body_its_topics(start_sim, probe, tmp_path):
     assert poses['a'][0].header.frame_id == 'world'
 
     from rb_sim_ros.sim.scene import load_scene
-    gravity, bodies, contact, _ = load_scene(str(scene))
+    gravity, bodies, contact = load_scene(str(scene))[:3]
     sim = Simulation(Config(gravity=gravity, bodies=bodies, contact=contact))
     events = [(stamp_ns(applied[0].header.stamp) // DT_NS,
                SetWrench(CoreWrench((0.0, 0.0, 19.62), (0.0, 0.01, 0.0)), 'a'))]

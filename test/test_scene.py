@@ -5,12 +5,13 @@
 import json
 import math
 from pathlib import Path
+import re
 
 import numpy as np
 import pytest
 
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
-from rb_sim_ros.sim.scene import load_scene, mass_and_inertia, SceneError
+from rb_sim_ros.sim.scene import body_entry, load_scene, mass_and_inertia, SceneError
 from rb_sim_ros.sim.simulation import Config, ContactSettings
 
 SCENES = Path(__file__).resolve().parents[1] / 'scenes'
@@ -18,7 +19,7 @@ EXAMPLE = SCENES / 'example.yaml'
 
 
 def test_example_scene_loads():
-    gravity, bodies, contact, _ = load_scene(str(EXAMPLE))
+    gravity, bodies, contact = load_scene(str(EXAMPLE))[:3]
     assert gravity == (0.0, 0.0, -9.81)
     assert [b.name for b in bodies] == ['satellite', 'crate', 'ball', 'pillar']
     crate = bodies[1]
@@ -28,7 +29,7 @@ def test_example_scene_loads():
 
 
 def test_collision_scene_loads_colliders_and_contact_settings():
-    gravity, bodies, contact, _ = load_scene(str(SCENES / 'collisions.yaml'))
+    gravity, bodies, contact = load_scene(str(SCENES / 'collisions.yaml'))[:3]
     assert contact == ContactSettings(restitution=0.5, friction=0.6, rolling_resistance=0.002)
     by_name = {b.name: b for b in bodies}
     assert by_name['ball'].colliders == (Sphere(0.1),)           # 'shape': the body's own
@@ -169,3 +170,55 @@ def test_points(tmp_path):
         f.write_text(f'bodies:\n  - {{name: a, mass: 1, inertia: [1, 1, 1], points: {bad}}}\n')
         with pytest.raises(SceneError, match=why):
             load_scene(str(f))
+
+
+def test_templates_are_bodies_named_by_their_key(tmp_path):
+    f = tmp_path / 's.yaml'
+    f.write_text('bodies: [{name: a, mass: 1, inertia: [1, 1, 1]}]\n'
+                 'templates:\n'
+                 '  crate: {shape: box, size: [0.4, 0.3, 0.2], density: 500, colliders: shape}\n'
+                 '  post: {static: true, position: [1, 2, 3]}\n')
+    crate, post = load_scene(str(f)).templates
+    assert crate.name == 'crate' and crate.mass == pytest.approx(500 * 0.4 * 0.3 * 0.2)
+    assert crate.colliders == (Box((0.4, 0.3, 0.2)),)
+    assert post.static and post.initial_position == (1.0, 2.0, 3.0)
+
+
+@pytest.mark.parametrize('templates, words', [
+    ('[1]', 'templates: must be a mapping'),
+    ('{t: 1}', 'template t: must be a mapping'),
+    ('{t: {name: u, mass: 1, inertia: [1, 1, 1]}}', 'template t: name: a template is named'),
+    ('{t: {mass: -1, inertia: [1, 1, 1]}}', 'template t'),
+    ('{1t: {mass: 1, inertia: [1, 1, 1]}}', 'name'),
+])
+def test_bad_templates_name_the_template_and_field(tmp_path, templates, words):
+    f = tmp_path / 's.yaml'
+    f.write_text(f'bodies: [{{name: a, mass: 1, inertia: [1, 1, 1]}}]\ntemplates: {templates}\n')
+    with pytest.raises(SceneError, match=re.escape(words)):
+        load_scene(str(f))
+
+
+def test_a_body_entry_as_text_is_a_scene_body():
+    spec = body_entry('{mass: 2, inertia: [0.1, 0.2, 0.3], position: [1, 2, 3], '
+                      'colliders: [{type: sphere, radius: 0.1}]}', 'probe')
+    assert (spec.name, spec.mass, spec.initial_position) == ('probe', 2.0, (1.0, 2.0, 3.0))
+    assert spec.colliders == (Sphere(0.1),)
+    assert body_entry('{"name": "j", "mass": 1, "inertia": [1, 1, 1]}').name == 'j'  # JSON
+    assert body_entry('{mass: 1, inertia: [1, 1, 1]}', default='entity').name == 'entity'
+
+
+@pytest.mark.parametrize('text, words', [
+    ('[1, 2]', 'must be a body entry'),
+    ('{mass: 1, inertia: [1, 1, 1]}', 'name: missing'),
+    ('{mass: [', 'not valid YAML'),
+    ('{mass: 1, inertia: [1, 1, 1], mass: 2}', 'given twice'),
+    ('{mass: 1, inertia: [1, 1, 5]}', 'inertia'),
+    ('{mass: 1, inertia: [1, 1, 1], wings: 2}', 'unknown field'),
+    ('{mass: 1, inertia: [1, 1, 1], colliders: [{type: plane}]}', 'only allowed on a static'),
+    ('x' * 70_000, 'longer than'),
+    ('[' * 100 + ']' * 100, 'resource_string'),
+])
+def test_a_bad_body_entry_is_one_line_naming_the_field(text, words):
+    with pytest.raises(SceneError, match=re.escape(words)) as e:
+        body_entry(text, '' if 'name: missing' in words else 'x')
+    assert str(e.value).startswith('resource_string') and '\n' not in str(e.value)

@@ -18,12 +18,14 @@ import pytest
 from rclpy.action import ActionClient
 from rosbags.highlevel import AnyReader
 from scipy.spatial.transform import Rotation
+from sensor_msgs.msg import Imu
 from simulation_interfaces.action import SimulateSteps
 from simulation_interfaces.msg import (EntityCategory, EntityState, Result, SimulationState,
                                        SimulatorFeatures)
-from simulation_interfaces.srv import (GetEntities, GetEntityState, GetSimulationState,
-                                       GetSimulatorFeatures, ResetSimulation, SetEntityState,
-                                       SetSimulationState, StepSimulation)
+from simulation_interfaces.srv import (DeleteEntity, GetEntities, GetEntityState,
+                                       GetSimulationState, GetSimulatorFeatures, GetSpawnables,
+                                       ResetSimulation, SetEntityState, SetSimulationState,
+                                       SpawnEntity, StepSimulation)
 
 from ros_harness import stamp_ns
 
@@ -95,13 +97,12 @@ def test_the_standard_api_drives_the_simulator(start_sim, probe, tmp_path, insta
                     '-p', f'record:={f}')
     features = probe.call(GetSimulatorFeatures, 'get_simulator_features',
                           GetSimulatorFeatures.Request()).features
-    # Truthful: what is served is listed, spawning and deleting are not (nor served).
+    # Truthful: what is served is listed, time reset is not.
     assert {SimulatorFeatures.STEP_SIMULATION_ACTION, SimulatorFeatures.ENTITY_STATE_SETTING,
-            SimulatorFeatures.SIMULATION_RESET_STATE} <= set(features.features)
-    assert not {SimulatorFeatures.SPAWNING, SimulatorFeatures.DELETING,
-                SimulatorFeatures.SIMULATION_RESET_TIME} & set(features.features)
-    assert probe.node.get_service_names_and_types() and not any(
-        n.endswith('spawn_entity') for n, _ in probe.node.get_service_names_and_types())
+            SimulatorFeatures.SIMULATION_RESET_STATE, SimulatorFeatures.SPAWNING,
+            SimulatorFeatures.DELETING, SimulatorFeatures.SPAWNABLES} <= set(features.features)
+    assert SimulatorFeatures.SIMULATION_RESET_TIME not in features.features
+    assert list(features.spawn_formats) == ['yaml']
 
     # Entities, by name pattern and category.
     def entities(pattern='', *categories):
@@ -256,3 +257,121 @@ def test_a_name_pattern_that_backtracks_for_ever_cannot_hang_the_node():
     for bad in ('a{4294967296}', '(' * 499 + ')' * 499):  # not re.error: overflow, recursion
         with pytest.raises(ValueError, match='not a regular expression'):
             match_names(bad, names)
+
+
+SPAWN_SCENE = ('gravity: [0, 0, -9.81]\n'
+               'bodies:\n'
+               '  - {name: sat, mass: 1.0, inertia: [0.1, 0.2, 0.3], position: [0, 5, 3]}\n'
+               '  - name: ground\n'
+               '    static: true\n'
+               '    colliders: [{type: plane, normal: [0, 0, 1], offset: 0}]\n'
+               'templates:\n'
+               '  ball: {shape: sphere, radius: 0.1, density: 1000, colliders: shape}\n')
+
+
+def _spawn(probe, name='', uri='', resource='', position=None, frame='', rename=False,
+           namespace=''):
+    req = SpawnEntity.Request(name=name, uri=uri, resource_string=resource,
+                              allow_renaming=rename, entity_namespace=namespace)
+    if position is not None:
+        req.initial_pose.pose.position.x, req.initial_pose.pose.position.y, \
+            req.initial_pose.pose.position.z = position
+    req.initial_pose.header.frame_id = frame
+    reply = probe.call(SpawnEntity, 'spawn_entity', req)
+    return reply.result.result, reply.entity_name, reply.result.error_message
+
+
+def _names(probe):
+    return list(probe.call(GetEntities, 'get_entities', GetEntities.Request()).entities)
+
+
+def _delete(probe, name):
+    return probe.call(DeleteEntity, 'delete_entity',
+                      DeleteEntity.Request(entity=name)).result.result
+
+
+def test_spawned_and_deleted_bodies_move_publish_and_replay(
+        start_sim, probe, tmp_path, installed, ros_env):
+    """Bodies spawned from a template and from a body entry fall as free bodies do and land,
+    get their own topics, go away when deleted or reset; every change is recorded and the
+    run replays bit for bit (IMU noise streams and /tf included)."""
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(SPAWN_SCENE)
+    f = tmp_path / 'run.mcap'
+    sim = start_sim('-p', f'scene_file:={scene}', '-p', 'start_paused:=true',
+                    '-p', f'record:={f}', '-p', 'imu_accel_noise:=0.01')
+    spawnables = probe.call(GetSpawnables, 'get_spawnables', GetSpawnables.Request())
+    assert [s.uri for s in spawnables.spawnables] == ['ball']
+
+    assert _spawn(probe, uri='ball', position=(0.0, 0.0, 1.0))[:2] == (OK, 'ball')
+    assert _spawn(probe, uri='ball')[0] == SpawnEntity.Response.NAME_NOT_UNIQUE
+    assert _spawn(probe, uri='ball', position=(2.0, 0.0, 1.0), rename=True)[:2] == \
+        (OK, 'ball_2')
+    entry = '{mass: 2.0, inertia: [0.1, 0.2, 0.3], angular_velocity: [0, 0, 1]}'
+    assert _spawn(probe, 'probe', resource=entry, position=(0.0, 0.0, 1.0),
+                  frame='ball_2')[:2] == (OK, 'probe')
+    # In ball_2's frame (identity rotation at (2, 0, 1)): at (2, 0, 2), exactly.
+    assert _bits(*_pose(_state(probe, 'probe'))[0]) == _bits(2.0, 0.0, 2.0)
+    assert _state(probe, 'probe').twist.angular.z == 1.0
+
+    # Refusals, each with its code, change nothing.
+    names = _names(probe)
+    assert names == ['sat', 'ground', 'ball', 'ball_2', 'probe']
+    R = SpawnEntity.Response
+    assert _spawn(probe, 'x', resource='{mass: -1, inertia: [1, 1, 1]}')[0] == \
+        R.RESOURCE_PARSE_ERROR
+    assert _spawn(probe, 'x', resource='mass: [')[0] == R.RESOURCE_PARSE_ERROR
+    assert _spawn(probe, 'x', uri='file:///etc/passwd')[0] == R.UNSUPPORTED_FORMAT
+    assert _spawn(probe, 'x')[0] == R.NO_RESOURCE
+    assert _spawn(probe, '1x', uri='ball')[0] == R.NAME_INVALID
+    assert _spawn(probe, 'x', uri='ball', namespace='ns')[0] == R.NAMESPACE_INVALID
+    assert _spawn(probe, 'x', uri='ball', position=(float('nan'), 0.0, 0.0))[0] == \
+        R.INVALID_POSE
+    assert _spawn(probe, 'x', uri='ball', position=(1.0, 0.0, 0.0), frame='nowhere')[0] == \
+        R.INVALID_POSE
+    assert _delete(probe, 'nobody') == Result.RESULT_NOT_FOUND
+    assert _names(probe) == names
+
+    # They move: the balls fall freely (0.2 s: z = 1 - g t^2 / 2), then land on the ground
+    # (a collision world that a spawn brought along), on their own topics.
+    poses = probe.collect(PoseStamped, 'ball/pose')
+    imu = probe.collect(Imu, 'probe/imu')
+    assert probe.call(StepSimulation, 'step_simulation',
+                      StepSimulation.Request(steps=200)).result.result == OK
+    z = _pose(_state(probe, 'ball'))[0][2]
+    assert z == pytest.approx(1.0 - 0.5 * 9.81 * 0.2 ** 2, abs=1e-3)
+    probe.wait_for(lambda: poses and imu, what='the spawned bodies on their topics')
+    assert probe.call(StepSimulation, 'step_simulation',
+                      StepSimulation.Request(steps=1500)).result.result == OK
+    assert _pose(_state(probe, 'ball_2'))[0][2] == pytest.approx(0.1, abs=2e-3)
+    assert _pose(_state(probe, 'sat'))[0][2] < 3.0 - 9.0  # the scene's own body fell freely
+
+    # Deleted: gone, its topics too; the others go on.
+    assert _delete(probe, 'ball_2') == OK
+    assert _delete(probe, 'ball_2') == Result.RESULT_NOT_FOUND
+    assert 'ball_2' not in _names(probe)
+    published = probe.node.get_publisher_names_and_types_by_node('rb_sim', '/')
+    assert not any(t == '/ball_2/pose' for t, _ in published)
+    assert probe.call(StepSimulation, 'step_simulation',
+                      StepSimulation.Request(steps=30)).result.result == OK
+    # Reset of what was spawned: the scene's bodies again; a name can come back.
+    assert probe.call(ResetSimulation, 'reset_simulation', ResetSimulation.Request(
+        scope=ResetSimulation.Request.SCOPE_SPAWNED)).result.result == OK
+    assert _names(probe) == ['sat', 'ground']
+    assert _spawn(probe, uri='ball', position=(0.0, 0.0, 0.5))[:2] == (OK, 'ball')
+    # While playing, too.
+    assert probe.call(SetSimulationState, 'set_simulation_state', SetSimulationState.Request(
+        state=SimulationState(state=SimulationState.STATE_PLAYING))).result.result == OK
+    late = probe.collect(PoseStamped, 'late/pose')
+    assert _spawn(probe, 'late', resource=entry)[:2] == (OK, 'late')
+    probe.wait_for(lambda: len(late) > 5, what='a body spawned while playing, publishing')
+    sim.stop()
+
+    result = subprocess.run([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), '--verify',
+                             str(f)], env=ros_env, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stdout + result.stderr
+    with AnyReader([f]) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+    assert counts['/rb_sim/input/ball/spawn'] == 2 and counts['/rb_sim/input/ball/delete'] == 1
+    assert counts['/rb_sim/input/ball_2/delete'] == 1 and counts['/late/imu'] > 5
+    assert counts['/ball/pose'] > 0

@@ -171,3 +171,23 @@ def test_bad_changes_change_nothing():
         sim.apply(SetWrench(WRENCH, 'pushed'))
     assert sim.pose_twist('spin') == before[1]
     assert [b.name for b in sim.config.bodies] == ['spin']
+
+
+def test_a_body_resting_in_contact_goes_on_bit_for_bit_when_another_is_deleted():
+    """Awake (no sleeping) on the ground, a box's contacts are warm-started from the step
+    before, by collider numbers: deleting a body renumbers them, and the box still takes
+    every bit of the run in which that body never was."""
+    box = BodySpec('box', 1.0, (1 / 6,) * 3, initial_position=(0.0, 0.0, 0.25),
+                   initial_angular_velocity=(0.0, 0.0, 0.3),
+                   colliders=(Box((0.5, 0.5, 0.5)),))
+    ground = BodySpec('ground', static=True, colliders=(Plane((0.0, 0.0, 1.0)),))
+    high = BodySpec('high', 1.0, (0.004,) * 3, initial_position=(0.0, 0.0, 1000.0),
+                    colliders=(Sphere(0.1),))
+    contact = ContactSettings(sleep_time=0.0, friction=0.3)
+    changed = Simulation(Config(gravity=G, bodies=(high, box, ground), contact=contact))
+    plain = Simulation(Config(gravity=G, bodies=(box, ground), contact=contact))
+    changed.run(300)
+    changed.apply(Delete('high'))
+    changed.run(300)
+    plain.run(600)
+    assert changed.last_contacts() and plain.pose_twist('box') == changed.pose_twist('box')

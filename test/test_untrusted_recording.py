@@ -26,7 +26,8 @@ from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.ros import node_params, replay
 from rb_sim_ros.ros.node_recorder import NodeRecorder
 from rb_sim_ros.ros.ros_messages import OutputMessages
-from rb_sim_ros.sim.simulation import BodySpec, Config, SetWrench, Simulation
+from rb_sim_ros.sim.simulation import (BodySpec, Config, Delete, SetWrench, Simulation,
+                                       Spawn)
 from test_recording import disk_full_after
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
@@ -452,3 +453,105 @@ def test_a_full_disk_stops_the_node_recorder_quietly_and_recover_repairs_the_fil
     assert n > 0
     code, text, err = _verify(repaired)  # what was kept re-simulates bit for bit
     assert code == 0 and f'{n} of {n} recorded output messages compared' in text, text + err
+
+
+# -- bodies spawned and deleted in a run -------------------------------------------------------
+SPAWNED = BodySpec('b', 2.0, (0.1, 0.2, 0.3), initial_position=(1.0, 2.0, 3.0),
+                   initial_angular_velocity=(0.0, 0.5, 1.0))
+
+
+def _record_spawning(path, spawn_topics=None):
+    """The single body 'body', with 'b' spawned at period 2 (outputs on /b/...), pushed at
+    period 3 and deleted at period 6, recorded as the node records it (a spawned body's frame
+    is its name)."""
+    spec = BodySpec(initial_angular_velocity=(0.1, 0.2, 0.3))
+    config = Config(dt=0.001, steps_per_publish=10, bodies=(spec,))
+    params = _params()
+    rec = NodeRecorder(str(path), config, params, {'body': {k: f'/{k}' for k in OUTPUT_KINDS}})
+    sim = Simulation(config)
+    outs = {'body': OutputMessages(params['world_frame'], params['body_frame'],
+                                   params['twist_frame']),
+            'b': OutputMessages(params['world_frame'], 'b', params['twist_frame'])}
+    for period in range(9):
+        if period == 2:
+            sim.apply(Spawn(SPAWNED))
+            rec.spawned(sim.step_count, sim.time_ns, Spawn(SPAWNED), spawn_topics or
+                        {k: f'/b/{k}' for k in OUTPUT_KINDS})
+        if period == 3:
+            event = SetWrench(Wrench((0.0, 1.0, 0.0), (0.0, 0.0, 0.1)), 'b')
+            sim.apply(event)
+            rec.event(sim.step_count, sim.time_ns, event)
+        if period == 6:
+            sim.apply(Delete('b'))
+            rec.deleted(sim.step_count, sim.time_ns, 'b')
+        if period:
+            sim.run(config.steps_per_publish)
+        for name in [b.name for b in sim.config.bodies]:
+            outs[name].fill(sim.time_ns, *sim.pose_twist(name))
+            rec.output(name, sim.step_count, sim.time_ns, outs[name])
+    rec.close()
+    assert rec.failed is None
+
+
+def test_a_run_with_a_spawn_and_a_delete_verifies(tmp_path):
+    f = tmp_path / 'spawn.mcap'
+    _record_spawning(f)
+    code, out, err = _verify(f)
+    assert code == 0 and 'identical' in out, out + err
+    with AnyReader([f]) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+    assert counts['/b/pose'] == 4 and counts['/pose'] == 9  # b published in periods 2..5
+    assert counts['/rb_sim/input/b/spawn'] == counts['/rb_sim/input/b/delete'] == 1
+    # Without its spawn the outputs of 'b' belong to nothing: one line.
+    schemas, channels, messages, meta = _parts(f)
+    kept = [(t, m) for t, m in messages if t != '/rb_sim/input/b/spawn']
+    _assert_refused(_write(tmp_path / 'nospawn.mcap', schemas, channels, kept, meta),
+                    'neither an output named in the metadata or a spawn')
+    # Spawned later than its first output: found, one line.
+    moved = []
+    for topic, m in messages:
+        if topic == '/rb_sim/input/b/spawn':
+            m = type(m)(channel_id=m.channel_id, sequence=m.sequence + 10,
+                        log_time=m.log_time + 10_000_000, publish_time=m.publish_time,
+                        data=m.data)
+        moved.append((topic, m))
+    moved.sort(key=lambda tm: tm[1].log_time)
+    _assert_refused(_write(tmp_path / 'late.mcap', schemas, channels, moved, meta),
+                    "an output of 'b'", 'no such moving body')
+
+
+@pytest.mark.parametrize('case', ['not json', 'not a body', 'other name', 'topic taken',
+                                  'input topic', 'kinds'])
+def test_a_bad_spawn_in_a_recording_is_one_line(tmp_path, case):
+    f = tmp_path / 'spawn.mcap'
+    topics = {k: f'/b/{k}' for k in OUTPUT_KINDS}
+    if case == 'topic taken':
+        topics = {**topics, 'pose': '/pose'}
+    elif case == 'input topic':
+        topics = {**topics, 'pose': '/rb_sim/input/b/pose'}
+    elif case == 'kinds':
+        topics = {k: v for k, v in topics.items() if k != 'odom'}
+    _record_spawning(f, topics)
+    schemas, channels, messages, meta = _parts(f)
+    spoiled = []
+    for topic, m in messages:
+        if topic == '/rb_sim/input/b/spawn' and case in ('not json', 'not a body', 'other name'):
+            n = int.from_bytes(m.data[4:8], 'little')  # after the CDR header; with the NUL
+            text = m.data[8:8 + n - 1].decode('latin-1')
+            text = {'not json': text.replace('{', '[', 1),
+                    'not a body': text.replace('"mass": 2.0', '"mass": -2.0'),
+                    'other name': text.replace('"name": "b"', '"name": "c"')}[case]
+            m = type(m)(channel_id=m.channel_id, sequence=m.sequence, log_time=m.log_time,
+                        publish_time=m.publish_time, data=_cdr_string(text))
+        spoiled.append((topic, m))
+    bad = _write(tmp_path / 'bad.mcap', schemas, channels, spoiled, meta)
+    words = {'not json': 'not JSON', 'not a body': 'mass', 'other name': "spawns 'c'",
+             'topic taken': 'not one of its own', 'input topic': 'not one of its own',
+             'kinds': 'it needs'}[case]
+    _assert_refused(bad, 'the input on /rb_sim/input/b/spawn at step 10 is invalid', words)
+
+
+def _cdr_string(text):
+    """A std_msgs/String as CDR (little endian): header, length with the NUL, bytes, NUL."""
+    data = text.encode('latin-1')
+    return b'\x00\x01\x00\x00' + (len(data) + 1).to_bytes(4, 'little') + data + b'\x00'

@@ -45,6 +45,7 @@ HARDENING = 'test/test_node_hardening.py::'
 MOTION = 'test/test_motion_sensing.py::'
 TF_IMU = 'test/test_tf_imu_node.py::'
 SIM_API = 'test/test_sim_interfaces.py::'
+SPAWN = 'test/test_spawn_delete.py::'
 
 # Eq. (14) of the report as printed: R_{n+1} = (exp([w + (4 b - b_prev)/6 dt] dt)
 # - ([b][w] + [w][b]) dt^3 / 12) R_n, i.e. no (b x w) term in the rotation vector and the
@@ -275,6 +276,26 @@ MUTANTS = [
        '            chunk = node.config.steps_per_publish')],
      [SIM_API + 'test_the_standard_api_drives_the_simulator'],
      'step_simulation rounds the steps asked up to whole publish periods'),
+    ('spawn-history-restarts', 'rb_sim_ros/core/stepper.py',
+     [('        store.state[row] = other._store.state[other._row]\n',
+       '        store.state[row] = other._store.state[other._row]\n'
+       '        store.state[row, K.HISTORY] = K.HISTORY_NONE\n')],
+     [SPAWN + 'test_the_bodies_that_stay_go_on_bit_for_bit'],
+     'a rebuilt world forgets the integrator history of the bodies it keeps'),
+    ('delete-leaves-sleepers-asleep', 'rb_sim_ros/contact/collision_world.py',
+     [('        if len(touched):\n            self._wake(touched, step_count)\n', '')],
+     [SPAWN + 'test_deleting_the_ground_drops_what_rested_on_it'],
+     'a box asleep on a deleted ground stays in the air'),
+    ('warm-starts-dropped-on-rebuild', 'rb_sim_ros/contact/collision_world.py',
+     [('        if not len(old._warm_keys):\n            return\n',
+       '        return\n')],
+     [SPAWN + 'test_a_body_resting_in_contact_goes_on_bit_for_bit_when_another_is_deleted'],
+     'warm starts dropped when the world is rebuilt around other bodies'),
+    ('spawned-frame-as-single-body', 'rb_sim_ros/ros/replay.py',
+     [('                    outs[event.body] = outputs_of(event.body, True)',
+       '                    outs[event.body] = outputs_of(event.body)')],
+     ['test/test_untrusted_recording.py::test_a_run_with_a_spawn_and_a_delete_verifies'],
+     "replay stamps a spawned body beside the single body with the single body's frame"),
 ]
 
 

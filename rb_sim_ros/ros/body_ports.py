@@ -79,13 +79,25 @@ class BodyPorts:
             QoSProfile(depth=APPLIED_QOS.depth, durability=APPLIED_QOS.durability), **over)
         self.state_pubs = ((self.pub_pose, self.out.pose), (self.pub_twist, self.out.twist),
                            (self.pub_odom, self.out.odom))
-        node.create_subscription(WrenchMsg, prefix + 'wrench', self._on_wrench, qos(), **over)
-        node.create_subscription(WrenchStamped, prefix + 'wrench_stamped',
-                                 self._on_wrench_stamped, qos(), **over)
-        node.create_subscription(PoseStamped, prefix + 'set_pose', self._on_set_pose, qos(),
-                                 **over)
-        node.create_subscription(Twist, prefix + 'set_twist', self._on_set_twist, qos(),
-                                 **over)
+        self._subs = [
+            node.create_subscription(WrenchMsg, prefix + 'wrench', self._on_wrench, qos(),
+                                     **over),
+            node.create_subscription(WrenchStamped, prefix + 'wrench_stamped',
+                                     self._on_wrench_stamped, qos(), **over),
+            node.create_subscription(PoseStamped, prefix + 'set_pose', self._on_set_pose,
+                                     qos(), **over),
+            node.create_subscription(Twist, prefix + 'set_twist', self._on_set_twist, qos(),
+                                     **over)]
+
+    def destroy(self, node) -> None:
+        """Take the body's topics off ``node`` (a deleted body's)."""
+        for sub in self._subs:
+            node.destroy_subscription(sub)
+        for pub in (self.pub_pose, self.pub_twist, self.pub_odom, self.pub_imu,
+                    self.pub_accel, self.pub_applied):
+            if pub is not None:
+                node.destroy_publisher(pub)
+        self._subs = []
 
     def topics(self) -> dict[str, str]:
         """kind -> the topic it is published on (what a recording names)."""

@@ -10,7 +10,10 @@ One MCAP file (profile ros2, cdr, ros2msg schemas; see ``recording/``):
 * inputs, each at the step it took effect (MCAP ``sequence`` = step, log time = step * dt), on
   ``/rb_sim/input/<body>/wrench`` (WrenchStamped, frame_id 'world' or 'body', as received),
   ``.../set_pose`` (PoseStamped, world), ``.../set_twist`` (TwistStamped, world) and
-  ``.../reset`` (nav_msgs/Odometry: the state reset to, world frame);
+  ``.../reset`` (nav_msgs/Odometry: the state reset to, world frame), ``.../spawn``
+  (std_msgs/String: JSON ``{"body": the body as in config, "output_topics": {kind: topic}}``;
+  the body appears at its initial state, and its outputs are on those topics from then on)
+  and ``.../delete`` (std_msgs/String ``{}``);
 * outputs at every publish: each moving body's ``pose``, ``twist``, ``odom``, ``imu`` and
   ``accel`` on the topics the node published them on (``output_topics`` in the metadata;
   recordings made before imu and accel existed have the first three), log time = sim time;
@@ -30,12 +33,14 @@ from geometry_msgs.msg import AccelStamped, PoseStamped, Twist, TwistStamped, Wr
 from mcap.writer import LIBRARY_IDENTIFIER
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import Imu
+from std_msgs.msg import String
 
 from rb_sim_ros import __version__
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.recording import RecordingWriter, WriterError
 from rb_sim_ros.ros.ros_messages import tf_qos, time_msg
-from rb_sim_ros.sim.simulation import Config, Reset, SetPose, SetTwist, SetWrench
+from rb_sim_ros.sim.simulation import (body_from_dict, body_to_dict, Config, Delete, Reset,
+                                       SetPose, SetTwist, SetWrench, Spawn)
 
 METADATA = 'rb_sim_ros'
 # The writer named in the file's header (as rosbag2 names itself there).
@@ -43,7 +48,10 @@ LIBRARY = f'rb_sim_ros/{__version__} {LIBRARY_IDENTIFIER}'
 FORMAT = 1
 INPUT_PREFIX = '/rb_sim/input/'
 INPUTS = {'wrench': WrenchStamped, 'set_pose': PoseStamped, 'set_twist': TwistStamped,
-          'reset': Odometry}
+          'reset': Odometry, 'spawn': String, 'delete': String}
+STATE_INPUTS = ('wrench', 'set_pose', 'set_twist', 'reset')
+# The most text a spawn's JSON may hold (a body with many colliders is a few kB).
+MAX_SPAWN_TEXT = 1 << 20
 OUTPUTS = {'pose': PoseStamped, 'twist': Twist, 'odom': Odometry, 'imu': Imu,
            'accel': AccelStamped}
 # What every recording has of a body (imu and accel came later).
@@ -64,8 +72,15 @@ def parse_input_topic(topic: str) -> tuple[str, str] | None:
     return (body, kind) if kind in INPUTS and body else None
 
 
-def event_message(event, time_ns: int):
-    """(kind, message) recording ``event`` that took effect at ``time_ns``."""
+def event_message(event, time_ns: int, output_topics: dict | None = None):
+    """(kind, message) recording ``event`` that took effect at ``time_ns``; a Spawn's names
+    the ``output_topics`` of the new body ({} for one without)."""
+    if isinstance(event, Spawn):
+        return 'spawn', String(data=json.dumps(
+            {'body': body_to_dict(event.spec), 'output_topics': output_topics or {}},
+            sort_keys=True))
+    if isinstance(event, Delete):
+        return 'delete', String(data='{}')
     stamp = time_msg(time_ns)
     if isinstance(event, SetWrench):
         msg = WrenchStamped()
@@ -104,8 +119,39 @@ def event_message(event, time_ns: int):
     raise ValueError(f'not an event: {event!r}')
 
 
+def spawn_from_message(body: str, msg) -> tuple[Spawn, dict]:
+    """(the Spawn, its body's output topics) of a recorded spawn on ``body``'s topic;
+    ValueError saying what is wrong with it."""
+    text = msg.data
+    if len(text) > MAX_SPAWN_TEXT:
+        raise ValueError(f'its JSON is longer than {MAX_SPAWN_TEXT} characters')
+    try:
+        data = json.loads(text)
+    except (ValueError, RecursionError) as e:
+        raise ValueError(f'not JSON: {e}') from None
+    if not isinstance(data, dict) or set(data) != {'body', 'output_topics'}:
+        raise ValueError('must be a JSON object of body and output_topics')
+    try:
+        spec = body_from_dict(data['body'])
+    except (ValueError, TypeError, KeyError, AttributeError, ArithmeticError) as e:
+        raise ValueError(f'not a body: {e}') from None
+    if spec.name != body:
+        raise ValueError(f"spawns '{spec.name}' on the topic of '{body}'")
+    topics = data['output_topics']
+    if not isinstance(topics, dict) or not all(
+            isinstance(k, str) and isinstance(v, str) for k, v in topics.items()):
+        raise ValueError('output_topics must map output kinds to topic names')
+    return Spawn(spec), topics
+
+
 def event_from_message(body: str, kind: str, msg):
     """The simulation event a recorded input message stands for (inverse of event_message)."""
+    if kind == 'spawn':
+        return spawn_from_message(body, msg)[0]
+    if kind == 'delete':
+        if msg.data != '{}':
+            raise ValueError(f'a delete holds {{}}, not {msg.data[:40]!r}')
+        return Delete(body)
     if kind == 'wrench':
         f, t = msg.wrench.force, msg.wrench.torque
         return SetWrench(Wrench((f.x, f.y, f.z), (t.x, t.y, t.z), msg.header.frame_id), body)
@@ -147,15 +193,16 @@ class NodeRecorder:
             raise WriterError(f'cannot record to {e}{hint}') from None
         self._closed_error: str | None = None
         self._first = config.bodies[0].name
-        self._outputs = output_topics
+        self._outputs = dict(output_topics)
+        self._registered: set[str] = set()
         for spec in config.bodies:
             if spec.static:
                 continue
-            for kind, msg_type in INPUTS.items():
-                self._writer.register_topic(input_topic(spec.name, kind), msg_type)
+            for kind in STATE_INPUTS:  # spawn and delete: when one happens
+                self._register(input_topic(spec.name, kind), INPUTS[kind])
         for topics in output_topics.values():
             for kind, topic in topics.items():
-                self._writer.register_topic(topic, OUTPUTS[kind])
+                self._register(topic, OUTPUTS[kind])
         tf_topics = sorted(tf_topics)
         if tf_topics:
             from tf2_msgs.msg import TFMessage  # only when the node has it: publish_tf
@@ -183,8 +230,44 @@ class NodeRecorder:
         if self._writer.error is not None:
             return
         kind, msg = event_message(event, time_ns)
-        self._writer.write(input_topic(event.body or self._first, kind), msg, time_ns,
-                           sequence=step)
+        topic = input_topic(event.body or self._first, kind)
+        try:
+            self._register(topic, INPUTS[kind])
+        except WriterError as e:
+            self._closed_error = self._closed_error or str(e)
+            return
+        self._writer.write(topic, msg, time_ns, sequence=step)
+
+    def _register(self, topic: str, msg_type) -> None:
+        """Declare ``topic`` once (a body deleted and spawned again keeps its topics)."""
+        if topic not in self._registered:
+            self._writer.register_topic(topic, msg_type)
+            self._registered.add(topic)
+
+    def spawned(self, step: int, time_ns: int, event: Spawn, output_topics: dict) -> None:
+        """A body spawned at ``step``: its inputs and outputs (``output_topics``, {} for a
+        static one) are recorded from now on; the spawn itself is an input."""
+        if self._writer.error is not None:
+            return
+        name = event.spec.name
+        try:
+            for kind, msg_type in INPUTS.items():
+                if kind != 'delete':
+                    self._register(input_topic(name, kind), msg_type)
+            for kind, topic in output_topics.items():
+                self._register(topic, OUTPUTS[kind])
+        except WriterError as e:  # a topic of a deleted body with another kind's type
+            self._closed_error = self._closed_error or str(e)
+            return
+        if output_topics:
+            self._outputs[name] = dict(output_topics)
+        kind, msg = event_message(event, time_ns, output_topics)
+        self._writer.write(input_topic(name, kind), msg, time_ns, sequence=step)
+
+    def deleted(self, step: int, time_ns: int, name: str) -> None:
+        """Body ``name`` deleted at ``step`` (an input; its outputs stop)."""
+        self._outputs.pop(name, None)
+        self.event(step, time_ns, Delete(name))
 
     def output(self, body: str, step: int, time_ns: int, out) -> None:
         w = self._writer

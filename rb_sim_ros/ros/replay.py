@@ -30,7 +30,7 @@ from rb_sim_ros.ros import node_params, node_recorder, ros_arguments
 from rb_sim_ros.ros.ros_messages import (fill_tf, OutputMessages, TF, tf_message, tf_qos,
                                          TF_STATIC, time_msg)
 from rb_sim_ros.sim.imu import ImuSensor
-from rb_sim_ros.sim.simulation import Config, Simulation
+from rb_sim_ros.sim.simulation import Config, Delete, Simulation, Spawn
 
 QUANTITIES = ('position', 'orientation', 'linear_velocity', 'angular_velocity',
               'linear_acceleration', 'angular_acceleration')
@@ -86,10 +86,12 @@ class Recording:
     path: str = ''
     recorded_per_topic: dict = field(default_factory=dict)  # output topic -> messages in file
 
-    def frames(self, body: str) -> tuple[str, str]:
-        """(world frame, body frame) the node stamped ``body``'s outputs with."""
+    def frames(self, body: str, spawned: bool = False) -> tuple[str, str]:
+        """(world frame, body frame) the node stamped ``body``'s outputs with (a spawned body
+        is named as a scene's, even beside the single body)."""
         p = {**FRAME_PARAMS, **self.parameters}
-        return p['world_frame'], node_params.body_frame(p, body, not p.get('scene_file'))
+        return p['world_frame'], node_params.body_frame(
+            p, body, not p.get('scene_file') and not spawned)
 
     def tf_bodies(self, kind: str) -> list[str]:
         """The bodies of a /tf ('tf': the moving ones with topics) or /tf_static message
@@ -276,6 +278,23 @@ def _tf_topics(meta: dict, path: str) -> list:
     return data
 
 
+def _spawned_topics(body: str, topics: dict, by_topic: dict, types: dict) -> None:
+    """Add the output topics of a body spawned in the run; ValueError if they are not its
+    own (a body spawned again after a delete has the same ones)."""
+    if topics and not set(node_recorder.REQUIRED_OUTPUTS) <= set(topics) <= set(OUTPUT_TYPES):
+        raise ValueError(f'output_topics has {sorted(topics)[:10]}: it needs '
+                         f'{list(node_recorder.REQUIRED_OUTPUTS)}, and may have only '
+                         f'{sorted(OUTPUT_TYPES)}')
+    for kind, topic in topics.items():
+        if (not topic.startswith('/') or len(topic) < 2
+                or topic.startswith(node_recorder.INPUT_PREFIX)
+                or by_topic.get(topic, (body, kind)) != (body, kind)):
+            raise ValueError(f'output topic {topic[:100]!r} is not one of its own (absolute, '
+                             'not an input, not another output)')
+        by_topic[topic] = (body, kind)
+        types[topic] = OUTPUT_TYPES[kind]
+
+
 def load(path: str) -> Recording:
     """Read a recording of the simulator and check all of it; ReaderError (one line: the file
     and what is wrong) if it is not a recording this replay can re-simulate."""
@@ -299,19 +318,19 @@ def load(path: str) -> Recording:
             raise _bad(path, f'{topic} is both a body output and a tf topic')
         by_topic[topic] = ('', 'tf' if topic == TF else 'tf_static')
         types[topic] = node_recorder.TF_TYPE
-    moving = {b.name for b in config.bodies if not b.static}
+    later = {}  # channels of bodies spawned in the run: known once their spawn is read
     for topic, type_name in reader.channels.items():
         parsed = node_recorder.parse_input_topic(topic)
-        if parsed is not None and parsed[0] in moving:
+        if parsed is not None:
             want = INPUT_TYPES[parsed[1]]
         elif topic in by_topic:
             want = types[topic]
         else:
-            raise ReaderError(f'{path}: topic {topic} is neither an output named in the '
-                              'metadata nor an input of a moving body')
+            later[topic] = type_name
+            continue
         if type_name != want:
             raise ReaderError(f'{path}: topic {topic} has type {type_name}, not {want}')
-    inputs, outputs = [], []
+    inputs, outputs, messages = [], [], []
     dt_ns = config.dt * 1e9
     read = dict.fromkeys(reader.channels, 0)
     for topic, msg, log_time, _publish_time, sequence in reader.messages():
@@ -325,15 +344,28 @@ def load(path: str) -> Recording:
             raise ReaderError(f'{path}: {topic} at {log_time} ns has sequence {sequence}, '
                               f'not its step {step}')
         parsed = node_recorder.parse_input_topic(topic)
-        if topic in by_topic:
-            outputs.append((step, *by_topic[topic], topic, msg, log_time))
+        if parsed is None:
+            messages.append((step, topic, msg, log_time))
             continue
         try:
-            event = node_recorder.event_from_message(*parsed, msg)
+            if parsed[1] == 'spawn':
+                event, topics = node_recorder.spawn_from_message(parsed[0], msg)
+                _spawned_topics(parsed[0], topics, by_topic, types)
+            else:
+                event = node_recorder.event_from_message(*parsed, msg)
         except ValueError as e:
             raise ReaderError(f'{path}: the input on {topic} at step {step} is invalid: '
                               f'{e}') from None
         inputs.append((step, event, topic))
+    for topic, type_name in later.items():
+        if topic not in by_topic:
+            raise ReaderError(f'{path}: topic {topic} is neither an output named in the '
+                              'metadata or a spawn nor an input')
+        if type_name != types[topic]:
+            raise ReaderError(f'{path}: topic {topic} has type {type_name}, not '
+                              f'{types[topic]}')
+    for step, topic, msg, log_time in messages:
+        outputs.append((step, *by_topic[topic], topic, msg, log_time))
     for topic, n in read.items():
         if n != reader.topics[topic].message_count:
             raise ReaderError(f'{path}: {topic} holds {n} messages, but the file says '
@@ -418,9 +450,14 @@ def resimulate(rec: Recording, errors: list | None = None):
         noise = node_params.imu_noise({**IMU_DEFAULTS, **rec.parameters})
     except (ValueError, TypeError) as e:
         raise _bad(rec.path, f'parameters: {e}') from None
-    outs = {b.name: OutputMessages(*rec.frames(b.name), twist_frame, *covariances, noise)
-            for b in rec.config.bodies}
+
+    def outputs_of(name, spawned=False):
+        return OutputMessages(*rec.frames(name, spawned), twist_frame, *covariances, noise)
+    outs = {b.name: outputs_of(b.name) for b in rec.config.bodies}
     sensors = {b.name: ImuSensor(noise, i) for i, b in enumerate(rec.config.bodies)}
+    streams = len(rec.config.bodies)  # a spawned body's noise stream: after them, in order
+    ported = set(rec.tf_bodies('tf') + rec.tf_bodies('tf_static'))  # bodies with topics
+    spawned = set()
     offsets, motion_filled = {}, {}
     events = rec.inputs
     i = 0
@@ -437,6 +474,15 @@ def resimulate(rec: Recording, errors: list | None = None):
                 except ValueError as e:
                     raise ReaderError(f'{rec.path}: the input on {where} at step {at} cannot '
                                       f'be applied: {e}') from None
+                if isinstance(event, Spawn):  # as the node: topics, frames, a noise stream
+                    outs[event.body] = outputs_of(event.body, True)
+                    sensors[event.body] = ImuSensor(noise, streams)
+                    streams += 1
+                    ported.add(event.body)
+                    spawned.add(event.body)
+                elif isinstance(event, Delete):
+                    ported.discard(event.body)
+                    spawned.discard(event.body)
                 i += 1
             due = events[i][0] if i < len(events) else step
             before = sim.step_count
@@ -452,8 +498,13 @@ def resimulate(rec: Recording, errors: list | None = None):
                               f'{events[i][0]} is in the past of the run (now at step '
                               f'{sim.step_count})')
         if kind in ('tf', 'tf_static'):
-            yield step, kind, topic, msg, _tf_message(rec, sim, kind, type(msg)), log_time
+            yield step, kind, topic, msg, _tf_message(rec, sim, kind, type(msg), ported,
+                                                      spawned), \
+                log_time
             continue
+        if not sim.is_moving(body):
+            raise ReaderError(f'{rec.path}: an output of {body!r} on {topic} at step {step}, '
+                              'when the run has no such moving body')
         out = outs[body]
         if filled.get(body) != step:  # a publish: as the node, the IMU's noise drawn first
             offsets[body] = sensors[body].sample(sim.time_ns)
@@ -467,11 +518,14 @@ def resimulate(rec: Recording, errors: list | None = None):
         yield step, kind, topic, msg, getattr(out, kind), log_time
 
 
-def _tf_message(rec: Recording, sim: Simulation, kind: str, msg_type):
-    """The /tf (or /tf_static) message the node would publish now."""
-    bodies = rec.tf_bodies(kind)
+def _tf_message(rec: Recording, sim: Simulation, kind: str, msg_type, ported: set,
+                spawned: set):
+    """The /tf (or /tf_static) message the node would publish now: the bodies with topics
+    (``ported``), moving or static, in the run's order."""
+    bodies = [b.name for b in sim.config.bodies
+              if b.name in ported and b.static == (kind == 'tf_static')]
     world = {**FRAME_PARAMS, **rec.parameters}['world_frame']
-    mine = tf_message(msg_type, world, [rec.frames(b)[1] for b in bodies])
+    mine = tf_message(msg_type, world, [rec.frames(b, b in spawned)[1] for b in bodies])
     fill_tf(mine, sim.time_ns, [sim.pose_twist(b)[:2] for b in bodies])
     return mine
 

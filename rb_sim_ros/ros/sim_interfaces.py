@@ -4,9 +4,20 @@
 
 Services (relative to the node's namespace): get_simulator_features, get_entities,
 get_entity_state, get_entities_states, set_entity_state, get_simulation_state,
-set_simulation_state, step_simulation, reset_simulation; the action simulate_steps. What is
-supported is what get_simulator_features says, truthfully: no spawning or deleting, no tags or
-bounds, no reset of sim time (time is step * dt, and recordings rely on it growing).
+set_simulation_state, step_simulation, reset_simulation, spawn_entity, delete_entity,
+get_spawnables; the action simulate_steps. What is supported is what get_simulator_features
+says, truthfully: no tags or bounds, no named poses, no worlds, no reset of sim time (time is
+step * dt, and recordings rely on it growing).
+
+spawn_entity takes a body as a scene-file body entry in ``resource_string`` (YAML or JSON, as
+``scene.body_entry`` reads it: ``{mass: 1, inertia: [0.1, 0.1, 0.1], colliders: [...]}``), or
+the name of one of the scene's ``templates`` in ``uri`` (get_spawnables lists them). The name
+is the request's, else the entry's, else the template's; ``allow_renaming`` appends _2, _3, ...
+to a name in use. ``initial_pose`` places it (in ``world_frame`` or another body's frame, at
+the step it appears); left at its default (identity, no frame) the entry's own pose holds.
+Its velocities are the entry's (world frame). The body gets the topics of a scene body
+(``<name>/pose``, ``<name>/wrench``, ...). reset_simulation with SCOPE_SPAWNED deletes what was
+spawned; SCOPE_STATE puts a spawned body back where it appeared.
 
 Entities are the scene's bodies (the single body: its name 'body'); category STATIC_OBJECT for
 a static body, DYNAMIC_OBJECT for the others. States are ground truth in ``world_frame``:
@@ -22,6 +33,7 @@ replays bit for bit; a refused request changes nothing and says why in ``result`
 
 from __future__ import annotations
 
+from dataclasses import replace
 import json
 import math
 import re
@@ -34,13 +46,16 @@ from rclpy.task import Future
 from simulation_interfaces.action import SimulateSteps
 from simulation_interfaces.msg import (EntityCategory, EntityState, Result, SimulationState,
                                        SimulatorFeatures)
-from simulation_interfaces.srv import (GetEntities, GetEntitiesStates, GetEntityState,
-                                       GetSimulationState, GetSimulatorFeatures,
-                                       ResetSimulation, SetEntityState, SetSimulationState,
+from simulation_interfaces.msg import Spawnable
+from simulation_interfaces.srv import (DeleteEntity, GetEntities, GetEntitiesStates,
+                                       GetEntityState, GetSimulationState,
+                                       GetSimulatorFeatures, GetSpawnables, ResetSimulation,
+                                       SetEntityState, SetSimulationState, SpawnEntity,
                                        StepSimulation)
 
 from rb_sim_ros.ros import ros_messages
-from rb_sim_ros.sim.simulation import SetPose, SetTwist
+from rb_sim_ros.sim import scene
+from rb_sim_ros.sim.simulation import Delete, SetPose, SetTwist, Spawn
 
 # The most steps one simulate_steps goal may ask for (1e9 s at 1 ms), and one step_simulation
 # call, which holds the executor until it is done (a few seconds for one body).
@@ -51,7 +66,10 @@ FEATURES = (SimulatorFeatures.ENTITY_CATEGORIES, SimulatorFeatures.ENTITY_STATE_
             SimulatorFeatures.SIMULATION_RESET_STATE, SimulatorFeatures.SIMULATION_STATE_GETTING,
             SimulatorFeatures.SIMULATION_STATE_SETTING, SimulatorFeatures.SIMULATION_STATE_PAUSE,
             SimulatorFeatures.STEP_SIMULATION_SINGLE, SimulatorFeatures.STEP_SIMULATION_MULTIPLE,
-            SimulatorFeatures.STEP_SIMULATION_ACTION)
+            SimulatorFeatures.STEP_SIMULATION_ACTION, SimulatorFeatures.SPAWNING,
+            SimulatorFeatures.DELETING, SimulatorFeatures.SPAWNING_RESOURCE_STRING,
+            SimulatorFeatures.SPAWNABLES, SimulatorFeatures.SIMULATION_RESET_SPAWNED)
+SPAWN_FORMAT = 'yaml'  # a scene-file body entry
 
 
 def _result(code: int = Result.RESULT_OK, message: str = '') -> Result:
@@ -155,6 +173,9 @@ class SimulationInterfaces:
         n.create_service(SetSimulationState, 'set_simulation_state', self._set_sim_state)
         n.create_service(StepSimulation, 'step_simulation', self._step)
         n.create_service(ResetSimulation, 'reset_simulation', self._reset)
+        n.create_service(SpawnEntity, 'spawn_entity', self._spawn)
+        n.create_service(DeleteEntity, 'delete_entity', self._delete)
+        n.create_service(GetSpawnables, 'get_spawnables', self._spawnables)
         self._action = ActionServer(n, SimulateSteps, 'simulate_steps', self._simulate,
                                     goal_callback=self._goal,
                                     cancel_callback=lambda _: CancelResponse.ACCEPT)
@@ -171,9 +192,10 @@ class SimulationInterfaces:
     def _features(self, request, response):
         f = response.features
         f.features = list(FEATURES)
-        f.spawn_formats = []
-        f.custom_info = ('rb_sim_ros: entities are the scene bodies; reset keeps sim time '
-                         '(SCOPE_STATE); states in world_frame')
+        f.spawn_formats = [SPAWN_FORMAT]
+        f.custom_info = ('rb_sim_ros: entities are the bodies; reset keeps sim time '
+                         '(SCOPE_STATE, SCOPE_SPAWNED); states in world_frame; spawn a scene-file '
+                         'body entry (resource_string, YAML) or a scene template (uri)')
         return response
 
     def _filtered(self, filters):
@@ -352,13 +374,123 @@ class SimulationInterfaces:
                 'sim time is not reset (it is step * dt; recordings rely on it growing): ask '
                 'for SCOPE_STATE, which puts every body back to its initial state'))
             return response
-        if not scope & ResetSimulation.Request.SCOPE_STATE:  # SCOPE_SPAWNED alone
-            response.result = _result(Result.RESULT_OK, 'nothing was spawned: nothing to do')
-            return response
         self._epoch += 1
+        if scope & ResetSimulation.Request.SCOPE_SPAWNED:
+            for name in list(self.node.sim.spawned):
+                why = self.node.change_bodies(Delete(name))
+                if why:
+                    response.result = _result(Result.RESULT_OPERATION_FAILED,
+                                              f"deleting '{name}': {why}")
+                    return response
+        if not scope & ResetSimulation.Request.SCOPE_STATE:  # SCOPE_SPAWNED alone
+            response.result = _result()
+            return response
         ok = self.node.reset_all()
         response.result = _result() if ok else _result(Result.RESULT_OPERATION_FAILED,
                                                        self.node.diagnostics.error)
+        return response
+
+    # -- spawning and deleting -------------------------------------------------------------
+    def _spawnables(self, request, response):
+        response.spawnables = [
+            Spawnable(uri=t.name, description=(
+                f'{"static" if t.static else f"{t.mass:g} kg"}, '
+                f'{len(t.colliders)} collider(s): template of the scene'))
+            for t in self.node.templates]
+        response.result = _result(Result.RESULT_OK, 'sources are not searched: the templates '
+                                  'of the scene' if request.sources else '')
+        return response
+
+    def _spawn(self, request, response):
+        code, message, spec = self._spawn_spec(request)
+        if spec is not None:
+            why = self.node.change_bodies(Spawn(spec))
+            if why:
+                code, message = Result.RESULT_OPERATION_FAILED, why
+        response.result = _result(code, message)
+        response.entity_name = spec.name if spec is not None and code == Result.RESULT_OK \
+            else ''
+        return response
+
+    def _spawn_spec(self, request):
+        """(code, message, the BodySpec to spawn or None)."""
+        R = SpawnEntity.Response
+        node = self.node
+        if request.entity_namespace:
+            return R.NAMESPACE_INVALID, ("a body's topics are under its name (<name>/pose, "
+                                         '...): leave entity_namespace empty'), None
+        name = request.name
+        if name and (len(name) > scene.MAX_NAME or not scene.NAME.match(name)):
+            return R.NAME_INVALID, (f'name {name[:80]!r} must be an ASCII letter, then ASCII '
+                                    'letters, digits and underscores, at most '
+                                    f'{scene.MAX_NAME} (it names topics and a frame)'), None
+        templates = {t.name: t for t in node.templates}
+        if request.resource_string:
+            try:
+                spec = scene.body_entry(request.resource_string, name, default='entity')
+            except ValueError as e:
+                return R.RESOURCE_PARSE_ERROR, str(e), None
+        elif request.uri in templates:
+            spec = replace(templates[request.uri], name=name or request.uri)
+        elif not request.uri:
+            return R.NO_RESOURCE, ('give a body entry (YAML) in resource_string or a '
+                                   'template of the scene in uri (get_spawnables)'), None
+        else:
+            return R.UNSUPPORTED_FORMAT, (
+                f'uri {request.uri[:200]!r} is not a template of the scene (have: '
+                f'{", ".join(sorted(templates)) or "none"}); files and URLs are not read: '
+                'put the body entry in resource_string'), None
+        names = set(self._names())
+        if spec.name in names:
+            if not request.allow_renaming:
+                return R.NAME_NOT_UNIQUE, (f"there is an entity named '{spec.name}' "
+                                           '(allow_renaming picks another)'), None
+            k = 2
+            while f'{spec.name[:scene.MAX_NAME - 8]}_{k}' in names:
+                k += 1
+            spec = replace(spec, name=f'{spec.name[:scene.MAX_NAME - 8]}_{k}')
+        if len(node.config.bodies) >= scene.MAX_BODIES:
+            return Result.RESULT_OPERATION_FAILED, (f'{len(node.config.bodies)} bodies: at '
+                                                    f'most {scene.MAX_BODIES}'), None
+        try:
+            spec = self._placed(spec, request.initial_pose)
+        except ValueError as e:
+            return R.INVALID_POSE, str(e), None
+        return Result.RESULT_OK, '', spec
+
+    def _placed(self, spec, pose):
+        """``spec`` at ``initial_pose`` (a PoseStamped), unless that is left at its default."""
+        p, o = pose.pose.position, pose.pose.orientation
+        x, q = (p.x, p.y, p.z), (o.x, o.y, o.z, o.w)
+        frame = pose.header.frame_id.lstrip('/')
+        if not frame and x == (0.0, 0.0, 0.0) and q == (0.0, 0.0, 0.0, 1.0):
+            return spec
+        if not all(math.isfinite(c) for c in x + q) or not any(q):
+            raise ValueError(f'initial_pose must be finite with a non-zero quaternion, got '
+                             f'{x}, {q}')
+        node = self.node
+        frames = {pt.body_frame: pt.name for pt in node.ports.values()}
+        if frame not in ('', node._v['world_frame'], 'world'):
+            if frame not in frames:
+                raise ValueError(f"initial_pose frame '{frame[:80]}' is neither "
+                                 f"'{node._v['world_frame']}' nor a body frame")
+            with node._lock:
+                fx, fq = node.sim.pose_twist(frames[frame])[:2]
+            rx = ros_messages.rotate(ros_messages.rotation_from_quaternion(fq), x)
+            x = tuple(a + b for a, b in zip(fx, rx))
+            q = _quaternion_product(fq, q)
+        try:
+            return replace(spec, initial_position=x, initial_orientation_xyzw=q)
+        except ValueError as e:
+            raise ValueError(f'initial_pose: {e}') from None
+
+    def _delete(self, request, response):
+        name = request.entity
+        if name not in self._names():
+            response.result = _result(Result.RESULT_NOT_FOUND, f"no entity named '{name[:80]}'")
+            return response
+        why = self.node.change_bodies(Delete(name))
+        response.result = _result(Result.RESULT_OPERATION_FAILED, why) if why else _result()
         return response
 
     # -- stepping --------------------------------------------------------------------------

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+from dataclasses import replace
 import math
 import signal
 import sys
@@ -65,7 +66,7 @@ from rb_sim_ros.ros.diagnostics import Diagnostics
 from rb_sim_ros.ros.ros_messages import TF, TF_STATIC
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Reset, SetTwist,
-                                       SetWrench, Simulation)
+                                       SetWrench, Simulation, Spawn)
 
 __all__ = ['APPLIED_QOS', 'SimulatorNode', 'main']
 
@@ -129,22 +130,25 @@ class SimulatorNode(Node):
         self.diagnostics = Diagnostics()
         self.ports: dict[str, BodyPorts] = {}
         single = self._scene is None
-        noise = node_params.imu_noise(values)
+        self._noise = node_params.imu_noise(values)
+        # A spawned body's IMU noise stream: after those of the scene's bodies, in order.
+        self._next_stream = len(self.config.bodies)
         for index, spec in enumerate(
                 self.config.bodies[:values['max_body_topics'] if not single else 1]):
-            self.ports[spec.name] = BodyPorts(
-                self, spec.name, '' if single else spec.name + '/', values['world_frame'],
-                node_params.body_frame(values, spec.name, single), values['twist_frame'],
-                _Settings(self), self._queue, self._reject, spec.points,
-                self.sim.is_moving(spec.name), noise, index)
+            self._add_ports(spec, '' if single else spec.name + '/', single, index)
         self._moving = [p for p in self.ports.values() if self.sim.is_moving(p.name)]
         self._apply_settings()
-        self._tf = self._tf_msg = self._tf_static = None
-        if values['publish_tf']:
-            self._start_tf(values)
+        self._tf = self._tf_msg = self._tf_static = self._pub_tf_static = None
+        self._tf_static_frames: list = []
+        self._tf_static_due = False
+        self._tf_on = bool(values['publish_tf'])
+        if self._tf_on and TFMessage is None:
+            self._tf_on = False
+            self.get_logger().warning(
+                'publish_tf: tf2_msgs is not installed, so no /tf (on a ROS install: '
+                'ros-jazzy-tf2-msgs; in the PyPI venv tools/build_msgs.sh builds it)')
+        self._update_tf()
         self._recorder = _open_recorder(self, values)
-        if self._tf_static is not None and self._recorder is not None:
-            self._recorder.tf(TF_STATIC, 0, 0, self._tf_static)
         over = {'qos_overriding_options': OVERRIDABLE}
         self._pub_clock = (self.create_publisher(ClockMsg, '/clock', QoSProfile(
             depth=1, reliability=ReliabilityPolicy.BEST_EFFORT), **over)
@@ -186,29 +190,86 @@ class SimulatorNode(Node):
             f'{self.config.steps_per_publish} steps, real_time_factor '
             f'{values["real_time_factor"]}')
 
-    def _start_tf(self, values: dict) -> None:
+    def _add_ports(self, spec: BodySpec, prefix: str, single: bool, stream: int) -> None:
+        v = self._v
+        self.ports[spec.name] = BodyPorts(
+            self, spec.name, prefix, v['world_frame'],
+            node_params.body_frame(v, spec.name, single), v['twist_frame'], _Settings(self),
+            self._queue, self._reject, spec.points, self.sim.is_moving(spec.name), self._noise,
+            stream)
+
+    @property
+    def templates(self) -> tuple:
+        """The scene's templates of bodies to spawn (BodySpec)."""
+        return self._scene.templates if self._scene is not None else ()
+
+    def _update_tf(self) -> None:
         """/tf for the moving bodies with topics, every period; /tf_static for the static
-        ones, once (transient local, depth 1: what tf2_ros's static broadcaster offers)."""
-        if TFMessage is None:
-            self.get_logger().warning(
-                'publish_tf: tf2_msgs is not installed, so no /tf (on a ROS install: '
-                'ros-jazzy-tf2-msgs; in the PyPI venv tools/build_msgs.sh builds it)')
+        ones (transient local, depth 1: what tf2_ros's static broadcaster offers), sent at the
+        next publish whenever that set changes (at start, and after a spawn or a delete)."""
+        if not self._tf_on:
             return
         over = {'qos_overriding_options': OVERRIDABLE}
-        world = values['world_frame']
-        static = [p for p in self.ports.values() if p not in self._moving]
+        world = self._v['world_frame']
         self._tf_msg = ros_messages.tf_message(TFMessage, world,
                                                [p.body_frame for p in self._moving])
-        if self._moving:
+        if self._moving and self._tf is None:
             self._tf = self.create_publisher(TFMessage, TF, ros_messages.tf_qos(TF), **over)
-        if static:
-            self._tf_static = ros_messages.tf_message(TFMessage, world,
-                                                      [p.body_frame for p in static])
-            ros_messages.fill_tf(self._tf_static, 0,
-                                 [self.sim.pose_twist(p.name)[:2] for p in static])
+        static = [p for p in self.ports.values() if not self.sim.is_moving(p.name)]
+        frames = [p.body_frame for p in static]
+        if frames == self._tf_static_frames:
+            return
+        self._tf_static_frames = frames
+        self._tf_static = ros_messages.tf_message(TFMessage, world, frames)
+        ros_messages.fill_tf(self._tf_static, 0, [self.sim.pose_twist(p.name)[:2]
+                                                  for p in static])
+        if self._pub_tf_static is None:
             self._pub_tf_static = self.create_publisher(
                 TFMessage, TF_STATIC, ros_messages.tf_qos(TF_STATIC), **over)
-            self._pub_tf_static.publish(self._tf_static)
+        self._tf_static_due = True
+
+    # -- spawning and deleting -------------------------------------------------------------
+    def change_bodies(self, event) -> str:
+        """Apply a Spawn or a Delete now, at the current step (after the inputs queued before
+        it): the body's topics come or go with it, and the recording has it as an input.
+        Returns '' or why it was refused (then nothing changed)."""
+        with self._lock:
+            if not self._guarded(self._drain):
+                return self.diagnostics.error
+            try:
+                self.sim.apply(event)
+            except (ValueError, IntegrationError) as e:
+                return str(e)
+            self.config = self.sim.config
+            step, t_ns = self.sim.step_count, self.sim.time_ns
+            if isinstance(event, Spawn):
+                spec = event.spec
+                self._add_ports(spec, spec.name + '/', False, self._next_stream)
+                self._next_stream += 1
+                if self._recorder is not None:
+                    topics = self.ports[spec.name].topics() if not spec.static else {}
+                    self._recorder.spawned(step, t_ns, event, topics)
+            else:
+                port = self.ports.pop(event.body, None)
+                if port is not None:
+                    port.destroy(self)
+                if self._recorder is not None:
+                    self._recorder.deleted(step, t_ns, event.body)
+            self._bodies_changed()
+        return ''
+
+    def _bodies_changed(self) -> None:
+        """What follows the set of bodies: tf, poses, collision markers."""
+        self._moving = [p for p in self.ports.values() if self.sim.is_moving(p.name)]
+        self._update_tf()
+        self._poses_msg.poses = [Pose() for _ in self.config.bodies]
+        self._markers = None
+        if self.config.collides:
+            self._markers = CollisionMarkers(self.config, self._v['world_frame'])
+            if self._pub_markers is None:
+                self._pub_markers = self.create_publisher(
+                    MarkerArray, 'collision_markers', 1,
+                    qos_overriding_options=OVERRIDABLE)
 
     # -- inputs (callbacks only queue; the step loop applies) ------------------------------
     def _queue(self, event) -> None:
@@ -476,7 +537,12 @@ class SimulatorNode(Node):
                 self._recorder.tf(TF, sim.step_count, t_ns, self._tf_msg)
         if self._pub_poses.get_subscription_count():
             self._fill_poses(t_ns)
-        if self._pub_markers is not None and self._pub_markers.get_subscription_count():
+        if self._tf_static_due and not failed:
+            self._tf_static_due = False
+            self._pub_tf_static.publish(self._tf_static)
+            if self._recorder is not None:
+                self._recorder.tf(TF_STATIC, sim.step_count, t_ns, self._tf_static)
+        if self._markers is not None and self._pub_markers.get_subscription_count():
             poses = {b.name: sim.pose_twist(b.name)[:2] for b in self.config.bodies}
             self._pub_markers.publish(self._markers.fill(t_ns, poses, sim.last_contacts()))
         if self._pub_clock is not None:
@@ -503,6 +569,9 @@ class SimulatorNode(Node):
         self._timeout_steps = _timeout_steps(self._v, self.config)
 
     def _on_set_parameters(self, params) -> SetParametersResult:
+        if not any(p.name in node_params.BY_NAME for p in params):
+            # (qos_overrides.* declared for a spawned body's topics, the lock held: not ours)
+            return SetParametersResult(successful=True)
         new = dict(self._v)
         try:
             for p in params:
@@ -518,6 +587,12 @@ class SimulatorNode(Node):
             return SetParametersResult(successful=False, reason=f'{type(e).__name__}: {e}')
         with self._lock:
             try:
+                # The bodies of the run now (spawned, deleted), with the parameters' initial
+                # states for those that came from them.
+                own = {b.name: b for b in config.bodies}
+                config = replace(config, bodies=tuple(
+                    b if b.name in self.sim.spawned else own.get(b.name, b)
+                    for b in self.sim.config.bodies))
                 self.sim.set_initial_states(config)  # used by the next reset
             except ValueError as e:
                 return SetParametersResult(successful=False, reason=str(e))
@@ -602,11 +677,8 @@ def _open_recorder(node: SimulatorNode, values: dict):
     from rb_sim_ros.ros.node_recorder import NodeRecorder
     topics = {name: p.topics() for name, p in node.ports.items()
               if node.sim.is_moving(name)}  # a static body never moves: nothing to record
-    tf_topics = []
-    if node._tf is not None:
-        tf_topics.append(TF)
-    if node._tf_static is not None:
-        tf_topics.append(TF_STATIC)
+    # Both while /tf is on: a body spawned later may need either.
+    tf_topics = [TF, TF_STATIC] if node._tf_on else []
     return NodeRecorder(values['record'], node.config, values, topics,
                         overwrite=bool(values['record_overwrite']), tf_topics=tf_topics)
 

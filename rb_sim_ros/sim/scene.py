@@ -35,6 +35,13 @@
         static: true                    # never moves, costs nothing, infinite mass
         colliders: [{type: plane, normal: [0, 0, 1], offset: 0}]   # the plane z = 0
 
+    templates:                          # optional: bodies to spawn by name at run time
+      drone: {mass: 1.5, inertia: [0.02, 0.02, 0.04], position: [0, 0, 1]}
+
+A template is a body entry without a name (its key is the name a spawn gets by default);
+simulation_interfaces' SpawnEntity takes one by name, or a body entry as YAML text
+(``body_entry``).
+
 A scene in which no moving body has colliders runs no collision code. Every error names the
 file, the body and the field; unknown keys are errors, not ignored.
 
@@ -62,7 +69,7 @@ from rb_sim_ros.core.rigid_body import RigidBody
 from rb_sim_ros.sim import safe_yaml
 from rb_sim_ros.sim.simulation import BodySpec, ContactSettings
 
-TOP_KEYS = {'gravity', 'contact', 'bodies', 'integrator'}
+TOP_KEYS = {'gravity', 'contact', 'bodies', 'integrator', 'templates'}
 BODY_KEYS = {'name', 'mass', 'inertia', 'shape', 'size', 'radius', 'length', 'density',
              'position', 'orientation', 'linear_velocity', 'angular_velocity', 'linear_damping',
              'angular_damping', 'static', 'colliders', 'points'}
@@ -75,6 +82,9 @@ MAX_DEPTH = 8  # the scene's own structure needs 6 (bodies, a body, colliders, o
 MAX_VALUES = 2_000_000  # about 100 values per body at MAX_BODIES; some 100 MB as Python objects
 MAX_NAME = 64
 MAX_POINTS = 64
+MAX_TEMPLATES = 1000
+# A body entry given as text (a spawn's resource string) is a few hundred bytes.
+MAX_ENTRY_BYTES = 64 * 1024
 # A ROS 2 topic name token (rcl/rmw: alphanumerics and '_', not starting with a digit),
 # and further: ASCII only, starting with a letter.
 NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]*\Z')
@@ -96,13 +106,15 @@ class SceneError(ValueError):
 
 
 class Scene(NamedTuple):
-    """What a scene file holds: gravity (m/s^2, world), the bodies, the contact settings and
-    the integrator it asks for (a name of multistep.METHODS; None: the node's)."""
+    """What a scene file holds: gravity (m/s^2, world), the bodies, the contact settings,
+    the integrator it asks for (a name of multistep.METHODS; None: the node's) and the
+    templates of bodies to spawn (each a BodySpec named after its key)."""
 
     gravity: tuple[float, float, float]
     bodies: tuple[BodySpec, ...]
     contact: ContactSettings
     integrator: str | None = None
+    templates: tuple[BodySpec, ...] = ()
 
 
 def _show(value: Any) -> str:
@@ -236,8 +248,8 @@ def _plainly_valid(inertia: tuple) -> bool:
     return 1e-300 < a and a + b > c and c < 1e300
 
 
-def _body(path: str, index: int, data: Any) -> BodySpec:
-    where = f'{path}: body {index}'
+def _body(path: str, index: int, data: Any, where: str = '') -> BodySpec:
+    where = where or f'{path}: body {index}'
     if not isinstance(data, dict):
         raise SceneError(f'{where}: must be a mapping of fields, got {_show(data)}')
     if isinstance(data.get('name'), str):
@@ -448,6 +460,7 @@ def load_scene(path: str) -> Scene:
                                    or integrator not in multistep.METHODS):
         raise SceneError(f'{path}: integrator: must be one of {sorted(multistep.METHODS)}, got '
                          f'{_show(integrator)}')
+    templates = _templates(path, data.get('templates', {}))
     specs = []
     first: dict[str, int] = {}
     for i, b in enumerate(bodies):
@@ -456,4 +469,51 @@ def load_scene(path: str) -> Scene:
             raise SceneError(f"{path}: body {i} ('{spec.name}'): name: used twice (body "
                              f'{first[spec.name]} has it too)')
         specs.append(spec)
-    return Scene(gravity, tuple(specs), contact, integrator)
+    return Scene(gravity, tuple(specs), contact, integrator, templates)
+
+
+def _templates(path: str, data: Any) -> tuple[BodySpec, ...]:
+    """templates: {name: body entry without a name}."""
+    if not isinstance(data, dict):
+        raise SceneError(f'{path}: templates: must be a mapping of names to body entries, got '
+                         f'{_show(data)}')
+    if len(data) > MAX_TEMPLATES:
+        raise SceneError(f'{path}: templates: {len(data)}, more than MAX_TEMPLATES = '
+                         f'{MAX_TEMPLATES}')
+    out = []
+    for name, entry in data.items():
+        where = f'{path}: template {_key(name)}'
+        if not isinstance(entry, dict):
+            raise SceneError(f'{where}: must be a mapping of fields, got {_show(entry)}')
+        if 'name' in entry:
+            _fail(where, 'name', 'a template is named by its key; give no name field')
+        out.append(_body(path, 0, {**entry, 'name': name}, where))
+    return tuple(out)
+
+
+def body_entry(text: Any, name: str = '', where: str = 'resource_string',
+               default: str = '') -> BodySpec:
+    """The body of a scene-file body entry given as YAML (or JSON) text, e.g. a spawn
+    request's resource string: ``{name: probe, mass: 1, inertia: [0.1, 0.1, 0.1]}``. A
+    non-empty ``name`` replaces the entry's (which may then be left out; ``default``, if
+    given, names an entry that has none). SceneError, naming
+    ``where`` and the field, for anything else: untrusted text, checked as a scene file."""
+    if not isinstance(text, str):
+        raise SceneError(f'{where}: must be text, got {type(text).__name__}')
+    if len(text.encode('utf-8', 'surrogatepass')) > MAX_ENTRY_BYTES:
+        raise SceneError(f'{where}: longer than {MAX_ENTRY_BYTES} bytes: not a body entry')
+    try:
+        data = safe_yaml.load(text, max_depth=MAX_DEPTH - 2, max_nodes=MAX_ENTRY_BYTES)
+    except safe_yaml.YamlError as e:
+        field = ''.join(_key(k) if isinstance(k, int) or i == 0 else '.' + _key(k)
+                        for i, k in enumerate(e.path))
+        line = f' (line {e.line})' if e.line else ''
+        raise SceneError(f'{where}: {field + ": " if field else ""}{e.reason}{line}') from None
+    if not isinstance(data, dict):
+        raise SceneError(f'{where}: must be a body entry (a mapping of fields such as mass, '
+                         f'inertia, position, colliders), got {_show(data)}')
+    if name:
+        data = {**data, 'name': name}
+    elif default and 'name' not in data:
+        data = {**data, 'name': default}
+    return _body(where, 0, data, where)

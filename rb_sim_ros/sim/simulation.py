@@ -21,8 +21,9 @@ from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import finite_floats, State, Wrench, ZERO_WRENCH
 from rb_sim_ros.core.stepper import step_all, Stepper
 
-__all__ = ['BodySpec', 'Config', 'ContactSettings', 'Delete', 'Event', 'make_steppers', 'Reset',
-           'SetPose', 'SetTwist', 'SetWrench', 'Simulation', 'Spawn']
+__all__ = ['BodySpec', 'body_from_dict', 'body_to_dict', 'Config', 'ContactSettings', 'Delete',
+           'Event', 'make_steppers', 'Reset', 'SetPose', 'SetTwist', 'SetWrench', 'Simulation',
+           'Spawn']
 
 
 @dataclass(frozen=True)
@@ -78,8 +79,7 @@ class Config:
         def plain(v):
             return list(v) if isinstance(v, tuple) else v
         out = {k: plain(v) for k, v in self.__dict__.items() if k not in ('bodies', 'contact')}
-        out['bodies'] = [{k: ([shape_to_dict(c) for c in v] if k == 'colliders' else plain(v))
-                          for k, v in b.__dict__.items()} for b in self.bodies]
+        out['bodies'] = [body_to_dict(b) for b in self.bodies]
         out['contact'] = dict(self.contact.__dict__)
         return out
 
@@ -89,20 +89,35 @@ class Config:
         if unknown:
             raise ValueError(f'unknown configuration keys {sorted(unknown)}')
         data = dict(data)
-        bodies = []
-        for b in data.pop('bodies', [{}]):
-            unknown = set(b) - set(BodySpec.__dataclass_fields__)
-            if unknown:
-                raise ValueError(f'unknown body keys {sorted(unknown)}')
-            b = dict(b)
-            colliders = tuple(shape_from_dict(c) for c in b.pop('colliders', ()))
-            bodies.append(BodySpec(colliders=colliders,
-                                   **{k: (tuple(v) if isinstance(v, list) else v)
-                                      for k, v in b.items()}))
+        bodies = [body_from_dict(b) for b in data.pop('bodies', [{}])]
         # Recordings made before collisions existed have no 'contact': the defaults.
         contact = ContactSettings.from_dict(data.pop('contact', {}))
         return cls(bodies=tuple(bodies), contact=contact,
                    **{k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items()})
+
+
+def body_to_dict(spec: BodySpec) -> dict[str, Any]:
+    """JSON-able form of a body (as in ``Config.to_dict``); an exact round trip."""
+    return {k: ([shape_to_dict(c) for c in v] if k == 'colliders' else
+                list(v) if isinstance(v, tuple) else v) for k, v in spec.__dict__.items()}
+
+
+def body_from_dict(data: dict[str, Any]) -> BodySpec:
+    """The inverse of ``body_to_dict``; ValueError for anything that is not a valid body."""
+    if not isinstance(data, dict):
+        raise ValueError(f'a body must be a mapping, got {type(data).__name__}')
+    unknown = set(data) - set(BodySpec.__dataclass_fields__)
+    if unknown:
+        raise ValueError(f'unknown body keys {sorted(unknown)}')
+    b = dict(data)
+    colliders = b.pop('colliders', ())
+    if not isinstance(colliders, (list, tuple)):
+        raise ValueError('colliders must be a list')
+    try:
+        return BodySpec(colliders=tuple(shape_from_dict(c) for c in colliders),
+                        **{k: (tuple(v) if isinstance(v, list) else v) for k, v in b.items()})
+    except TypeError as e:
+        raise ValueError(f'not a body: {e}') from None
 
 
 @dataclass(frozen=True)
