@@ -5,6 +5,8 @@
     replay --verify run.mcap          re-simulate offline, compare, exit 1 on any difference
     replay --recover run.mcap out.mcap  finalise a killed recording (rosbags/ros2 bag open it)
     replay run.mcap [--rate 2]        republish pose/twist/odom with /clock, in sim-time order
+    replay --plot run.mcap [--out plots/] [--bodies a,b]   PNGs: states, energy, wrench, events
+    replay --render run.mcap out.gif|out.mp4 [--view iso|top|side] [--follow body] [--fps 25]
 
 --verify needs no ROS graph: it rebuilds the run from the recording's metadata (body, dt,
 integrator, initial state) and its inputs at the steps they took effect, fills the output
@@ -26,7 +28,7 @@ import time
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.recording import ReaderError, RecordingReader, recover, WriterError
 from rb_sim_ros.recording.schemas import type_name_of
-from rb_sim_ros.ros import node_params, node_recorder, ros_arguments
+from rb_sim_ros.ros import node_params, node_recorder, plots, render, ros_arguments
 from rb_sim_ros.ros.ros_messages import (fill_tf, OutputMessages, TF, tf_message, tf_qos,
                                          TF_STATIC, time_msg)
 from rb_sim_ros.sim.imu import ImuSensor
@@ -633,10 +635,19 @@ def _check_options(opts) -> str:
                 f'{MAX_RATE:g}, got {opts.rate!r}')
     if not 0 <= opts.wait <= MAX_WAIT_S:
         return f'--wait must be from 0 to {MAX_WAIT_S:g} s, got {opts.wait!r}'
-    if opts.recover and not opts.out:
-        return '--recover needs FILE and OUT'
-    if opts.out and not opts.recover:
-        return 'OUT is only for --recover'
+    if (opts.recover or opts.render) and not opts.out:
+        return f'--{"recover" if opts.recover else "render"} needs FILE and OUT'
+    if opts.out and not (opts.recover or opts.render):
+        return 'OUT is only for --recover and --render'
+    if opts.out_dir is not None and not opts.plot:
+        return '--out is only for --plot (with --render, OUT is the second argument)'
+    if opts.bodies is not None and not opts.plot:
+        return '--bodies is only for --plot'
+    if (opts.view != 'iso' or opts.follow is not None or opts.fps is not None
+            or opts.size != '640x480') and not opts.render:
+        return '--view, --follow, --fps and --size are only for --render'
+    if not re.fullmatch(r'\d{2,4}x\d{2,4}', opts.size):
+        return f'--size must be WIDTHxHEIGHT in pixels (e.g. 640x480), got {opts.size!r}'
     return ''
 
 
@@ -649,6 +660,20 @@ def main(args=None) -> int:
     mode = parser.add_mutually_exclusive_group()
     mode.add_argument('--verify', action='store_true', help='re-simulate and compare')
     mode.add_argument('--recover', action='store_true', help='finalise a killed recording')
+    mode.add_argument('--plot', action='store_true',
+                      help='write PNGs of every body (matplotlib) into --out')
+    mode.add_argument('--render', action='store_true',
+                      help='write an animation to OUT (.gif; .mp4 with imageio-ffmpeg)')
+    parser.add_argument('--out', dest='out_dir', metavar='DIR',
+                        help='with --plot: the directory (default: FILE without .mcap)')
+    parser.add_argument('--bodies', help='with --plot: the bodies, comma-separated (default: '
+                        'all that were recorded)')
+    parser.add_argument('--view', default='iso', choices=('iso', 'top', 'side'),
+                        help='with --render: the camera (orthographic)')
+    parser.add_argument('--follow', metavar='BODY', help='with --render: keep BODY centred')
+    parser.add_argument('--fps', type=float, help='with --render: frames per second of sim '
+                        'time (default: one frame per recorded publish)')
+    parser.add_argument('--size', default='640x480', help='with --render: WIDTHxHEIGHT')
     parser.add_argument('--rate', type=float, default=1.0,
                         help=f'playback speed (sim time per wall time, {MIN_RATE:g} to '
                         f'{MAX_RATE:g}; 0: as fast as possible)')
@@ -667,13 +692,61 @@ def main(args=None) -> int:
             counts = recover(opts.file, opts.out, overwrite=opts.overwrite)
             print(f'replay: recovered {counts} into {opts.out}')
             return 0
+        if opts.plot:
+            return _plot(opts)
+        if opts.render:
+            return _render(opts)
         return play(opts.file, opts.rate, clock=not opts.no_clock, wait=opts.wait)
-    except (ReaderError, WriterError, OSError) as e:
+    except (ReaderError, WriterError, OSError, ValueError) as e:
         print(f'replay: {e}', file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print('replay: interrupted', file=sys.stderr)
         return 130
+
+
+def _progress(what: str):
+    """A progress line on stderr (at most twice a second), ended at the last of ``total``."""
+    last = [0.0]
+
+    def show(done: int, total: int) -> None:
+        now = time.monotonic()
+        if done < total and now - last[0] < 0.5:
+            return
+        last[0] = now
+        end = '\n' if done >= total else ''
+        print(f'\rreplay: {what} {done}/{total} {100.0 * done / max(total, 1):5.1f}%', end=end,
+              file=sys.stderr, flush=True)
+    return show
+
+
+def _needs(module: str, what: str) -> None:
+    try:
+        __import__(module)
+    except ImportError:
+        raise ValueError(f'{what} needs {module} (pip install -r requirements-viz.txt; on a '
+                         'ROS install: apt install python3-matplotlib)') from None
+
+
+def _plot(opts) -> int:
+    _needs('matplotlib', '--plot')
+    rec = load(opts.file)
+    out = opts.out_dir or re.sub(r'\.mcap$', '', opts.file) + '_plots'
+    bodies = [b for b in opts.bodies.split(',') if b] if opts.bodies else None
+    files = plots.plot(rec, out, bodies, progress=_progress('re-simulating contacts'))
+    for f in files:
+        print(f)
+    return 0
+
+
+def _render(opts) -> int:
+    _needs('PIL', '--render')
+    rec = load(opts.file)
+    size = tuple(int(c) for c in opts.size.split('x'))
+    count = render.render(rec, opts.out, opts.view, opts.fps, opts.follow, size,
+                          progress=_progress('rendering frame'))
+    print(f'replay: {count} frames written to {opts.out}')
+    return 0
 
 
 def _print_verification(path: str, r: Verification) -> int:

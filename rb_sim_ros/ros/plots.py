@@ -1,0 +1,248 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Plots of a recording, for people who would rather look than read (``replay --plot``).
+
+One PNG per body: position; orientation as roll, pitch, yaw (REP-103: about the fixed x, y, z
+axes, z-y-x order) and as the quaternion; linear and angular velocity (world frame); kinetic
+energy and angular momentum about the centre of mass (world frame); the applied wrench as the
+steps it was held. Events are marked on every time axis: teleports (set_pose, set_twist),
+resets, wrench changes, spawns and deletes. With colliders, one more PNG: the contacts of the
+last step of every publish, from a re-simulation of the run (the recording holds states, not
+contacts; the re-simulation is the run, bit for bit, as ``--verify`` shows).
+
+The states are the recorded ``odom`` messages (pose in the world frame, twist in the body
+frame), so the plot shows what the node published. matplotlib renders without a display.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import os
+
+import numpy as np
+
+from rb_sim_ros.core.stepper import IntegrationError
+from rb_sim_ros.sim.simulation import Delete, Reset, SetPose, SetTwist, SetWrench, Simulation, \
+    Spawn
+
+# How each kind of event is marked: colour and line style.
+EVENT_STYLE = {'wrench': ('tab:orange', ':'), 'teleport': ('tab:red', '--'),
+               'reset': ('tab:purple', '-.'), 'spawn': ('tab:green', '--'),
+               'delete': ('tab:gray', '--')}
+
+
+@dataclass
+class BodySeries:
+    """What was recorded of one body, as arrays over its publishes."""
+
+    name: str
+    t: np.ndarray = field(default_factory=lambda: np.zeros(0))  # s
+    position: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    quaternion: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))  # x y z w
+    linear: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # world, m/s
+    angular: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # world, rad/s
+    energy: np.ndarray = field(default_factory=lambda: np.zeros(0))  # J
+    momentum: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # world, kg m^2/s
+
+
+def rotation_matrices(q: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) rotations (body to world) of (n, 4) quaternions x, y, z, w (normalised)."""
+    q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    x, y, z, w = q.T
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1)],
+        axis=1)
+
+
+def roll_pitch_yaw(q: np.ndarray) -> np.ndarray:
+    """(n, 3) roll, pitch, yaw (rad) of (n, 4) quaternions x, y, z, w: R = Rz(yaw) Ry(pitch)
+    Rx(roll), the fixed-axes convention of REP-103; yaw and roll unwrapped over time."""
+    r = rotation_matrices(q)
+    pitch = np.arcsin(np.clip(-r[:, 2, 0], -1.0, 1.0))
+    roll = np.arctan2(r[:, 2, 1], r[:, 2, 2])
+    yaw = np.arctan2(r[:, 1, 0], r[:, 0, 0])
+    return np.stack([np.unwrap(roll), pitch, np.unwrap(yaw)], axis=1)
+
+
+def body_series(rec, bodies=None) -> dict[str, BodySeries]:
+    """The recorded odom of each body (all moving ones, or those named in ``bodies``), with
+    energy and momentum from the body's mass and inertia in the recording's config."""
+    specs = {b.name: b for b in rec.config.bodies}
+    for _, event, _ in rec.inputs:
+        if isinstance(event, Spawn):
+            specs.setdefault(event.spec.name, event.spec)
+    rows: dict[str, list] = {}
+    for step, body, kind, _topic, msg, log_time in rec.outputs:
+        if kind != 'odom' or (bodies and body not in bodies):
+            continue
+        p, o = msg.pose.pose.position, msg.pose.pose.orientation
+        v, w = msg.twist.twist.linear, msg.twist.twist.angular
+        rows.setdefault(body, []).append(
+            (log_time * 1e-9, p.x, p.y, p.z, o.x, o.y, o.z, o.w, v.x, v.y, v.z, w.x, w.y, w.z))
+    out = {}
+    for name, data in rows.items():
+        a = np.array(data, dtype=float)
+        spec = specs[name]
+        inertia = np.array(spec.inertia, dtype=float)
+        inertia = np.diag(inertia) if inertia.size == 3 else inertia.reshape(3, 3)
+        r = rotation_matrices(a[:, 4:8])
+        v_body, w_body = a[:, 8:11], a[:, 11:14]
+        spin = w_body @ inertia.T  # I w, body frame
+        out[name] = BodySeries(
+            name, a[:, 0], a[:, 1:4], a[:, 4:8],
+            np.einsum('nij,nj->ni', r, v_body), np.einsum('nij,nj->ni', r, w_body),
+            0.5 * spec.mass * np.sum(v_body * v_body, axis=1)
+            + 0.5 * np.sum(w_body * spin, axis=1),
+            np.einsum('nij,nj->ni', r, spin))
+    return out
+
+
+def events(rec) -> list[tuple[float, str, str]]:
+    """(time s, kind, body) of every input: 'wrench', 'teleport', 'reset', 'spawn',
+    'delete'."""
+    kinds = {SetWrench: 'wrench', SetPose: 'teleport', SetTwist: 'teleport', Reset: 'reset',
+             Spawn: 'spawn', Delete: 'delete'}
+    dt = rec.config.dt
+    return [(step * dt, kinds[type(e)], e.body or rec.config.bodies[0].name)
+            for step, e, _ in rec.inputs]
+
+
+def wrench_steps(rec, name: str, t_end: float):
+    """(times, forces (n, 3), torques (n, 3), frames) of the wrench held on ``name``: zero at
+    the start, each change where it took effect (a reset zeroes it), held to ``t_end``."""
+    dt = rec.config.dt
+    times, forces, torques, frames = [0.0], [(0.0,) * 3], [(0.0,) * 3], ['world']
+    for step, e, _ in rec.inputs:
+        if (e.body or rec.config.bodies[0].name) != name:
+            continue
+        if isinstance(e, SetWrench):
+            times.append(step * dt)
+            forces.append(tuple(e.wrench.force))
+            torques.append(tuple(e.wrench.torque))
+            frames.append(e.wrench.frame.value)
+        elif isinstance(e, (Reset, Spawn)):
+            times.append(step * dt)
+            forces.append((0.0,) * 3)
+            torques.append((0.0,) * 3)
+            frames.append('world')
+    times.append(max(t_end, times[-1]))
+    forces.append(forces[-1])
+    torques.append(torques[-1])
+    return np.array(times), np.array(forces), np.array(torques), frames
+
+
+def contact_counts(rec, progress=None):
+    """(times s, contacts) after the last step of every publish, from a re-simulation; None
+    when no body of the run has colliders. Stops at the first non-finite step."""
+    collides = rec.config.collides or any(
+        isinstance(e, Spawn) and e.spec.colliders for _, e, _ in rec.inputs)
+    if not collides:
+        return None
+    sim = Simulation(rec.config)
+    steps = sorted({o[0] for o in rec.outputs})
+    pending = [(s, e) for s, e, _ in rec.inputs]
+    times, counts = [], []
+    for k, step in enumerate(steps):
+        try:
+            pending = sim.run_until(step, pending)
+        except (IntegrationError, ValueError):
+            break
+        stats = sim.contact_stats()
+        times.append(step * rec.config.dt)
+        counts.append(stats.contacts if stats is not None else 0)
+        if progress is not None:
+            progress(k + 1, len(steps))
+    return np.array(times), np.array(counts)
+
+
+def _mark(ax, marks) -> None:
+    for t, kind, _ in marks:
+        colour, style = EVENT_STYLE[kind]
+        ax.axvline(t, color=colour, linestyle=style, linewidth=0.8, alpha=0.8)
+
+
+def _legend_for_events(fig, marks) -> None:
+    from matplotlib.lines import Line2D
+    kinds = sorted({k for _, k, _ in marks})
+    if kinds:
+        fig.legend([Line2D([0], [0], color=EVENT_STYLE[k][0], linestyle=EVENT_STYLE[k][1])
+                    for k in kinds], kinds, loc='upper right', title='events', fontsize=8)
+
+
+def plot(rec, out_dir: str, bodies=None, progress=None) -> list[str]:
+    """Write the PNGs of ``rec`` (a replay.Recording) into ``out_dir``; their paths."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    os.makedirs(out_dir, exist_ok=True)
+    series = body_series(rec, bodies)
+    if bodies:
+        missing = sorted(set(bodies) - set(series))
+        if missing:
+            raise ValueError(f'no recorded outputs of {missing} (have '
+                             f'{sorted(body_series(rec))})')
+    all_marks = events(rec)
+    written = []
+    t_end = max((s.t[-1] for s in series.values() if len(s.t)), default=0.0)
+    for name, s in series.items():
+        marks = [m for m in all_marks if m[2] == name]
+        fig, axes = plt.subplots(4, 2, figsize=(13, 12), sharex=True)
+        fig.suptitle(f'{name}  ({os.path.basename(rec.path)})')
+        panels = [
+            (axes[0, 0], 'position (m, world)', s.position, ('x', 'y', 'z')),
+            (axes[0, 1], 'roll, pitch, yaw (rad)', roll_pitch_yaw(s.quaternion),
+             ('roll', 'pitch', 'yaw')),
+            (axes[1, 0], 'quaternion', s.quaternion, ('x', 'y', 'z', 'w')),
+            (axes[1, 1], 'linear velocity (m/s, world)', s.linear, ('x', 'y', 'z')),
+            (axes[2, 0], 'angular velocity (rad/s, world)', s.angular, ('x', 'y', 'z')),
+            (axes[2, 1], 'angular momentum (kg m^2/s, world, about the CoM)', s.momentum,
+             ('x', 'y', 'z')),
+        ]
+        for ax, title, values, labels in panels:
+            for k, label in enumerate(labels):
+                ax.plot(s.t, values[:, k], label=label, linewidth=1.0)
+            ax.set_title(title, fontsize=10)
+            ax.legend(fontsize=8, loc='best')
+            ax.grid(True, alpha=0.3)
+        ax = axes[3, 0]
+        ax.plot(s.t, s.energy, color='k', linewidth=1.0)
+        ax.set_title('kinetic energy (J)', fontsize=10)
+        ax.grid(True, alpha=0.3)
+        times, forces, torques, _ = wrench_steps(rec, name, t_end)
+        ax = axes[3, 1]
+        for k, label in enumerate('xyz'):
+            ax.step(times, forces[:, k], where='post', label=f'F{label} (N)', linewidth=1.0)
+            ax.step(times, torques[:, k], where='post', label=f'T{label} (N m)',
+                    linestyle='--', linewidth=1.0)
+        ax.set_title('applied wrench (as sent: world or body frame)', fontsize=10)
+        ax.legend(fontsize=7, ncol=2, loc='best')
+        ax.grid(True, alpha=0.3)
+        for ax in axes.flat:
+            _mark(ax, marks)
+        for ax in axes[-1]:
+            ax.set_xlabel('sim time (s)')
+        _legend_for_events(fig, marks)
+        fig.tight_layout(rect=(0, 0, 0.93, 0.97))
+        path = os.path.join(out_dir, f'{name}.png')
+        fig.savefig(path, dpi=80)
+        plt.close(fig)
+        written.append(path)
+    counts = contact_counts(rec, progress)
+    if counts is not None:
+        fig, ax = plt.subplots(figsize=(10, 3.5))
+        ax.step(counts[0], counts[1], where='post', color='k', linewidth=1.0)
+        ax.set_xlabel('sim time (s)')
+        ax.set_ylabel('contacts')
+        ax.set_title('contacts of the last step of each publish (re-simulated)')
+        ax.grid(True, alpha=0.3)
+        _mark(ax, all_marks)
+        _legend_for_events(fig, all_marks)
+        fig.tight_layout(rect=(0, 0, 0.88, 1))
+        path = os.path.join(out_dir, 'contacts.png')
+        fig.savefig(path, dpi=80)
+        plt.close(fig)
+        written.append(path)
+    return written

@@ -1,0 +1,388 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""An animation of a recording (``replay --render run.mcap out.gif|out.mp4``).
+
+Every body is drawn with its colliders from the recording's config (a body without any as
+its inertia box: the uniform box with the same mass and principal moments, along its
+principal axes), at the recorded poses, in an orthographic view (``iso``, ``top`` or
+``side``), with a ground grid and the sim time. Frames come at the recording's publish rate,
+or at ``fps`` (each shows the last publish at or before its time). The camera frames the whole
+run, or follows one body. Faces are shaded by a fixed light and drawn far to near.
+
+GIF needs only Pillow (which matplotlib brings); MP4 needs imageio and imageio-ffmpeg, whose
+wheel carries its own ffmpeg (no system ffmpeg). Everything is computed from the recording:
+no ROS graph, no re-simulation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from rb_sim_ros.ros.plots import rotation_matrices
+from rb_sim_ros.ros.ros_messages import rotation_from_quaternion
+from rb_sim_ros.sim.simulation import Delete, Spawn
+
+VIEWS = ('iso', 'top', 'side')
+# Body colours (RGB), in the order of the run's bodies; static bodies are grey.
+PALETTE = ((31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
+           (140, 86, 75), (227, 119, 194), (188, 189, 34), (23, 190, 207))
+STATIC_COLOUR = (150, 150, 150)
+BACKGROUND = (255, 255, 255)
+GRID_COLOUR = (215, 215, 215)
+LIGHT = np.array([0.4, -0.5, 0.77])
+MAX_FPS = 1000.0
+MAX_FRAMES = 100_000
+
+
+def camera(view: str) -> np.ndarray:
+    """Rows: the screen's right, up, and the direction toward the viewer (world frame)."""
+    if view == 'top':
+        return np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    if view == 'side':  # looking along +y: x to the right, z up
+        return np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+    if view != 'iso':
+        raise ValueError(f'view must be one of {list(VIEWS)}, got {view!r}')
+    toward = np.array([1.0, -1.0, 0.8])
+    toward /= np.linalg.norm(toward)
+    right = np.cross([0.0, 0.0, 1.0], toward)
+    right /= np.linalg.norm(right)
+    return np.array([right, np.cross(toward, right), toward])
+
+
+@dataclass
+class Part:
+    """One drawable piece of a body, in its body frame: 'sphere' (radius), 'box' (half
+    extents) or 'capsule' (radius, half length along z), at ``position`` turned by
+    ``rotation``."""
+
+    kind: str
+    size: tuple
+    position: np.ndarray
+    rotation: np.ndarray
+
+
+def inertia_box(spec) -> Part:
+    """The uniform box with the body's mass and principal moments, on its principal axes."""
+    inertia = np.array(spec.inertia, dtype=float)
+    inertia = np.diag(inertia) if inertia.size == 3 else inertia.reshape(3, 3)
+    moments, axes = np.linalg.eigh(inertia)
+    if np.linalg.det(axes) < 0:
+        axes[:, 2] = -axes[:, 2]
+    a, b, c = moments
+    m = spec.mass
+    half = tuple(0.5 * math.sqrt(max(6.0 * (s - 2.0 * own) / m, 1e-12))
+                 for own, s in ((a, a + b + c), (b, a + b + c), (c, a + b + c)))
+    return Part('box', half, np.zeros(3), axes)
+
+
+def parts_of(spec) -> list[Part]:
+    """What to draw of a body: its colliders (planes are the ground grid's), or its inertia
+    box when it has none."""
+    out = []
+    for c in spec.colliders:
+        if c.kind == 'plane':
+            continue
+        r = np.array(rotation_from_quaternion(c.orientation_xyzw)).reshape(3, 3)
+        at = np.array(c.position, dtype=float)
+        if c.kind == 'sphere':
+            out.append(Part('sphere', (c.radius,), at, r))
+        elif c.kind == 'box':
+            out.append(Part('box', tuple(0.5 * s for s in c.size), at, r))
+        elif c.kind == 'capsule':
+            out.append(Part('capsule', (c.radius, c.half_length), at, r))
+    if not spec.colliders:
+        out.append(inertia_box(spec))
+    return out
+
+
+def ground_height(specs) -> float:
+    """z of the first horizontal static plane (the ground), else 0."""
+    for spec in specs:
+        if not spec.static:
+            continue
+        for c in spec.colliders:
+            if c.kind != 'plane':
+                continue
+            r = np.array(rotation_from_quaternion(spec.initial_orientation_xyzw)).reshape(3, 3)
+            normal = r @ np.array(c.normal)
+            if normal[2] > 0.999:  # the half-space normal . p <= offset, body frame
+                point = np.array(spec.initial_position) + r @ (np.array(c.normal) * c.offset)
+                return float(point[2])
+    return 0.0
+
+
+def _reach(parts) -> float:
+    """How far a body's parts reach from its centre (m)."""
+    def extent(p: Part) -> float:
+        if p.kind == 'capsule':
+            return p.size[0] + p.size[1]
+        return max(p.size) * (math.sqrt(3.0) if p.kind == 'box' else 1.0)
+    return max((float(np.linalg.norm(p.position)) + extent(p) for p in parts), default=0.1)
+
+
+class Timeline:
+    """The recorded poses of every body at every publish, and when each body existed."""
+
+    def __init__(self, rec) -> None:
+        self.specs = {b.name: b for b in rec.config.bodies}
+        self.order = [b.name for b in rec.config.bodies]
+        self.initial = set(self.order)
+        dt = rec.config.dt
+        self.deleted_at: dict[str, list] = {}
+        self.spawned_at: dict[str, list] = {}
+        for step, e, _ in rec.inputs:
+            if isinstance(e, Spawn):
+                self.specs[e.spec.name] = e.spec
+                if e.spec.name not in self.order:
+                    self.order.append(e.spec.name)
+                self.spawned_at.setdefault(e.spec.name, []).append(step * dt)
+            elif isinstance(e, Delete):
+                self.deleted_at.setdefault(e.body, []).append(step * dt)
+        poses: dict[str, list] = {}
+        for step, body, kind, _t, msg, log_time in rec.outputs:
+            if kind == 'pose':
+                p, o = msg.pose.position, msg.pose.orientation
+                poses.setdefault(body, []).append((log_time * 1e-9, p.x, p.y, p.z, o.x, o.y,
+                                                   o.z, o.w))
+        self.times = np.array(sorted({row[0] for rows in poses.values() for row in rows}))
+        self.tracks = {}
+        for name, rows in poses.items():
+            a = np.array(rows, dtype=float)
+            ok = np.all(np.isfinite(a), axis=1)
+            a = a[ok]
+            self.tracks[name] = (a[:, 0], a[:, 1:4], rotation_matrices(a[:, 4:8]))
+        self.parts = {name: parts_of(spec) for name, spec in self.specs.items()}
+        self.ground = ground_height(self.specs.values())
+        self.colour = {}
+        for i, name in enumerate(self.order):
+            self.colour[name] = STATIC_COLOUR if self.specs[name].static else \
+                PALETTE[i % len(PALETTE)]
+
+    def _present(self, name: str, t: float) -> bool:
+        """Whether a static body is in the run at ``t``: from the start (a body of the
+        config) or its spawn, until it is deleted."""
+        present = name in self.initial
+        changes = sorted([(s, True) for s in self.spawned_at.get(name, [])]
+                         + [(d, False) for d in self.deleted_at.get(name, [])])
+        for when, appears in changes:
+            if when <= t + 1e-12:
+                present = appears
+        return present
+
+    def state(self, name: str, t: float):
+        """(position, rotation) of ``name`` at the last publish at or before ``t``, or None
+        if it was not there then (not yet spawned, deleted, or not finite)."""
+        spec = self.specs[name]
+        if spec.static:
+            if not self._present(name, t):
+                return None
+            return (np.array(spec.initial_position), np.array(
+                rotation_from_quaternion(spec.initial_orientation_xyzw)).reshape(3, 3))
+        track = self.tracks.get(name)
+        if track is None:
+            return None
+        times, x, r = track
+        k = int(np.searchsorted(times, t + 1e-12, side='right')) - 1
+        if k < 0:
+            return None
+        # Gone if a publish of the run came after its last one and before t.
+        later = self.times[(self.times > times[k] + 1e-12) & (self.times <= t + 1e-12)]
+        if len(later):
+            return None
+        return x[k], r[k]
+
+
+def _frame_times(timeline: Timeline, fps: float | None) -> np.ndarray:
+    times = timeline.times
+    if not len(times):
+        return times
+    if fps is None:
+        return times
+    if not (isinstance(fps, (int, float)) and math.isfinite(fps) and 0 < fps <= MAX_FPS):
+        raise ValueError(f'fps must be a number in (0, {MAX_FPS:g}], got {fps!r}')
+    count = int(math.floor((times[-1] - times[0]) * fps + 1e-9)) + 1
+    if count > MAX_FRAMES:
+        raise ValueError(f'{count} frames at {fps:g} fps: at most {MAX_FRAMES} (lower --fps)')
+    return times[0] + np.arange(count) / fps
+
+
+class Renderer:
+    """Frames of a recording: ``frame(t)`` is a PIL image of the run at sim time t."""
+
+    def __init__(self, rec, view: str = 'iso', size=(640, 480), follow: str | None = None
+                 ) -> None:
+        self.timeline = tl = Timeline(rec)
+        self.cam = camera(view)
+        self.view = view
+        self.width, self.height = (int(size[0]), int(size[1]))
+        if not (64 <= self.width <= 4096 and 64 <= self.height <= 4096):
+            raise ValueError(f'size must be from 64 to 4096 pixels a side, got {size!r}')
+        if follow is not None and follow not in tl.tracks:
+            raise ValueError(f'--follow {follow!r}: no recorded moving body of that name (have '
+                             f'{sorted(tl.tracks)})')
+        self.follow = follow
+        # The view's extent: every recorded centre and static body, with reach.
+        points, reach = [], 0.1
+        for name, (times, x, _r) in tl.tracks.items():
+            points.append(x)
+            reach = max(reach, _reach(tl.parts[name]))
+        for name, spec in tl.specs.items():
+            if spec.static and tl.parts[name] and spec.colliders and any(
+                    c.kind != 'plane' for c in spec.colliders):
+                points.append(np.array([spec.initial_position]))
+                reach = max(reach, _reach(tl.parts[name]))
+        pts = np.concatenate(points) if points else np.zeros((1, 3))
+        screen = pts @ self.cam[:2].T
+        lo, hi = screen.min(axis=0) - reach, screen.max(axis=0) + reach
+        if follow is not None:
+            half = max(4.0 * _reach(tl.parts[follow]), 1.0)
+            lo, hi = -np.array([half, half]), np.array([half, half])
+        span = np.maximum(hi - lo, 1e-6)
+        self.scale = 0.9 * min(self.width / span[0], self.height / span[1])
+        self.centre = 0.5 * (lo + hi)
+        world_lo = pts.min(axis=0) - reach
+        world_hi = pts.max(axis=0) + reach
+        self.grid_box = (world_lo, world_hi)
+
+    def _to_pixels(self, uv: np.ndarray, centre) -> np.ndarray:
+        """Screen coordinates (m) to pixels (x right, y down)."""
+        px = (uv[..., 0] - centre[0]) * self.scale + 0.5 * self.width
+        py = 0.5 * self.height - (uv[..., 1] - centre[1]) * self.scale
+        return np.stack([px, py], axis=-1)
+
+    def frame(self, t: float):
+        from PIL import Image, ImageDraw
+        tl = self.timeline
+        image = Image.new('RGB', (self.width, self.height), BACKGROUND)
+        draw = ImageDraw.Draw(image)
+        centre = self.centre
+        if self.follow is not None:
+            state = tl.state(self.follow, t)
+            if state is not None:
+                centre = state[0] @ self.cam[:2].T
+        self._grid(draw, centre)
+        shapes = []  # (depth, kind, pixels, colour)
+        for name in tl.order:
+            state = tl.state(name, t)
+            if state is None:
+                continue
+            x, r = state
+            for part in tl.parts[name]:
+                shapes.extend(self._part(part, x, r, tl.colour[name], centre))
+        shapes.sort(key=lambda s: s[0])
+        for _, kind, pixels, colour in shapes:
+            if kind == 'circle':
+                (cx, cy), radius = pixels
+                draw.ellipse([cx - radius, cy - radius, cx + radius, cy + radius], fill=colour,
+                             outline=tuple(int(0.6 * c) for c in colour))
+            else:
+                draw.polygon([tuple(p) for p in pixels], fill=colour,
+                             outline=tuple(int(0.6 * c) for c in colour))
+        draw.text((8, 6), f't = {t:.3f} s   ({self.view} view)', fill=(0, 0, 0))
+        return image
+
+    def _grid(self, draw, centre) -> None:
+        lo, hi = self.grid_box
+        span = max(hi[0] - lo[0], hi[1] - lo[1], 1e-3)
+        step = 10.0 ** math.floor(math.log10(span / 4.0))
+        z = self.timeline.ground
+        x0, x1 = math.floor(lo[0] / step) * step, math.ceil(hi[0] / step) * step
+        y0, y1 = math.floor(lo[1] / step) * step, math.ceil(hi[1] / step) * step
+        lines = []
+        for x in np.arange(x0, x1 + 0.5 * step, step):
+            lines.append(((x, y0, z), (x, y1, z)))
+        for y in np.arange(y0, y1 + 0.5 * step, step):
+            lines.append(((x0, y, z), (x1, y, z)))
+        for a, b in lines[:400]:
+            ends = self._to_pixels(np.array([a, b]) @ self.cam[:2].T, centre)
+            draw.line([tuple(ends[0]), tuple(ends[1])], fill=GRID_COLOUR, width=1)
+
+    def _part(self, part: Part, x, r, colour, centre):
+        rot = r @ part.rotation
+        at = x + r @ part.position
+        depth_axis = self.cam[2]
+        if part.kind == 'sphere':
+            uv = self._to_pixels(at @ self.cam[:2].T, centre)
+            return [(float(at @ depth_axis), 'circle', (uv, part.size[0] * self.scale),
+                     _shade(colour, 1.0))]
+        if part.kind == 'capsule':
+            radius, half = part.size
+            ends = np.array([at + rot @ (0.0, 0.0, -half), at + rot @ (0.0, 0.0, half)])
+            uv = self._to_pixels(ends @ self.cam[:2].T, centre)
+            d = uv[1] - uv[0]
+            n = np.array([-d[1], d[0]]) / max(float(np.hypot(*d)), 1e-9) * radius * self.scale
+            depth = float(at @ depth_axis)
+            col = _shade(colour, 1.0)
+            return [(depth, 'circle', (uv[0], radius * self.scale), col),
+                    (depth, 'circle', (uv[1], radius * self.scale), col),
+                    (depth + 1e-9, 'polygon', np.array([uv[0] + n, uv[1] + n, uv[1] - n,
+                                                        uv[0] - n]), col)]
+        hx, hy, hz = part.size
+        out = []
+        light = LIGHT / np.linalg.norm(LIGHT)
+        for axis in range(3):
+            for sign in (-1.0, 1.0):
+                normal = rot[:, axis] * sign
+                if normal @ depth_axis <= 0.0:
+                    continue  # faces away
+                a, b = [k for k in range(3) if k != axis]
+                half = np.array([hx, hy, hz])
+                corners = []
+                for sa, sb in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+                    local = np.zeros(3)
+                    local[axis] = sign * half[axis]
+                    local[a], local[b] = sa * half[a], sb * half[b]
+                    corners.append(at + rot @ local)
+                corners = np.array(corners)
+                uv = self._to_pixels(corners @ self.cam[:2].T, centre)
+                out.append((float(corners.mean(axis=0) @ depth_axis), 'polygon', uv,
+                            _shade(colour, 0.55 + 0.45 * max(0.0, float(normal @ light)))))
+        return out
+
+
+def _shade(colour, k: float):
+    return tuple(int(min(255, c * k)) for c in colour)
+
+
+def render(rec, out_path: str, view: str = 'iso', fps: float | None = None,
+           follow: str | None = None, size=(640, 480), progress=None) -> int:
+    """Write the animation of ``rec`` to ``out_path`` (.gif, or .mp4 with imageio and
+    imageio-ffmpeg); the number of frames. ValueError, one line, for a bad option."""
+    lower = out_path.lower()
+    if not lower.endswith(('.gif', '.mp4')):
+        raise ValueError(f'{out_path}: the output must end in .gif or .mp4')
+    renderer = Renderer(rec, view, size, follow)
+    times = _frame_times(renderer.timeline, fps)
+    if not len(times):
+        raise ValueError(f'{rec.path}: no recorded poses to draw')
+    rate = fps if fps is not None else (
+        1.0 / (rec.config.dt * rec.config.steps_per_publish))
+    if lower.endswith('.mp4'):
+        try:
+            import imageio.v2 as imageio
+            import imageio_ffmpeg  # noqa: F401 - the ffmpeg binary's wheel
+        except ImportError:
+            raise ValueError('an .mp4 needs imageio and imageio-ffmpeg (pip install imageio '
+                             'imageio-ffmpeg; no system ffmpeg needed); a .gif needs neither'
+                             ) from None
+        writer = imageio.get_writer(out_path, fps=rate, codec='libx264', quality=7,
+                                    macro_block_size=8)
+        try:
+            for k, t in enumerate(times):
+                writer.append_data(np.asarray(renderer.frame(float(t))))
+                if progress is not None:
+                    progress(k + 1, len(times))
+        finally:
+            writer.close()
+        return len(times)
+    frames = []
+    for k, t in enumerate(times):
+        frames.append(renderer.frame(float(t)).quantize(colors=64))
+        if progress is not None:
+            progress(k + 1, len(times))
+    frames[0].save(out_path, save_all=True, append_images=frames[1:],
+                   duration=max(20, int(round(1000.0 / rate))), loop=0)
+    return len(times)

@@ -1,0 +1,230 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+# pypi-only: mcap
+"""replay --plot and --render, checked as a person would: the plotted quantities against
+mechanics, the animation's pixels against the recorded poses (a ball's image goes down and up
+as its recorded height does, a static wall stays put), and the files read back."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
+from rb_sim_ros.core.rigid_body import Wrench
+from rb_sim_ros.ros import node_params, plots, render, replay
+from rb_sim_ros.ros.node_recorder import NodeRecorder
+from rb_sim_ros.ros.ros_messages import OutputMessages
+from rb_sim_ros.sim.scene import load_scene
+from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, SetPose, SetWrench,
+                                       Simulation)
+
+ROOT = Path(__file__).resolve().parents[1]
+FIXTURE = ROOT / 'test' / 'fixtures' / 'regression.mcap'
+
+
+def record_offline(path, config, periods, events=None):
+    """Record a run as the node does (scene mode: topics /<name>/pose, ...): publish at step
+    0, then each period its inputs (``events``: period -> [event]), its steps, a publish."""
+    params = {p.name: p.default for p in node_params.PARAMS}
+    params.update(dt=config.dt, publish_rate=1.0 / (config.dt * config.steps_per_publish),
+                  scene_file='scene.yaml')
+    moving = [b.name for b in config.bodies if not b.static]
+    topics = {n: {k: f'/{n}/{k}' for k in ('pose', 'twist', 'odom')} for n in moving}
+    rec = NodeRecorder(str(path), config, params, topics)
+    sim = Simulation(config)
+    outs = {n: OutputMessages(params['world_frame'], n, params['twist_frame']) for n in moving}
+    for period in range(periods + 1):
+        for event in (events or {}).get(period, []):
+            sim.apply(event)
+            rec.event(sim.step_count, sim.time_ns, event)
+        if period:
+            sim.run(config.steps_per_publish)
+        for n in moving:
+            outs[n].fill(sim.time_ns, *sim.pose_twist(n))
+            rec.output(n, sim.step_count, sim.time_ns, outs[n])
+    rec.close()
+    assert rec.failed is None
+    return replay.load(str(path))
+
+
+@pytest.fixture(scope='module')
+def demo(tmp_path_factory):
+    """The collision demo, 1.5 s: the ball falls from 2 m, bounces and falls again."""
+    scene = load_scene(str(ROOT / 'scenes' / 'collisions.yaml'))
+    config = Config(dt=1e-3, steps_per_publish=10, gravity=scene.gravity, bodies=scene.bodies,
+                    contact=scene.contact)
+    return record_offline(tmp_path_factory.mktemp('demo') / 'demo.mcap', config, 150)
+
+
+def _mask(image, colour):
+    return np.all(np.asarray(image.convert('RGB')) == colour, axis=2)
+
+
+def test_the_ball_image_goes_down_and_up_as_its_recorded_height(demo):
+    r = render.Renderer(demo, 'side', (480, 360))
+    colour = r.timeline.colour['ball']
+    rows, heights, seen = [], [], []
+    for t in r.timeline.times:
+        mask = _mask(r.frame(float(t)), colour)
+        seen.append(mask.sum())
+        rows.append(np.nonzero(mask)[0].mean() if mask.any() else np.nan)
+        heights.append(r.timeline.state('ball', float(t))[0][2])
+    seen, rows, heights = np.array(seen), np.array(rows), np.array(heights)
+    whole = seen >= 0.9 * seen.max()  # not hidden behind another body
+    assert whole.sum() > 100
+    # Image rows grow downwards: the centroid's row is height, mapped by the view's scale.
+    fit = np.polyfit(heights[whole], rows[whole], 1)
+    assert fit[0] == pytest.approx(-r.scale, rel=0.02)
+    assert np.abs(np.polyval(fit, heights[whole]) - rows[whole]).max() < 1.0  # pixels
+    # and the recorded height does go down, up and down again (a bounce), so does the image.
+    lowest = int(np.argmin(heights[:100]))
+    assert 0 < lowest < 99 and heights[lowest] < 0.2 < heights[lowest + 25]
+    assert rows[lowest] > rows[0] and rows[lowest] > rows[lowest + 25]
+
+
+def test_a_static_wall_stays_put_in_every_view(demo):
+    for view in render.VIEWS:
+        r = render.Renderer(demo, view, (320, 240))
+        boxes, counts = [], []
+        for t in r.timeline.times[::5]:
+            rgb = np.asarray(r.frame(float(t)).convert('RGB')).astype(int)
+            grey = (rgb[..., 0] == rgb[..., 1]) & (rgb[..., 1] == rgb[..., 2]) & \
+                (rgb[..., 0] > 60) & (rgb[..., 0] < 200)
+            grey[:20] = False  # the time's text
+            ys, xs = np.nonzero(grey)
+            counts.append(len(xs))
+            boxes.append((xs.min(), xs.max(), ys.min(), ys.max()) if len(xs) else None)
+        full = [b for b, c in zip(boxes, counts) if c >= 0.98 * max(counts)]
+        assert len(full) > 5 and all(b == full[0] for b in full), view
+
+
+def test_the_regression_fixture_moves_on_screen_as_recorded():
+    rec = replay.load(str(FIXTURE))
+    r = render.Renderer(rec, 'top', (400, 400))
+    colour = np.array(r.timeline.colour['body'])
+    xs, ys, px, py = [], [], [], []
+    for t in r.timeline.times:
+        rgb = np.asarray(r.frame(float(t)).convert('RGB')).astype(int)
+        # Every shade of the body's colour: faces are shaded c * k.
+        ratio = rgb / np.maximum(colour, 1)
+        mask = (np.abs(ratio - ratio[..., :1]) < 0.03).all(axis=2) & (ratio[..., 0] > 0.3) & \
+            (rgb.sum(axis=2) < 600)
+        rows, cols = np.nonzero(mask)
+        x, rot = r.timeline.state('body', float(t))
+        xs.append(x[0])
+        ys.append(x[1])
+        px.append(cols.mean())
+        py.append(rows.mean())
+    # Top view: x right, y up; the box's image centre moves with its recorded position (the
+    # box is symmetric: its centroid is its centre, whatever its turn).
+    assert np.corrcoef(xs, px)[0, 1] > 0.99 and np.corrcoef(ys, py)[0, 1] < -0.99
+    assert np.ptp(xs) > 0.02  # it does move (the teleport and the push)
+
+
+def test_the_animation_files_read_back(demo, tmp_path):
+    gif = tmp_path / 'demo.gif'
+    assert render.render(demo, str(gif), 'iso', fps=25.0, size=(200, 150)) == 38  # 1.5 s
+    from PIL import Image
+    with Image.open(gif) as im:
+        assert im.n_frames == 38 and im.size == (200, 150)
+    pytest.importorskip('imageio_ffmpeg')
+    import imageio.v2 as imageio
+    mp4 = tmp_path / 'demo.mp4'
+    n = render.render(demo, str(mp4), 'side', follow='ball', size=(200, 160))
+    assert n == 151
+    reader = imageio.get_reader(str(mp4))
+    try:
+        assert sum(1 for _ in reader) == 151
+    finally:
+        reader.close()
+
+
+@pytest.mark.parametrize('kwargs, words', [
+    ({'view': 'front'}, 'view must be one of'), ({'fps': 0.0}, 'fps must be'),
+    ({'fps': float('nan')}, 'fps must be'), ({'follow': 'nobody'}, "--follow 'nobody'"),
+    ({'size': (10, 10)}, 'size must be'), ({'out': 'x.avi'}, 'must end in .gif or .mp4'),
+])
+def test_bad_render_options_are_one_line(demo, tmp_path, kwargs, words):
+    out = str(tmp_path / kwargs.pop('out', 'x.gif'))
+    with pytest.raises(ValueError, match=words.replace('(', r'\(')):
+        render.render(demo, out, **kwargs)
+
+
+def test_plotted_quantities_are_mechanics(tmp_path):
+    """Torque-free, a body keeps its kinetic energy and world-frame angular momentum; under a
+    held force its position is F t^2 / 2m. The wrench is plotted as held, events where they
+    took effect; the files are PNGs."""
+    spec = BodySpec('b', 2.0, (0.1, 0.2, 0.3), initial_angular_velocity=(0.3, 1.0, -2.0))
+    config = Config(dt=1e-3, steps_per_publish=10, bodies=(spec,))
+    force = Wrench((4.0, 0.0, 0.0))
+    rec = record_offline(tmp_path / 'run.mcap', config, 100, events={
+        20: [SetWrench(force, 'b')], 60: [SetPose((0.0, 0.0, 1.0), (0, 0, 0, 1), 'b')]})
+    s = plots.body_series(rec)['b']
+    inertia = np.diag(spec.inertia)
+    w0 = np.array(spec.initial_angular_velocity)
+    assert s.energy[0] == pytest.approx(0.5 * w0 @ inertia @ w0, rel=1e-12)
+    before = s.t < 0.59 + 1e-9  # the teleport turns the body: L = R I R^T w changes
+    assert np.abs(s.momentum[before] - inertia @ w0).max() < 1e-5 * np.linalg.norm(
+        inertia @ w0)
+    assert np.abs(s.energy[:19] - s.energy[0]).max() < 1e-6 * s.energy[0]  # unforced
+    # (an input of period p takes effect at its start: step 10 (p - 1), the publish before)
+    t = s.t[19:60] - 0.19
+    assert s.position[19:60, 0] == pytest.approx(0.5 * 2.0 * t * t, abs=1e-9)
+    rpy = plots.roll_pitch_yaw(np.array([[0.0, 0.0, np.sin(0.5), np.cos(0.5)]]))
+    assert rpy[0] == pytest.approx((0.0, 0.0, 1.0), abs=1e-15)  # 1 rad about z is yaw
+    times, forces, _, _ = plots.wrench_steps(rec, 'b', s.t[-1])
+    assert list(times) == pytest.approx([0.0, 0.19, 1.0]) and forces[1, 0] == 4.0
+    marks = [(k, round(t, 6)) for t, k, _ in plots.events(rec)]
+    assert marks == [('wrench', 0.19), ('teleport', 0.59)]
+    files = plots.plot(rec, str(tmp_path / 'plots'))
+    assert [Path(f).name for f in files] == ['b.png']
+    assert Path(files[0]).read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+
+
+def test_contact_counts_come_from_the_run(tmp_path):
+    """A box resting on the ground touches it at its 4 corners; a ball dropped beside it adds
+    none while in the air and one once it rests (restitution 0, no sleeping)."""
+    ground = BodySpec('ground', static=True, colliders=(Plane(),))
+    box = BodySpec('box', 1.0, (1 / 6,) * 3, initial_position=(0.0, 0.0, 0.25),
+                   colliders=(Box((0.5, 0.5, 0.5)),))
+    ball = BodySpec('ball', 1.0, (0.004,) * 3, initial_position=(2.0, 0.0, 1.0),
+                    colliders=(Sphere(0.1),))
+    config = Config(dt=1e-3, steps_per_publish=10, gravity=(0.0, 0.0, -9.81),
+                    bodies=(ground, box, ball), contact=ContactSettings(sleep_time=0.0))
+    rec = record_offline(tmp_path / 'c.mcap', config, 200)
+    times, counts = plots.contact_counts(rec)
+    assert list(times) == pytest.approx([0.01 * k for k in range(201)])
+    assert counts[0] == 0  # before the first step: none yet
+    assert list(counts[1:30]) == [4] * 29  # the ball (1 m up) in the air for 0.4 s
+    assert list(counts[150:]) == [5] * 51  # at rest beside the box
+
+
+def _main(*args):
+    import contextlib
+    import io
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = replay.main(['replay', *args])
+        except SystemExit as e:
+            code = e.code
+    return code, out.getvalue(), err.getvalue()
+
+
+def test_the_command_line(demo, tmp_path):
+    code, out, err = _main('--plot', demo.path, '--out', str(tmp_path / 'p'), '--bodies',
+                           'ball,crate')
+    assert code == 0, err
+    assert sorted(Path(line).name for line in out.split()) == ['ball.png', 'contacts.png',
+                                                               'crate.png']
+    code, out, err = _main('--render', demo.path, str(tmp_path / 'a.gif'), '--view', 'top',
+                           '--fps', '10', '--size', '160x120')
+    assert code == 0 and '16 frames written' in out and 'rendering frame 16/16' in err
+    for args, words in [(('--render', demo.path), '--render needs FILE and OUT'),
+                        (('--plot', demo.path, '--view', 'top'), 'only for --render'),
+                        (('--render', demo.path, 'a.gif', '--size', '12'), '--size must be'),
+                        (('--plot', demo.path, '--bodies', 'nobody'), "['nobody']"),
+                        (('--render', demo.path, 'x.gif', '--follow', 'ground'), 'ground')]:
+        code, out, err = _main(*args)
+        assert code == 2 and err.count('\n') == 1 and words in err, (args, err)
