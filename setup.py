@@ -16,6 +16,8 @@ setup(
         ('share/' + package_name + '/config', ['config/params.yaml']),
         ('share/' + package_name + '/rviz', ['rviz/rb_sim.rviz']),
         ('share/' + package_name + '/foxglove', ['foxglove/rb_sim_layout.json']),
+        ('share/' + package_name + '/examples',
+         ['examples/attitude_controller.py', 'examples/attitude_demo.sh']),
         ('share/doc/' + package_name, ['LICENSE', 'README.md']),
     ],
     # ROS dependencies come from package.xml (rosdep); PyPI-only ones (mcap for recording)

@@ -29,6 +29,8 @@ from rb_sim_ros.sim.simulation import Delete, Reset, SetPose, SetTwist, SetWrenc
 EVENT_STYLE = {'wrench': ('tab:orange', ':'), 'teleport': ('tab:red', '--'),
                'reset': ('tab:purple', '-.'), 'spawn': ('tab:green', '--'),
                'delete': ('tab:gray', '--')}
+# More wrench changes than this (a controller commanding every period) are not marked.
+MAX_WRENCH_MARKS = 40
 
 
 @dataclass
@@ -189,6 +191,9 @@ def plot(rec, out_dir: str, bodies=None, progress=None) -> list[str]:
     t_end = max((s.t[-1] for s in series.values() if len(s.t)), default=0.0)
     for name, s in series.items():
         marks = [m for m in all_marks if m[2] == name]
+        wrenches = sum(1 for m in marks if m[1] == 'wrench')
+        if wrenches > MAX_WRENCH_MARKS:  # a controller's stream: the wrench panel shows it
+            marks = [m for m in marks if m[1] != 'wrench']
         fig, axes = plt.subplots(4, 2, figsize=(13, 12), sharex=True)
         fig.suptitle(f'{name}  ({os.path.basename(rec.path)})')
         panels = [
@@ -217,7 +222,9 @@ def plot(rec, out_dir: str, bodies=None, progress=None) -> list[str]:
             ax.step(times, forces[:, k], where='post', label=f'F{label} (N)', linewidth=1.0)
             ax.step(times, torques[:, k], where='post', label=f'T{label} (N m)',
                     linestyle='--', linewidth=1.0)
-        ax.set_title('applied wrench (as sent: world or body frame)', fontsize=10)
+        ax.set_title('applied wrench (as sent: world or body frame)' + (
+            f'; {wrenches} changes, not marked' if wrenches > MAX_WRENCH_MARKS else ''),
+            fontsize=10)
         ax.legend(fontsize=7, ncol=2, loc='best')
         ax.grid(True, alpha=0.3)
         for ax in axes.flat:
@@ -238,8 +245,10 @@ def plot(rec, out_dir: str, bodies=None, progress=None) -> list[str]:
         ax.set_ylabel('contacts')
         ax.set_title('contacts of the last step of each publish (re-simulated)')
         ax.grid(True, alpha=0.3)
-        _mark(ax, all_marks)
-        _legend_for_events(fig, all_marks)
+        shown = [m for m in all_marks if m[1] != 'wrench'
+                 or sum(1 for k in all_marks if k[1] == 'wrench') <= MAX_WRENCH_MARKS]
+        _mark(ax, shown)
+        _legend_for_events(fig, shown)
         fig.tight_layout(rect=(0, 0, 0.88, 1))
         path = os.path.join(out_dir, 'contacts.png')
         fig.savefig(path, dpi=80)
