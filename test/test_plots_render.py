@@ -16,8 +16,8 @@ from rb_sim_ros.ros import node_params, plots, render, replay
 from rb_sim_ros.ros.node_recorder import NodeRecorder
 from rb_sim_ros.ros.ros_messages import OutputMessages
 from rb_sim_ros.sim.scene import load_scene
-from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, SetPose, SetWrench,
-                                       Simulation)
+from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Delete, SetPose,
+                                       SetWrench, Simulation, Spawn)
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURE = ROOT / 'test' / 'fixtures' / 'regression.mcap'
@@ -37,7 +37,17 @@ def record_offline(path, config, periods, events=None):
     for period in range(periods + 1):
         for event in (events or {}).get(period, []):
             sim.apply(event)
-            rec.event(sim.step_count, sim.time_ns, event)
+            if isinstance(event, Spawn):  # as the node: topics of its own from now on
+                n = event.spec.name
+                moving.append(n)
+                outs[n] = OutputMessages(params['world_frame'], n, params['twist_frame'])
+                rec.spawned(sim.step_count, sim.time_ns, event,
+                            {k: f'/{n}/{k}' for k in ('pose', 'twist', 'odom')})
+            elif isinstance(event, Delete):
+                moving.remove(event.body)
+                rec.deleted(sim.step_count, sim.time_ns, event.body)
+            else:
+                rec.event(sim.step_count, sim.time_ns, event)
         if period:
             sim.run(config.steps_per_publish)
         for n in moving:
@@ -228,3 +238,27 @@ def test_the_command_line(demo, tmp_path):
                         (('--render', demo.path, 'x.gif', '--follow', 'ground'), 'ground')]:
         code, out, err = _main(*args)
         assert code == 2 and err.count('\n') == 1 and words in err, (args, err)
+
+
+def test_a_name_spawned_again_is_plotted_and_drawn_as_the_body_it_names_then(tmp_path):
+    """'b' lives twice: 1 kg at 1 m/s, then, deleted and spawned again, 100 kg at 1 m/s: its
+    kinetic energy is 0.5 J, then 50 J; the animation draws each with its own shape."""
+    first = BodySpec('b', 1.0, (0.1,) * 3, initial_linear_velocity=(1.0, 0.0, 0.0),
+                     colliders=(Sphere(0.1),))
+    second = BodySpec('b', 100.0, (10.0,) * 3, initial_position=(0.0, 2.0, 0.0),
+                      initial_linear_velocity=(1.0, 0.0, 0.0),
+                      colliders=(Box((0.4, 0.4, 0.4)),))
+    anchor = BodySpec('anchor', initial_position=(0.0, -2.0, 0.0))
+    rec = record_offline(tmp_path / 'r.mcap', Config(bodies=(anchor,)), 30, events={
+        2: [Spawn(first)], 10: [Delete('b')], 20: [Spawn(second)]})
+    assert replay.verify(rec.path).identical
+    s = plots.body_series(rec)['b']
+    early, late = s.t < 0.1, s.t > 0.195
+    assert s.energy[early] == pytest.approx(0.5, rel=1e-12)
+    assert s.energy[late] == pytest.approx(50.0, rel=1e-12)
+    times, forces, _, _ = plots.wrench_steps(rec, 'b', 0.3)
+    assert list(times) == pytest.approx([0.0, 0.01, 0.09, 0.19, 0.3])
+    r = render.Renderer(rec, 'top', (200, 200))
+    assert [p.kind for p in r.timeline.life('b', 0.05)[1]] == ['sphere']
+    assert [p.kind for p in r.timeline.life('b', 0.25)[1]] == ['box']
+    assert r.timeline.state('b', 0.15) is None  # deleted then

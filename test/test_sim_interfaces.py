@@ -299,7 +299,8 @@ def test_spawned_and_deleted_bodies_move_publish_and_replay(
     scene.write_text(SPAWN_SCENE)
     f = tmp_path / 'run.mcap'
     sim = start_sim('-p', f'scene_file:={scene}', '-p', 'start_paused:=true',
-                    '-p', f'record:={f}', '-p', 'imu_accel_noise:=0.01')
+                    '-p', f'record:={f}', '-p', 'imu_accel_noise:=0.01',
+                    '-p', 'qos_overrides./bad/imu.publisher.depth:=-5')
     spawnables = probe.call(GetSpawnables, 'get_spawnables', GetSpawnables.Request())
     assert [s.uri for s in spawnables.spawnables] == ['ball']
 
@@ -330,7 +331,14 @@ def test_spawned_and_deleted_bodies_move_publish_and_replay(
     assert _spawn(probe, 'x', uri='ball', position=(1.0, 0.0, 0.0), frame='nowhere')[0] == \
         R.INVALID_POSE
     assert _delete(probe, 'nobody') == Result.RESULT_NOT_FOUND
+    # One of its topics cannot be made (a bad QoS override): refused whole, no topic left.
+    assert _spawn(probe, 'bad', uri='ball')[0] == Result.RESULT_OPERATION_FAILED
+    assert not any(t.startswith('/bad/') for t, _ in
+                   probe.node.get_publisher_names_and_types_by_node('rb_sim', '/'))
     assert _names(probe) == names
+    # A static body: on /tf_static (sent again, stamped when sent) until it is deleted.
+    assert _spawn(probe, 'post', resource='{static: true, position: [3, 0, 0]}')[:2] == \
+        (OK, 'post')
 
     # They move: the balls fall freely (0.2 s: z = 1 - g t^2 / 2), then land on the ground
     # (a collision world that a spawn brought along), on their own topics.
@@ -347,6 +355,7 @@ def test_spawned_and_deleted_bodies_move_publish_and_replay(
     assert _pose(_state(probe, 'sat'))[0][2] < 3.0 - 9.0  # the scene's own body fell freely
 
     # Deleted: gone, its topics too; the others go on.
+    assert _delete(probe, 'post') == OK
     assert _delete(probe, 'ball_2') == OK
     assert _delete(probe, 'ball_2') == Result.RESULT_NOT_FOUND
     assert 'ball_2' not in _names(probe)
@@ -375,3 +384,4 @@ def test_spawned_and_deleted_bodies_move_publish_and_replay(
     assert counts['/rb_sim/input/ball/spawn'] == 2 and counts['/rb_sim/input/ball/delete'] == 1
     assert counts['/rb_sim/input/ball_2/delete'] == 1 and counts['/late/imu'] > 5
     assert counts['/ball/pose'] > 0
+    assert counts['/tf_static'] == 3  # at the start, after post came and after it went

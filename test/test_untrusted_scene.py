@@ -335,7 +335,7 @@ def test_ten_thousand_bodies_load(tmp_path):
 # What follows 'body i: ' in a message: a field of the body (with an index or a key under it,
 # which may hold spaces: colliders[0].type.' '[0]), or what is wrong with the body's mapping.
 _BODY_FIELD = re.compile(r'(%s)(\[\d+\])*(\..*?)?: |must be a mapping of fields|unknown field|'
-                         r'(\w+: )?keys must be strings|not valid YAML|more than \d+ values'
+                         r'(\S+: )?keys must be strings|not valid YAML|more than \d+ values'
                          % '|'.join(sorted(scene.BODY_KEYS)))
 
 

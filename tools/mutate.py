@@ -296,6 +296,21 @@ MUTANTS = [
        '                    outs[event.body] = outputs_of(event.body)')],
      ['test/test_untrusted_recording.py::test_a_run_with_a_spawn_and_a_delete_verifies'],
      "replay stamps a spawned body beside the single body with the single body's frame"),
+    ('tf-static-stamped-zero', 'rb_sim_ros/ros/simulator_node.py',
+     [('            ros_messages.fill_tf(self._tf_static, t_ns, self._tf_static_poses)',
+       '            ros_messages.fill_tf(self._tf_static, 0, self._tf_static_poses)')],
+     [SIM_API + 'test_spawned_and_deleted_bodies_move_publish_and_replay'],
+     '/tf_static sent again after a spawn keeps stamp 0, while replay stamps it when sent'),
+    ('plane-normalised-twice', 'rb_sim_ros/contact/collision_shapes.py',
+     [('        if abs(squared - 1.0) > UNIT_TOLERANCE:', '        if True:')],
+     [SPAWN + 'test_a_tilted_plane_is_the_same_bits_after_a_round_trip'],
+     "a plane's normal normalised again when a recording's config is read back"),
+    ('plot-first-lifetime', 'rb_sim_ros/ros/plots.py',
+     [("        which = np.maximum(np.searchsorted(starts, a[:, 0], side='left') - 1, 0)",
+       '        which = np.zeros(len(a), dtype=int)')],
+     ['test/test_plots_render.py::'
+      'test_a_name_spawned_again_is_plotted_and_drawn_as_the_body_it_names_then'],
+     'a body spawned again under a name is plotted with the mass of the first'),
 ]
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 import math
+import sys
 from typing import Any, Union
 
 import numpy as np
@@ -187,6 +188,10 @@ class Capsule:
         return 0.5 * self.length + self.radius
 
 
+# |n|^2 - 1 of a normal this module normalised is at most a few units in the last place.
+UNIT_TOLERANCE = 8 * sys.float_info.epsilon
+
+
 @dataclass(frozen=True)
 class Plane:
     """The half-space normal . p <= offset (m) of its body's frame; ``normal`` (any non-zero
@@ -206,8 +211,13 @@ class Plane:
         if scaled is None:
             raise ValueError('normal must be a non-zero vector, got [0.0, 0.0, 0.0]')
         n = [float(c) for c in scaled]
-        norm = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
-        object.__setattr__(self, 'normal', (n[0] / norm, n[1] / norm, n[2] / norm))
+        squared = n[0] * n[0] + n[1] * n[1] + n[2] * n[2]
+        if abs(squared - 1.0) > UNIT_TOLERANCE:  # else normalised already: kept as it is,
+            # so that a normal written out and read back (a recording's config) is the same
+            # bits (normalising twice is not exact for about a third of directions)
+            norm = math.sqrt(squared)
+            n = [n[0] / norm, n[1] / norm, n[2] / norm]
+        object.__setattr__(self, 'normal', tuple(n))
         object.__setattr__(self, 'offset', _number('offset', self.offset))
         rotation = np.eye(3)
         rotation.flags.writeable = False

@@ -586,8 +586,8 @@ class CollisionWorld:
         if not was:
             return
         self._asleep[-1] = old._asleep[-1]
-        if self._asleep.any() and not old.warm_start:
-            # Without warm starts no record says what rested on a deleted body: wake all.
+        if self._asleep.any() and not old.warm_start and not recheck:
+            # A delete, without warm starts: no record says what rested on the body: wake all.
             self._wake(np.arange(len(self._asleep)), step_count)
         if not len(old._warm_keys):
             return

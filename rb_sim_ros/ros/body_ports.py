@@ -62,12 +62,21 @@ class BodyPorts:
 
         def qos():
             return QoSProfile(depth=10)
+        self.pub_pose = self.pub_twist = self.pub_odom = self.pub_imu = None
+        self.pub_accel = self.pub_applied = None
+        self.motion_pubs = ()
+        self._subs: list = []
+        try:
+            self._create(node, prefix, qos, moving)
+        except BaseException:  # a bad QoS override of one topic: none of them stays
+            self.destroy(node)
+            raise
+
+    def _create(self, node, prefix: str, qos, moving: bool) -> None:
         over = {'qos_overriding_options': OVERRIDABLE}
         self.pub_pose = node.create_publisher(PoseStamped, prefix + 'pose', qos(), **over)
         self.pub_twist = node.create_publisher(Twist, prefix + 'twist', qos(), **over)
         self.pub_odom = node.create_publisher(Odometry, prefix + 'odom', qos(), **over)
-        self.pub_imu = self.pub_accel = None
-        self.motion_pubs = ()
         if moving:
             self.pub_imu = node.create_publisher(Imu, prefix + 'imu', qos(), **over)
             self.pub_accel = node.create_publisher(AccelStamped, prefix + 'accel', qos(),
@@ -79,15 +88,13 @@ class BodyPorts:
             QoSProfile(depth=APPLIED_QOS.depth, durability=APPLIED_QOS.durability), **over)
         self.state_pubs = ((self.pub_pose, self.out.pose), (self.pub_twist, self.out.twist),
                            (self.pub_odom, self.out.odom))
-        self._subs = [
-            node.create_subscription(WrenchMsg, prefix + 'wrench', self._on_wrench, qos(),
-                                     **over),
-            node.create_subscription(WrenchStamped, prefix + 'wrench_stamped',
-                                     self._on_wrench_stamped, qos(), **over),
-            node.create_subscription(PoseStamped, prefix + 'set_pose', self._on_set_pose,
-                                     qos(), **over),
-            node.create_subscription(Twist, prefix + 'set_twist', self._on_set_twist, qos(),
-                                     **over)]
+        for msg_type, topic, callback in (
+                (WrenchMsg, 'wrench', self._on_wrench),
+                (WrenchStamped, 'wrench_stamped', self._on_wrench_stamped),
+                (PoseStamped, 'set_pose', self._on_set_pose),
+                (Twist, 'set_twist', self._on_set_twist)):
+            self._subs.append(node.create_subscription(msg_type, prefix + topic, callback,
+                                                       qos(), **over))
 
     def destroy(self, node) -> None:
         """Take the body's topics off ``node`` (a deleted body's)."""
@@ -98,6 +105,8 @@ class BodyPorts:
             if pub is not None:
                 node.destroy_publisher(pub)
         self._subs = []
+        self.pub_pose = self.pub_twist = self.pub_odom = self.pub_imu = None
+        self.pub_accel = self.pub_applied = None
 
     def topics(self) -> dict[str, str]:
         """kind -> the topic it is published on (what a recording names)."""

@@ -71,10 +71,7 @@ def roll_pitch_yaw(q: np.ndarray) -> np.ndarray:
 def body_series(rec, bodies=None) -> dict[str, BodySeries]:
     """The recorded odom of each body (all moving ones, or those named in ``bodies``), with
     energy and momentum from the body's mass and inertia in the recording's config."""
-    specs = {b.name: b for b in rec.config.bodies}
-    for _, event, _ in rec.inputs:
-        if isinstance(event, Spawn):
-            specs.setdefault(event.spec.name, event.spec)
+    lives = lifetimes(rec)
     rows: dict[str, list] = {}
     for step, body, kind, _topic, msg, log_time in rec.outputs:
         if kind != 'odom' or (bodies and body not in bodies):
@@ -86,19 +83,37 @@ def body_series(rec, bodies=None) -> dict[str, BodySeries]:
     out = {}
     for name, data in rows.items():
         a = np.array(data, dtype=float)
-        spec = specs[name]
-        inertia = np.array(spec.inertia, dtype=float)
-        inertia = np.diag(inertia) if inertia.size == 3 else inertia.reshape(3, 3)
+        # Each publish with the body of its lifetime (a name deleted and spawned again may
+        # be another body): the last spawn strictly before it (a spawn follows the publish
+        # of its step).
+        starts = [start for start, _ in lives[name]]
+        which = np.maximum(np.searchsorted(starts, a[:, 0], side='left') - 1, 0)
+        mass = np.array([spec.mass for _, spec in lives[name]])[which]
+        inertia = np.array([_tensor(spec) for _, spec in lives[name]])[which]
         r = rotation_matrices(a[:, 4:8])
         v_body, w_body = a[:, 8:11], a[:, 11:14]
-        spin = w_body @ inertia.T  # I w, body frame
+        spin = np.einsum('nij,nj->ni', inertia, w_body)  # I w, body frame
         out[name] = BodySeries(
             name, a[:, 0], a[:, 1:4], a[:, 4:8],
             np.einsum('nij,nj->ni', r, v_body), np.einsum('nij,nj->ni', r, w_body),
-            0.5 * spec.mass * np.sum(v_body * v_body, axis=1)
-            + 0.5 * np.sum(w_body * spin, axis=1),
+            0.5 * mass * np.sum(v_body * v_body, axis=1) + 0.5 * np.sum(w_body * spin, axis=1),
             np.einsum('nij,nj->ni', r, spin))
     return out
+
+
+def lifetimes(rec) -> dict[str, list]:
+    """Each body's [(start s, BodySpec)]: the config's from the start (-inf), then every spawn
+    of that name."""
+    out = {b.name: [(-np.inf, b)] for b in rec.config.bodies}
+    for step, event, _ in rec.inputs:
+        if isinstance(event, Spawn):
+            out.setdefault(event.spec.name, []).append((step * rec.config.dt, event.spec))
+    return out
+
+
+def _tensor(spec) -> np.ndarray:
+    inertia = np.array(spec.inertia, dtype=float)
+    return np.diag(inertia) if inertia.size == 3 else inertia.reshape(3, 3)
 
 
 def events(rec) -> list[tuple[float, str, str]]:
@@ -124,7 +139,7 @@ def wrench_steps(rec, name: str, t_end: float):
             forces.append(tuple(e.wrench.force))
             torques.append(tuple(e.wrench.torque))
             frames.append(e.wrench.frame.value)
-        elif isinstance(e, (Reset, Spawn)):
+        elif isinstance(e, (Reset, Spawn, Delete)):
             times.append(step * dt)
             forces.append((0.0,) * 3)
             torques.append((0.0,) * 3)

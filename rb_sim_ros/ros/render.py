@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from rb_sim_ros.ros.plots import rotation_matrices
+from rb_sim_ros.ros.plots import lifetimes, rotation_matrices
 from rb_sim_ros.ros.ros_messages import rotation_from_quaternion
 from rb_sim_ros.sim.simulation import Delete, Spawn
 
@@ -127,7 +127,9 @@ class Timeline:
     """The recorded poses of every body at every publish, and when each body existed."""
 
     def __init__(self, rec) -> None:
-        self.specs = {b.name: b for b in rec.config.bodies}
+        self.lives = {name: [(start, spec, parts_of(spec)) for start, spec in lives]
+                      for name, lives in lifetimes(rec).items()}
+        self.specs = {name: lives[-1][1] for name, lives in self.lives.items()}
         self.order = [b.name for b in rec.config.bodies]
         self.initial = set(self.order)
         dt = rec.config.dt
@@ -135,7 +137,6 @@ class Timeline:
         self.spawned_at: dict[str, list] = {}
         for step, e, _ in rec.inputs:
             if isinstance(e, Spawn):
-                self.specs[e.spec.name] = e.spec
                 if e.spec.name not in self.order:
                     self.order.append(e.spec.name)
                 self.spawned_at.setdefault(e.spec.name, []).append(step * dt)
@@ -154,7 +155,8 @@ class Timeline:
             ok = np.all(np.isfinite(a), axis=1)
             a = a[ok]
             self.tracks[name] = (a[:, 0], a[:, 1:4], rotation_matrices(a[:, 4:8]))
-        self.parts = {name: parts_of(spec) for name, spec in self.specs.items()}
+        self.parts = {name: [p for _, _, parts in lives for p in parts]  # (for the extent)
+                      for name, lives in self.lives.items()}
         self.ground = ground_height(self.specs.values())
         self.colour = {}
         for i, name in enumerate(self.order):
@@ -172,10 +174,17 @@ class Timeline:
                 present = appears
         return present
 
+    def life(self, name: str, t: float):
+        """(BodySpec, parts) of ``name`` at ``t``: of its last spawn strictly before t (a
+        spawn follows the publish of its step), else the config's."""
+        lives = self.lives[name]
+        k = max(0, int(np.searchsorted([start for start, _, _ in lives], t, side='left')) - 1)
+        return lives[k][1], lives[k][2]
+
     def state(self, name: str, t: float):
         """(position, rotation) of ``name`` at the last publish at or before ``t``, or None
         if it was not there then (not yet spawned, deleted, or not finite)."""
-        spec = self.specs[name]
+        spec = self.life(name, t)[0]
         if spec.static:
             if not self._present(name, t):
                 return None
@@ -270,7 +279,7 @@ class Renderer:
             if state is None:
                 continue
             x, r = state
-            for part in tl.parts[name]:
+            for part in tl.life(name, t)[1]:
                 shapes.extend(self._part(part, x, r, tl.colour[name], centre))
         shapes.sort(key=lambda s: s[0])
         for _, kind, pixels, colour in shapes:

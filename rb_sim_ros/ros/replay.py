@@ -39,6 +39,7 @@ QUANTITIES = ('position', 'orientation', 'linear_velocity', 'angular_velocity',
 # Everything in a file is untrusted; these bound the work a file can ask for.
 MAX_JSON_DEPTH = 16  # the metadata nests 5 deep (config, bodies, a body, colliders, a collider)
 MAX_STEPS_PER_OUTPUT = 1_000_000  # physics steps between two published states (as the node)
+MAX_REBUILT_BODIES = 5_000_000  # bodies of all the worlds spawns and deletes build (~6 min)
 GAP_ALLOWANCE = 2  # a damaged chunk may hide outputs: allow twice the steps the outputs imply
 MIN_RATE, MAX_RATE = 1e-6, 1e9  # --rate: sim time per wall time (0: as fast as possible)
 MAX_WAIT_S = 1e6
@@ -374,6 +375,18 @@ def load(path: str) -> Recording:
                               f'{reader.topics[topic].message_count}')
     inputs.sort(key=lambda e: e[0])
     outputs.sort(key=lambda o: o[0])
+    # Each spawn or delete rebuilds the world around all its bodies: bound the work a file
+    # can ask for that way (as the steps are bounded below).
+    bodies, rebuilt, changes = len(config.bodies), 0, 0
+    for _, event, _ in inputs:
+        if isinstance(event, (Spawn, Delete)):
+            bodies += 1 if isinstance(event, Spawn) else -1
+            rebuilt += max(bodies, 1)
+            changes += 1
+    if rebuilt > MAX_REBUILT_BODIES:
+        raise ReaderError(f'{path}: its {changes} spawns and deletes rebuild the world over '
+                          f'{rebuilt} bodies in all, more than {MAX_REBUILT_BODIES}: refusing '
+                          'to re-simulate that')
     if outputs:
         steps_needed = outputs[-1][0]
         published = len({o[0] for o in outputs})

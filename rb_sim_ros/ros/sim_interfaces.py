@@ -404,9 +404,19 @@ class SimulationInterfaces:
     def _spawn(self, request, response):
         code, message, spec = self._spawn_spec(request)
         if spec is not None:
-            why = self.node.change_bodies(Spawn(spec))
-            if why:
-                code, message = Result.RESULT_OPERATION_FAILED, why
+            placed = []
+
+            def place(s):  # under the node's lock, at the step it takes effect
+                placed.append(self._placed(s, request.initial_pose))
+                return placed[0]
+            try:
+                why = self.node.change_bodies(Spawn(spec), place)
+            except ValueError as e:
+                code, message, spec = SpawnEntity.Response.INVALID_POSE, str(e), None
+            else:
+                spec = placed[0] if placed else spec
+                if why:
+                    code, message = Result.RESULT_OPERATION_FAILED, why
         response.result = _result(code, message)
         response.entity_name = spec.name if spec is not None and code == Result.RESULT_OK \
             else ''
@@ -452,14 +462,11 @@ class SimulationInterfaces:
         if len(node.config.bodies) >= scene.MAX_BODIES:
             return Result.RESULT_OPERATION_FAILED, (f'{len(node.config.bodies)} bodies: at '
                                                     f'most {scene.MAX_BODIES}'), None
-        try:
-            spec = self._placed(spec, request.initial_pose)
-        except ValueError as e:
-            return R.INVALID_POSE, str(e), None
         return Result.RESULT_OK, '', spec
 
     def _placed(self, spec, pose):
-        """``spec`` at ``initial_pose`` (a PoseStamped), unless that is left at its default."""
+        """``spec`` at ``initial_pose`` (a PoseStamped), unless that is left at its default.
+        Called with the node's lock held (change_bodies)."""
         p, o = pose.pose.position, pose.pose.orientation
         x, q = (p.x, p.y, p.z), (o.x, o.y, o.z, o.w)
         frame = pose.header.frame_id.lstrip('/')
@@ -474,8 +481,7 @@ class SimulationInterfaces:
             if frame not in frames:
                 raise ValueError(f"initial_pose frame '{frame[:80]}' is neither "
                                  f"'{node._v['world_frame']}' nor a body frame")
-            with node._lock:
-                fx, fq = node.sim.pose_twist(frames[frame])[:2]
+            fx, fq = node.sim.pose_twist(frames[frame])[:2]
             rx = ros_messages.rotate(ros_messages.rotation_from_quaternion(fq), x)
             x = tuple(a + b for a, b in zip(fx, rx))
             q = _quaternion_product(fq, q)

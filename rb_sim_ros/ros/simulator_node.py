@@ -66,7 +66,7 @@ from rb_sim_ros.ros.diagnostics import Diagnostics
 from rb_sim_ros.ros.ros_messages import TF, TF_STATIC
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Reset, SetTwist,
-                                       SetWrench, Simulation, Spawn)
+                                       SetWrench, Simulation, Spawn, warm_up_contacts)
 
 __all__ = ['APPLIED_QOS', 'SimulatorNode', 'main']
 
@@ -115,7 +115,7 @@ class SimulatorNode(Node):
         for name, value in values.items():
             node_params.check(name, value)
         self._scene = load_scene(values['scene_file']) if values['scene_file'] else None
-        self.config = _config(values, self._scene)
+        self.config = config_from(values, self._scene)
         self.sim = Simulation(self.config)
         self.sim.warm_up()  # compiles on a clean install: before the clock, not in a period
         self._v = values
@@ -190,13 +190,14 @@ class SimulatorNode(Node):
             f'{self.config.steps_per_publish} steps, real_time_factor '
             f'{values["real_time_factor"]}')
 
-    def _add_ports(self, spec: BodySpec, prefix: str, single: bool, stream: int) -> None:
+    def _add_ports(self, spec: BodySpec, prefix: str, single: bool, stream: int,
+                   moving: bool | None = None) -> None:
         v = self._v
+        moving = self.sim.is_moving(spec.name) if moving is None else moving
         self.ports[spec.name] = BodyPorts(
             self, spec.name, prefix, v['world_frame'],
             node_params.body_frame(v, spec.name, single), v['twist_frame'], _Settings(self),
-            self._queue, self._reject, spec.points, self.sim.is_moving(spec.name), self._noise,
-            stream)
+            self._queue, self._reject, spec.points, moving, self._noise, stream)
 
     @property
     def templates(self) -> tuple:
@@ -221,33 +222,50 @@ class SimulatorNode(Node):
             return
         self._tf_static_frames = frames
         self._tf_static = ros_messages.tf_message(TFMessage, world, frames)
-        ros_messages.fill_tf(self._tf_static, 0, [self.sim.pose_twist(p.name)[:2]
-                                                  for p in static])
+        self._tf_static_poses = [self.sim.pose_twist(p.name)[:2] for p in static]
         if self._pub_tf_static is None:
             self._pub_tf_static = self.create_publisher(
                 TFMessage, TF_STATIC, ros_messages.tf_qos(TF_STATIC), **over)
         self._tf_static_due = True
 
     # -- spawning and deleting -------------------------------------------------------------
-    def change_bodies(self, event) -> str:
+    def change_bodies(self, event, place=None) -> str:
         """Apply a Spawn or a Delete now, at the current step (after the inputs queued before
         it): the body's topics come or go with it, and the recording has it as an input.
+        ``place``: for a spawn, a function of its BodySpec giving the spec to spawn, called
+        under the lock after the queued inputs (a pose relative to another body is resolved
+        against that body's state then); its ValueError propagates and nothing changes.
         Returns '' or why it was refused (then nothing changed)."""
+        if isinstance(event, Spawn) and event.spec.colliders and self.sim.world is None:
+            # The first collider of the run: its kernels compiled (or loaded) now, before
+            # the lock, not while the step loop waits.
+            warm_up_contacts(self.config)
         with self._lock:
             if not self._guarded(self._drain):
                 return self.diagnostics.error
+            if place is not None:
+                event = Spawn(place(event.spec))
+            spawn = event.spec if isinstance(event, Spawn) else None
+            if spawn is not None:
+                if any(b.name == spawn.name for b in self.config.bodies):
+                    return f"there is a body named '{spawn.name}' already"
+                try:  # its topics first: a bad QoS override refuses the spawn whole
+                    self._add_ports(spawn, spawn.name + '/', False, self._next_stream,
+                                    moving=not spawn.static)
+                except ValueError as e:
+                    return str(e)
             try:
                 self.sim.apply(event)
             except (ValueError, IntegrationError) as e:
+                if spawn is not None:
+                    self.ports.pop(spawn.name).destroy(self)
                 return str(e)
             self.config = self.sim.config
             step, t_ns = self.sim.step_count, self.sim.time_ns
-            if isinstance(event, Spawn):
-                spec = event.spec
-                self._add_ports(spec, spec.name + '/', False, self._next_stream)
+            if spawn is not None:
                 self._next_stream += 1
                 if self._recorder is not None:
-                    topics = self.ports[spec.name].topics() if not spec.static else {}
+                    topics = self.ports[spawn.name].topics() if not spawn.static else {}
                     self._recorder.spawned(step, t_ns, event, topics)
             else:
                 port = self.ports.pop(event.body, None)
@@ -537,8 +555,9 @@ class SimulatorNode(Node):
                 self._recorder.tf(TF, sim.step_count, t_ns, self._tf_msg)
         if self._pub_poses.get_subscription_count():
             self._fill_poses(t_ns)
-        if self._tf_static_due and not failed:
+        if self._tf_static_due and not failed:  # stamped when sent (replay does the same)
             self._tf_static_due = False
+            ros_messages.fill_tf(self._tf_static, t_ns, self._tf_static_poses)
             self._pub_tf_static.publish(self._tf_static)
             if self._recorder is not None:
                 self._recorder.tf(TF_STATIC, sim.step_count, t_ns, self._tf_static)
@@ -579,7 +598,7 @@ class SimulatorNode(Node):
                     continue
                 node_params.check(p.name, p.value)
                 new[p.name] = p.value
-            config = _config(new, self._scene)
+            config = config_from(new, self._scene)
             _timeout_steps(new, config)
         except ValueError as e:
             return SetParametersResult(successful=False, reason=str(e))
@@ -637,7 +656,9 @@ class _Settings:
         return self._node._v[name]
 
 
-def _config(v: dict, scene=None) -> Config:
+def config_from(v: dict, scene=None) -> Config:
+    """The run's Config from the node's parameter values ``v`` and a scene (or the single
+    body of the parameters)."""
     steps = 1.0 / (v['publish_rate'] * v['dt'])
     if not math.isfinite(steps) or steps > node_params.MAX_STEPS_PER_PERIOD:
         raise ValueError(f"publish_rate {v['publish_rate']} Hz with dt {v['dt']} s makes "

@@ -67,7 +67,7 @@ from rb_sim_ros.contact.collision_shapes import Box, Plane, shape_from_dict, Sph
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import RigidBody
 from rb_sim_ros.sim import safe_yaml
-from rb_sim_ros.sim.simulation import BodySpec, ContactSettings
+from rb_sim_ros.sim.simulation import BodySpec, ContactSettings, MAX_BODIES
 
 TOP_KEYS = {'gravity', 'contact', 'bodies', 'integrator', 'templates'}
 BODY_KEYS = {'name', 'mass', 'inertia', 'shape', 'size', 'radius', 'length', 'density',
@@ -77,7 +77,6 @@ SHAPES = {'box': {'size'}, 'sphere': {'radius'}, 'cylinder': {'radius', 'length'
 COLLIDER_TYPES = ('box', 'capsule', 'plane', 'shape', 'sphere')
 
 MAX_BYTES = 16 * 1024 * 1024
-MAX_BODIES = 20_000
 MAX_DEPTH = 8  # the scene's own structure needs 6 (bodies, a body, colliders, one, position)
 MAX_VALUES = 2_000_000  # about 100 values per body at MAX_BODIES; some 100 MB as Python objects
 MAX_NAME = 64
@@ -436,11 +435,21 @@ def _yaml_error(path: str, e: safe_yaml.YamlError) -> SceneError:
 
 def load_scene(path: str) -> Scene:
     """The scene of the file ``path``; SceneError says what and where."""
+    return scene_from_data(read_scene_data(path), path)
+
+
+def read_scene_data(path: str) -> Any:
+    """The YAML of the scene file ``path``, read within the limits, not yet checked."""
     text = _read(path)
     try:
-        data = safe_yaml.load(text, max_depth=MAX_DEPTH, max_nodes=MAX_VALUES)
+        return safe_yaml.load(text, max_depth=MAX_DEPTH, max_nodes=MAX_VALUES)
     except safe_yaml.YamlError as e:
         raise _yaml_error(path, e) from None
+
+
+def scene_from_data(data: Any, path: str) -> Scene:
+    """The scene of ``data`` (what ``read_scene_data`` gives, perhaps changed), checked as a
+    file's; ``path`` names it in errors."""
     if not isinstance(data, dict):
         raise SceneError(
             f'{path}: must be a mapping with a bodies list, got {type(data).__name__}')

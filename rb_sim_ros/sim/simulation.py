@@ -15,7 +15,7 @@ from dataclasses import dataclass, fields, replace
 from typing import Any, Union
 
 from rb_sim_ros.contact.bodies import BodySpec, ContactSettings, make_steppers
-from rb_sim_ros.contact.collision_shapes import shape_from_dict, shape_to_dict
+from rb_sim_ros.contact.collision_shapes import shape_from_dict, shape_to_dict, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import finite_floats, State, Wrench, ZERO_WRENCH
@@ -23,7 +23,7 @@ from rb_sim_ros.core.stepper import step_all, Stepper
 
 __all__ = ['BodySpec', 'body_from_dict', 'body_to_dict', 'Config', 'ContactSettings', 'Delete',
            'Event', 'make_steppers', 'Reset', 'SetPose', 'SetTwist', 'SetWrench', 'Simulation',
-           'Spawn']
+           'Spawn', 'MAX_BODIES', 'warm_up_contacts']
 
 
 @dataclass(frozen=True)
@@ -190,6 +190,8 @@ class Delete:
 
 
 Event = Union[SetWrench, SetPose, SetTwist, Reset, Spawn, Delete]
+# The most bodies a run may have (scene files too): a spawn rebuilds the world around them all.
+MAX_BODIES = 20_000
 EVENTS = (SetWrench, SetPose, SetTwist, Reset, Spawn, Delete)
 
 
@@ -352,6 +354,8 @@ class Simulation:
     def _spawn(self, spec: BodySpec) -> None:
         if not isinstance(spec, BodySpec):
             raise ValueError(f'a spawned body must be a BodySpec, got {spec!r}')
+        if len(self.config.bodies) >= MAX_BODIES:
+            raise ValueError(f'{len(self.config.bodies)} bodies: at most {MAX_BODIES} in a run')
         if any(b.name == spec.name for b in self.config.bodies):
             raise ValueError(f"there is a body named '{spec.name}' already")
         # Checked against a new body: contacts before the next step integrates.
@@ -410,6 +414,15 @@ class Simulation:
             raise ValueError(f'event at step {events[i][0]} is in the past '
                              f'(now at step {self.step_count})')
         return events[i:]
+
+
+def warm_up_contacts(config: Config) -> None:
+    """Compile (or load from the cache) the collision kernels a run like ``config`` (its dt
+    and method) would need, touching no run: what a first spawn with colliders would
+    otherwise do in its step."""
+    probe = BodySpec('probe', colliders=(Sphere(0.1),))
+    Simulation(Config(dt=config.dt, steps_per_publish=config.steps_per_publish,
+                      integrator=config.integrator, bodies=(probe,))).warm_up()
 
 
 def _build(config: Config):
