@@ -34,6 +34,7 @@ setup(
             'simulator = rb_sim_ros.ros.simulator_node:main',
             'send_wrench = rb_sim_ros.ros.send_wrench:main',
             'replay = rb_sim_ros.ros.replay:main',
+            'sweep = rb_sim_ros.ros.sweep:main',
         ],
     },
 )

@@ -149,6 +149,19 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((readme, '**Fast**', f'{fast[(moving, False)]:.0f}x real time'))
     q.append((readme, '**Fast**', f'{100 * r1k["late_tick_fraction"]:.2f}% late ticks'))
     scene = node['scene']['sim_over_wall']
+    sw = {e['engine']: e for e in load('sweep_bench', folder)['engines']}
+    one, two = sw['local, 1 worker'], sw['local, 2 workers']
+    ray = sw['ray (local), 2 CPUs']
+    scaling = two['runs_per_s'] / one['runs_per_s']
+    sweep_text = (f'1 worker {one["runs_per_s"]:.2f} runs/s, 2 workers '
+                  f'{two["runs_per_s"]:.2f} runs/s ({scaling:.2f}x), '
+                  f'Ray with 2 CPUs {ray["runs_per_s"]:.2f} runs/s')
+    cpu = one['cpu_s_per_run']
+    for doc, where in ((readme, '#Sweeps: many runs'), ('docs/sweeps.md', '#On a Ray cluster')):
+        q.append((doc, where, sweep_text))
+        q.append((doc, where, f'{cpu * 1e3:.0f} ms of one core'))
+        q.append((doc, where, f'{cpu * 1e6 / 3600:.0f} core-hours'))
+
     sleeping = '#Sleeping'
     q.append((coll, sleeping, f'{scene[0]:.2f} sim seconds per wall second in the first'))
     q.append((coll, sleeping, f'then {min(scene[-3:]):.1f} to {max(scene[-3:]):.1f} in the last '

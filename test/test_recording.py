@@ -34,6 +34,7 @@ import yaml
 
 from rb_sim_ros.recording import (ReaderError, RecordingReader, RecordingWriter, recover,
                                   schema_text, type_hash, write_rosbag2_metadata, WriterError)
+from rb_sim_ros.recording.compare import difference
 from rb_sim_ros.recording.schemas import interface_file
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -680,3 +681,24 @@ def test_a_corrupt_chunk_is_a_reader_error_and_recover_skips_it(tmp_path):
     assert f'chunk at byte {chunk.chunk_start_offset} fails its CRC check' in r.damaged[0]
     assert [tuple(m) for m in r.messages()] == [
         s for s in kept if s[2] < chunks[-1].message_start_time]
+
+
+def test_an_inline_writer_writes_the_same_recording(tmp_path):
+    """background=False (a sweep worker's: no thread) gives a file that reads back the same
+    as the threaded writer's, whose chunks close by size only there too."""
+    paths = []
+    for background in (True, False):
+        (tmp_path / str(background)).mkdir()
+        path = tmp_path / str(background) / 'run.mcap'  # (the name is in the bag info)
+        with RecordingWriter(path, chunk_size=4096, max_chunk_age_s=None,
+                             background=background) as w:
+            w.register_topic('/pose', PoseStamped)
+            for k in range(500):
+                msg = PoseStamped()
+                msg.header.frame_id = 'world'
+                msg.pose.position.x = k * 0.1
+                w.write('/pose', msg, k * 1000)
+            assert w.pending == 0 or background
+        paths.append(str(path))
+    assert difference(*paths) == ''
+    assert RecordingReader(paths[1]).message_count == 500

@@ -89,6 +89,19 @@ class _Sink:
             self.synced = self.position
 
 
+class _Inline:
+    """The writer's queue without a thread: each item is written as it is put."""
+
+    def __init__(self, consume) -> None:
+        self._consume = consume
+
+    def put(self, item) -> None:
+        self._consume(item)
+
+    def qsize(self) -> int:
+        return 0
+
+
 def _ns(value: Any, name: str, path: str, topic: str) -> int:
     try:
         ns = operator.index(value)
@@ -121,7 +134,9 @@ class RecordingWriter:
     ``bag_info``: write rosbag2's ``rosbag2`` metadata record (bag information) when the file
     opens and again, with the counts, at its end, as ``ros2 bag record`` does; so a file cut
     short still has one. Message timestamps are always passed in (integer nanoseconds); the
-    writer never reads a clock for them.
+    writer never reads a clock for them. ``background`` False writes inline, on the caller's
+    thread (no writer thread: for a process that does nothing else, such as a sweep's
+    worker; chunks then close by size only).
 
     Use as a context manager, or call ``finish()`` (idempotent); a writer still open when the
     interpreter exits is finished then. A file that cannot be created or started raises
@@ -137,7 +152,7 @@ class RecordingWriter:
     def __init__(self, path: str | os.PathLike, overwrite: bool = False,
                  chunk_size: int = CHUNK_SIZE, compression: str = 'zstd',
                  library: str = LIBRARY, max_chunk_age_s: float | None = 1.0,
-                 fsync: bool = False, bag_info: bool = True) -> None:
+                 fsync: bool = False, bag_info: bool = True, background: bool = True) -> None:
         self.path = os.fspath(path)
         if compression not in COMPRESSION:
             raise WriterError(f'{self.path}: compression {compression!r} is not one of '
@@ -177,15 +192,21 @@ class RecordingWriter:
         self._summaries: dict[int, TopicSummary] = {}
         self._counts: dict[int, int] = {}
         self._times: list[int] = []  # [first, last] log time written, once there is one
-        self._queue: queue.SimpleQueue = queue.SimpleQueue()
         self._error: WriterError | None = None
+        self._deadline = None  # when the chunk in progress must be finished (monotonic)
+        self._in_a_row = 0
         self._closing = False
         self._finished = False
         self._lock = threading.Lock()
         self._register_lock = threading.Lock()
-        self._thread = threading.Thread(target=self._run, name=f'mcap writer {self.path}',
-                                        daemon=True)
-        self._thread.start()
+        if background:
+            self._queue: Any = queue.SimpleQueue()
+            self._thread = threading.Thread(target=self._run,
+                                            name=f'mcap writer {self.path}', daemon=True)
+            self._thread.start()
+        else:  # every call writes before it returns: no thread (a sweep's worker)
+            self._queue = _Inline(self._consume)
+            self._thread = None
         _open_writers.add(self)
 
     # -- the caller's side ------------------------------------------------------------------
@@ -303,7 +324,8 @@ class RecordingWriter:
                 return
             self._closing = True
             self._queue.put((_FINISH,))
-            self._thread.join()
+            if self._thread is not None:
+                self._thread.join()
             self._finished = True
             _open_writers.discard(self)
             try:
@@ -349,74 +371,80 @@ class RecordingWriter:
     # -- the writer thread ------------------------------------------------------------------
     def _run(self) -> None:
         get = self._queue.get
-        mcap = self._mcap
-        sink = self._sink
-        counts = self._counts
-        times = self._times
-        deadline = None  # when the chunk in progress must be finished (time.monotonic)
-        in_a_row = 0
         while True:
-            if deadline is None:
+            if self._deadline is None:
                 item = get()
             else:
                 try:
-                    item = get(timeout=max(0.0, deadline - time.monotonic()))
+                    item = get(timeout=max(0.0, self._deadline - time.monotonic()))
                 except queue.Empty:
                     item = (_FLUSH, None)
-            kind = item[0]
-            if self._error is not None and kind not in (_FLUSH, _FINISH):
-                continue  # broken: drop everything until finish()
-            try:
-                if kind == _MESSAGE:
-                    _, channel_id, log, pub, seq, data = item
-                    before = sink.position
-                    mcap.add_message(channel_id, log, data, pub, seq)
-                    counts[channel_id] = counts.get(channel_id, 0) + 1
-                    if times:
-                        times[0], times[1] = min(times[0], log), max(times[1], log)
-                    else:
-                        times[:] = [log, log]
-                    if sink.position != before:  # a chunk was finished and written
-                        sink.flush()
-                        deadline = None
-                    elif deadline is None and self._max_age is not None:
-                        deadline = time.monotonic() + self._max_age
-                    in_a_row += 1
-                    if in_a_row >= _YIELD_EVERY:
-                        in_a_row = 0
-                        time.sleep(0)  # let the caller's threads take the GIL
-                    continue
-                in_a_row = 0
-                if kind == _SCHEMA:
-                    _, schema_id, name, text = item
-                    if mcap.register_schema(name, SCHEMA_ENCODING, text) != schema_id:
-                        raise RuntimeError(f'schema id mismatch for {name}')
-                elif kind == _CHANNEL:
-                    _, channel_id, topic, schema_id, metadata = item
-                    if mcap.register_channel(topic, MESSAGE_ENCODING, schema_id,
-                                             metadata) != channel_id:
-                        raise RuntimeError(f'channel id mismatch for {topic}')
-                elif kind == _METADATA:
-                    mcap.add_metadata(item[1], item[2])
+            if self._consume(item):
+                return
+
+    def _consume(self, item) -> bool:
+        """Write one queued item (on the writer thread, or inline without one); True after
+        the finish."""
+        mcap = self._mcap
+        sink = self._sink
+        kind = item[0]
+        if self._error is not None and kind not in (_FLUSH, _FINISH):
+            return False  # broken: drop everything until finish()
+        try:
+            if kind == _MESSAGE:
+                _, channel_id, log, pub, seq, data = item
+                before = sink.position
+                mcap.add_message(channel_id, log, data, pub, seq)
+                counts, times = self._counts, self._times
+                counts[channel_id] = counts.get(channel_id, 0) + 1
+                if times:
+                    times[0], times[1] = min(times[0], log), max(times[1], log)
+                else:
+                    times[:] = [log, log]
+                if sink.position != before:  # a chunk was finished and written
                     sink.flush()
-                elif kind == _FLUSH:
-                    if self._error is None:
-                        mcap.flush()
-                    deadline = None
-                    if item[1] is not None:
-                        item[1].set()
-                elif kind == _FINISH:
-                    if self._error is None:
-                        self._finish_file()
-                    return
-            except Exception as e:  # kept for ``failed``; never raised on the caller's thread
-                self._error = WriterError(
-                    f'{self.path}: writing failed: {_reason(e)}; recording stopped, the file '
-                    'keeps what was written before (replay --recover finalises it)')
-                if kind == _FLUSH and item[1] is not None:
+                    self._deadline = None
+                elif self._deadline is None and self._max_age is not None and \
+                        self._thread is not None:
+                    self._deadline = time.monotonic() + self._max_age
+                if self._thread is not None:
+                    self._in_a_row += 1
+                    if self._in_a_row >= _YIELD_EVERY:
+                        self._in_a_row = 0
+                        time.sleep(0)  # let the caller's threads take the GIL
+                return False
+            self._in_a_row = 0
+            if kind == _SCHEMA:
+                _, schema_id, name, text = item
+                if mcap.register_schema(name, SCHEMA_ENCODING, text) != schema_id:
+                    raise RuntimeError(f'schema id mismatch for {name}')
+            elif kind == _CHANNEL:
+                _, channel_id, topic, schema_id, metadata = item
+                if mcap.register_channel(topic, MESSAGE_ENCODING, schema_id,
+                                         metadata) != channel_id:
+                    raise RuntimeError(f'channel id mismatch for {topic}')
+            elif kind == _METADATA:
+                mcap.add_metadata(item[1], item[2])
+                sink.flush()
+            elif kind == _FLUSH:
+                if self._error is None:
+                    mcap.flush()
+                self._deadline = None
+                if item[1] is not None:
                     item[1].set()
-                if kind == _FINISH:
-                    return
+            elif kind == _FINISH:
+                if self._error is None:
+                    self._finish_file()
+                return True
+        except Exception as e:  # kept for ``failed``; never raised on the caller's thread
+            self._error = WriterError(
+                f'{self.path}: writing failed: {_reason(e)}; recording stopped, the file '
+                'keeps what was written before (replay --recover finalises it)')
+            if kind == _FLUSH and item[1] is not None:
+                item[1].set()
+            if kind == _FINISH:
+                return True
+        return False
 
     def _finish_file(self) -> None:
         self._mcap.flush()  # the last chunk first: bag information describes finished data

@@ -184,10 +184,12 @@ class NodeRecorder:
 
     def __init__(self, path: str, config: Config, parameters: dict,
                  output_topics: dict[str, dict[str, str]], overwrite: bool = False,
-                 tf_topics=(), max_chunk_age_s: float | None = 1.0) -> None:
+                 tf_topics=(), max_chunk_age_s: float | None = 1.0,
+                 background: bool = True) -> None:
         try:
             self._writer = RecordingWriter(path, overwrite=overwrite, library=LIBRARY,
-                                           max_chunk_age_s=max_chunk_age_s)
+                                           max_chunk_age_s=max_chunk_age_s,
+                                           background=background)
         except WriterError as e:
             hint = ('; set record_overwrite:=true to replace it'
                     if not overwrite and os.path.isfile(path) else '')

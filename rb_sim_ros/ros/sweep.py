@@ -1,0 +1,641 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""sweep: many offline runs of a scene, each recorded as the node records it, on local
+processes or on Ray.
+
+    sweep scene.yaml --vary bodies.ball.position.2=1:3:5 --vary contact.restitution=[0.2,0.8]
+          --seeds 4 --steps 2000 --out runs/ [--wrench profile.csv] [--param dt=0.0005]
+          [--workers 2 | --ray local|auto|ADDRESS]
+    sweep --verify runs/*.mcap [--workers 2 | --ray ...]
+
+Every variant runs through the same ``Simulation`` the node steps (no DDS): the scene with the
+varied values put in at KEY (a path into the scene file: ``gravity``, ``contact.friction``,
+``bodies.<name>.<field>[.<index>]``, ``templates.<name>.<field>``), for each of ``--seeds``
+seeds (the IMU noise's ``imu_seed``, and the draws of seeded distributions). SPEC is a list
+``[a, b, c]`` (YAML, so vectors too: ``[[0, 0, 1], [0, 0, 2]]``), a range ``a:b:n`` (n values
+from a to b), or a distribution drawn per run: ``uniform(a, b)``, ``normal(mu, sigma)``. The
+runs are the product of the lists and ranges, times the seeds, numbered in that order. A wrench
+schedule (a CSV as send_wrench reads it) applies to every run, to ``--wrench-body`` (default
+the first moving body), each row from the first publish period at or after its time, as the
+node would take it. Node parameters (``dt``, ``publish_rate``, ``integrator``, the IMU's noise)
+come from ``--param NAME=VALUE``.
+
+Each run writes ``run_NNNNNN.mcap`` (what the node would record: pose, twist, odom, imu and
+accel of every moving body, inputs at their steps; ``replay --verify`` accepts it) and one row
+of ``summary.csv``: the run, its seed and varied values, each moving body's final pose and
+twist, the total kinetic energy, the contacts of the last step and the most at a publish, the
+steps taken, the error if it failed, and what it cost (``wall_s``, ``cpu_s``: seconds). Rows
+go to ``summary.partial.jsonl`` as runs finish (in any order), and ``summary.csv`` is written
+sorted when the sweep ends. Apart from the costs, the files (what a reader gets:
+``recording.compare``) and rows do not depend on the engine, the number of workers or the
+order runs finish in: a run depends only on its number. A worker writes its recordings inline
+(no writer thread): one core a worker.
+
+Engines: local processes (default: as many as cores) or Ray (``--ray local`` starts one on this
+machine; ``--ray auto`` joins the cluster this machine is part of; ``--ray ADDRESS`` joins that
+one). Runs go in tasks of several, sized to amortise scheduling; a task whose worker dies or
+that raises is retried once, then its runs are recorded as failed and the sweep goes on. The
+scene and parameters travel in each task; recordings come back as bytes and are written by the
+driver, so workers need no shared file system.
+"""
+
+from __future__ import annotations
+
+import argparse
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+import copy
+import csv
+import itertools
+import json
+import math
+import multiprocessing
+import os
+import re
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from rb_sim_ros.core.rigid_body import Wrench
+from rb_sim_ros.core.stepper import IntegrationError
+from rb_sim_ros.ros import node_params, replay, ros_arguments
+from rb_sim_ros.ros.node_recorder import NodeRecorder
+from rb_sim_ros.ros.ros_messages import OutputMessages
+from rb_sim_ros.ros.send_wrench import load_profile
+from rb_sim_ros.ros.simulator_node import config_from
+from rb_sim_ros.sim import safe_yaml
+from rb_sim_ros.sim.imu import ImuSensor
+from rb_sim_ros.sim.scene import read_scene_data, scene_from_data
+from rb_sim_ros.sim.simulation import SetWrench, Simulation
+
+MAX_RUNS = 10_000_000
+MAX_VALUES = 100_000  # in one list or range
+OUTPUT_KINDS = ('pose', 'twist', 'odom', 'imu', 'accel')
+# Fault injection for the tests: "<marker file>:<run>" makes the worker running that run die
+# (os._exit) the first time, as a killed worker would.
+DIE_ONCE_ENV = 'RB_SIM_SWEEP_DIE_ONCE'
+
+
+# -- what to run -----------------------------------------------------------------------------
+def parse_spec(key: str, spec: str):
+    """('values', [v, ...]) for a list or range, ('draw', (kind, a, b)) for a distribution;
+    ValueError naming KEY."""
+    where = f'--vary {key}'
+    m = re.fullmatch(r'\s*(uniform|normal)\(\s*([^,()]+)\s*,\s*([^,()]+)\s*\)\s*', spec)
+    if m:
+        try:
+            a, b = float(m.group(2)), float(m.group(3))
+        except ValueError:
+            raise ValueError(f'{where}: {m.group(1)} takes two numbers, got {spec!r}') from None
+        if not (math.isfinite(a) and math.isfinite(b)) or (m.group(1) == 'uniform' and b < a) \
+                or (m.group(1) == 'normal' and b < 0):
+            raise ValueError(f'{where}: bad {m.group(1)}({a}, {b})')
+        return 'draw', (m.group(1), a, b)
+    m = re.fullmatch(r'\s*([^:\[\]]+):([^:\[\]]+):([^:\[\]]+)\s*', spec)
+    if m:
+        try:
+            a, b, n = float(m.group(1)), float(m.group(2)), int(m.group(3))
+        except ValueError:
+            raise ValueError(f'{where}: a range is a:b:n (numbers, n an integer), got '
+                             f'{spec!r}') from None
+        if not (math.isfinite(a) and math.isfinite(b)) or not 1 <= n <= MAX_VALUES:
+            raise ValueError(f'{where}: a range needs finite ends and 1 to {MAX_VALUES} '
+                             f'values, got {spec!r}')
+        return 'values', [float(v) for v in np.linspace(a, b, n)]
+    if ':' in spec and not spec.strip().startswith('['):
+        raise ValueError(f'{where}: a range is a:b:n (n values from a to b), got {spec!r}')
+    try:
+        data = safe_yaml.load(spec if spec.strip().startswith('[') else f'[{spec}]',
+                              max_depth=4, max_nodes=MAX_VALUES)
+    except safe_yaml.YamlError as e:
+        raise ValueError(f'{where}: not a list, range a:b:n, uniform(a, b) or '
+                         f'normal(mu, sigma): {e.reason}') from None
+    if not isinstance(data, list) or not data:
+        raise ValueError(f'{where}: an empty list')
+    return 'values', data
+
+
+def set_key(data: dict, key: str, value) -> None:
+    """Put ``value`` at ``key`` (dot-separated) of scene data; a list of bodies or templates is
+    indexed by name, a vector by position. ValueError naming the key."""
+    parts = key.split('.')
+    node = data
+    for i, part in enumerate(parts):
+        last = i == len(parts) - 1
+        if isinstance(node, list):
+            by_name = [k for k, item in enumerate(node)
+                       if isinstance(item, dict) and item.get('name') == part]
+            if by_name:
+                index = by_name[0]
+            elif part.isdigit() and int(part) < len(node):
+                index = int(part)
+            else:
+                where = '.'.join(parts[:i]) or 'the scene'
+                raise ValueError(f"--vary {key}: no '{part}' in {where}")
+            if last:
+                node[index] = value
+            else:
+                node = node[index]
+        elif isinstance(node, dict):
+            if last:
+                node[part] = value
+            elif part not in node and part == 'contact':
+                node = node.setdefault(part, {})
+            elif part not in node:
+                raise ValueError(f"--vary {key}: the scene has no '{'.'.join(parts[:i + 1])}'")
+            else:
+                node = node[part]
+        else:
+            raise ValueError(f"--vary {key}: '{'.'.join(parts[:i])}' holds no fields")
+
+
+def plan(varies, seeds: int):
+    """[(run, seed, grid values by key)] and the distributions by key: the product of the lists
+    and ranges (in the order given), each for seeds 0..seeds-1."""
+    grid_keys = [k for k, (kind, _) in varies if kind == 'values']
+    grids = [v for _, (kind, v) in varies if kind == 'values']
+    draws = {k: v for k, (kind, v) in varies if kind == 'draw'}
+    count = math.prod(len(g) for g in grids) * seeds
+    if count > MAX_RUNS:
+        raise ValueError(f'{count} runs: at most {MAX_RUNS}')
+    runs = []
+    for values in itertools.product(*grids):
+        for seed in range(seeds):
+            runs.append((len(runs), seed, dict(zip(grid_keys, values))))
+    return runs, draws
+
+
+def drawn(draws: dict, run: int, seed: int) -> dict:
+    """The seeded distributions' values of one run: from its own PCG64 stream (run, seed,
+    key's place), whatever engine or order runs in."""
+    out = {}
+    for k, (key, (kind, a, b)) in enumerate(sorted(draws.items())):
+        rng = np.random.Generator(np.random.PCG64([run, seed, k]))
+        out[key] = float(rng.uniform(a, b) if kind == 'uniform' else rng.normal(a, b))
+    return out
+
+
+# -- one run ---------------------------------------------------------------------------------
+def run_one(context: dict, run: int, seed: int, values: dict, out_path: str) -> dict:
+    """Simulate and record one run to ``out_path``; its summary row (``error`` set, not raised,
+    for a variant that cannot run or that went non-finite)."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    row = {'run': run, 'seed': seed, **{k: _cell(v) for k, v in values.items()}}
+    try:
+        data = copy.deepcopy(context['scene'])
+        for key, value in values.items():
+            set_key(data, key, value)
+        scene = scene_from_data(data, context['scene_path'])
+        params = dict(context['params'], imu_seed=seed)
+        config = config_from(params, scene)
+        row.update(_simulate(config, params, context, out_path))
+    except (ValueError, IntegrationError) as e:
+        row['error'] = str(e).splitlines()[0][:500]
+    row['wall_s'] = f'{time.perf_counter() - t0:.6f}'
+    row['cpu_s'] = f'{time.process_time() - c0:.6f}'  # of every thread of the worker
+    return row
+
+
+def _simulate(config, params, context, out_path) -> dict:
+    sim = Simulation(config)
+    moving = [b.name for b in config.bodies[:params['max_body_topics']] if not b.static]
+    topics = {n: {k: f'/{n}/{k}' for k in OUTPUT_KINDS} for n in moving}
+    recorder = NodeRecorder(out_path, config, params, topics, overwrite=True,
+                            max_chunk_age_s=None, background=False)  # one thread a worker
+    noise = node_params.imu_noise(params)
+    index = {b.name: i for i, b in enumerate(config.bodies)}
+    outs = {n: OutputMessages(params['world_frame'], node_params.body_frame(params, n, False),
+                              params['twist_frame'],
+                              node_params.covariance36(params['odom_pose_covariance']),
+                              node_params.covariance36(params['odom_twist_covariance']), noise)
+            for n in moving}
+    sensors = {n: ImuSensor(noise, index[n]) for n in moving}
+    spp = config.steps_per_publish
+    periods = max(1, math.ceil(context['steps'] / spp))
+    target = context.get('wrench_body') or (moving[0] if moving else '')
+    events = {}
+    for t, values, frame in context.get('wrench') or ():
+        # From the first period boundary at or after t: period p starts at step (p - 1) spp.
+        period = math.ceil(t / (config.dt * spp) - 1e-9) + 1
+        events.setdefault(period, []).append(SetWrench(
+            Wrench(values[:3], values[3:], frame or params['wrench_frame']), target))
+    most = 0
+    error = ''
+    try:
+        for period in range(periods + 1):
+            for event in events.get(period, []) if period else ():
+                sim.apply(event)
+                recorder.event(sim.step_count, sim.time_ns, event)
+            if period:
+                try:
+                    sim.run(spp)
+                except IntegrationError as e:
+                    error = str(e).splitlines()[0][:500]
+            if error:
+                break
+            for n in moving:
+                _publish(sim, n, outs[n], sensors[n], recorder)
+            stats = sim.contact_stats()
+            most = max(most, stats.contacts if stats is not None else 0)
+    finally:
+        recorder.close()
+    if recorder.failed:
+        raise ValueError(recorder.failed)
+    row = {}
+    energy = 0.0
+    for n in moving:
+        x, q, v, w = sim.pose_twist(n)
+        for names, vec in (('x y z', x), ('qx qy qz qw', q), ('vx vy vz', v),
+                           ('wx wy wz', w)):
+            for name, c in zip(names.split(), vec):
+                row[f'{n}.{name}'] = repr(float(c))
+        spec = config.body(n)
+        inertia = np.array(spec.inertia, dtype=float)
+        inertia = np.diag(inertia) if inertia.size == 3 else inertia.reshape(3, 3)
+        r = _rotation(q)
+        wb = r.T @ np.array(w)
+        energy += 0.5 * spec.mass * float(np.dot(v, v)) + 0.5 * float(wb @ inertia @ wb)
+    stats = sim.contact_stats()
+    row.update(energy=repr(energy), contacts=stats.contacts if stats is not None else 0,
+               max_contacts=most, steps=sim.step_count, error=error)
+    return row
+
+
+def _publish(sim, name, out, sensor, recorder) -> None:
+    """One publish of ``name`` as the node's BodyPorts.publish makes it with a recorder."""
+    t = sim.time_ns
+    pose_twist = sim.pose_twist(name)
+    if not all(math.isfinite(c) for vec in pose_twist for c in vec):
+        return
+    if not out.fill(t, *pose_twist):
+        return
+    a, b = sim.accelerations(name)
+    offsets = sensor.sample(t)
+    if not out.fill_motion(t, pose_twist[1], pose_twist[3], a, b, sim.config.gravity,
+                           offsets):
+        sensor.undo()
+        return
+    recorder.output(name, sim.step_count, t, out)
+
+
+def _rotation(q) -> np.ndarray:
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def _cell(value) -> str:
+    return repr(float(value)) if isinstance(value, float) else str(value)
+
+
+# -- tasks and engines -----------------------------------------------------------------------
+def run_task(context: dict, runs: list) -> list:
+    """A task: [(row, recording bytes)] of ``runs`` [(run, seed, values)], each recorded in a
+    directory of its own under the name it gets (the file name is in the recording)."""
+    results = []
+    die = os.environ.get(DIE_ONCE_ENV, '')
+    with tempfile.TemporaryDirectory(prefix='rb_sim_sweep_') as d:
+        for run, seed, values in runs:
+            if die:
+                marker, _, which = die.rpartition(':')
+                if which == str(run) and not os.path.exists(marker):
+                    open(marker, 'w').close()
+                    os._exit(17)  # the worker dies, as if killed
+            path = os.path.join(d, file_name(run))
+            row = run_one(context, run, seed, values, path)
+            data = b''
+            if os.path.exists(path):
+                with open(path, 'rb') as f:
+                    data = f.read()
+                os.unlink(path)
+            results.append((row, data))
+    return results
+
+
+def verify_task(items: list) -> list:
+    """A task of ``replay --verify``: [(name, identical, one-line summary)] of [(name, bytes)]."""
+    out = []
+    with tempfile.TemporaryDirectory(prefix='rb_sim_verify_') as d:
+        for name, data in items:
+            path = os.path.join(d, os.path.basename(name))
+            with open(path, 'wb') as f:
+                f.write(data)
+            try:
+                r = replay.verify(path)
+                out.append((name, r.identical, f'{r.outputs} of {r.recorded} outputs compared, '
+                            f'{r.mismatched_messages} differ'))
+            except (ValueError, OSError) as e:
+                out.append((name, False, str(e).replace(path, name).splitlines()[0]))
+            os.unlink(path)
+    return out
+
+
+def file_name(run: int) -> str:
+    return f'run_{run:06d}.mcap'
+
+
+def chunks(items: list, workers: int) -> list:
+    """Tasks of several items: about eight per worker (scheduling amortised, the load still
+    balanced), at most 64 items each."""
+    size = max(1, min(64, math.ceil(len(items) / max(1, 8 * workers))))
+    return [items[i:i + size] for i in range(0, len(items), size)]
+
+
+class LocalEngine:
+    """Worker processes on this machine (spawned: nothing of the driver's state is shared)."""
+
+    def __init__(self, workers: int) -> None:
+        self.workers = workers
+        self._pool = None
+
+    def _fresh(self):
+        if self._pool is not None:
+            self._pool.shutdown(wait=False, cancel_futures=True)
+        self._pool = ProcessPoolExecutor(self.workers,
+                                         mp_context=multiprocessing.get_context('spawn'))
+        return self._pool
+
+    def map(self, fn, tasks: list):
+        """Yield (task index, result or exception) as tasks finish; each task that fails is
+        tried once more. A dead worker breaks the pool and every task in it: a new pool takes
+        them (each counts the attempt). The pool is kept for the next map."""
+        pool = self._pool or self._fresh()
+        attempts = dict.fromkeys(range(len(tasks)), 0)
+        pending = {}
+
+        def submit(i):
+            attempts[i] += 1
+            pending[pool.submit(fn, *tasks[i])] = i
+        for i in range(len(tasks)):
+            submit(i)
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            retry, broken = [], False
+            for future in done:
+                i = pending.pop(future)
+                try:
+                    result = future.result()
+                except BrokenProcessPool as e:
+                    broken = True
+                    retry.append((i, e))
+                    continue
+                except Exception as e:  # noqa: B902 - a task's failure is recorded
+                    retry.append((i, e))
+                    continue
+                yield i, result
+            if broken:
+                retry.extend((i, RuntimeError('its worker died')) for i in pending.values())
+                pending.clear()
+                pool = self._fresh()
+            for i, error in retry:
+                if attempts[i] < 2:
+                    submit(i)
+                else:
+                    yield i, error
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+class RayEngine:
+    """Ray tasks (ray.init with the address given; 'local' starts one here with ``workers``
+    CPUs). Ray retries a task once when its worker dies or it raises."""
+
+    def __init__(self, address: str, workers: int) -> None:
+        import ray
+        self.ray = ray
+        if address == 'local':
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
+                     ignore_reinit_error=True)
+        else:
+            ray.init(address=address, log_to_driver=False, ignore_reinit_error=True)
+        self.workers = int(ray.cluster_resources().get('CPU', workers))
+
+    def map(self, fn, tasks: list):
+        remote = self.ray.remote(max_retries=1, retry_exceptions=True)(fn)
+        refs = {remote.remote(*task): i for i, task in enumerate(tasks)}
+        while refs:
+            done, _ = self.ray.wait(list(refs), num_returns=1)
+            for ref in done:
+                i = refs.pop(ref)
+                try:
+                    yield i, self.ray.get(ref)
+                except Exception as e:  # noqa: B902 - failed twice: recorded
+                    yield i, e
+
+    def close(self) -> None:
+        self.ray.shutdown()
+
+
+def make_engine(ray_address: str | None, workers: int):
+    return RayEngine(ray_address, workers) if ray_address else LocalEngine(workers)
+
+
+# -- the driver --------------------------------------------------------------------------------
+class Progress:
+    """One line on stderr, at most twice a second: done, rate, ETA."""
+
+    def __init__(self, total: int, what: str) -> None:
+        self.total, self.what, self.start, self.last = total, what, time.monotonic(), 0.0
+
+    def __call__(self, done: int) -> None:
+        now = time.monotonic()
+        if done < self.total and now - self.last < 0.5:
+            return
+        self.last = now
+        rate = done / max(now - self.start, 1e-9)
+        eta = (self.total - done) / rate if rate > 0 else math.inf
+        end = '\n' if done >= self.total else ''
+        print(f'\rsweep: {done}/{self.total} {self.what}, {rate:.2f}/s, ETA {eta:.0f} s   ',
+              end=end, file=sys.stderr, flush=True)
+
+
+def sweep(scene_path: str, varies: list, seeds: int, steps: int, out_dir: str,
+          params: dict | None = None, wrench_csv: str | None = None,
+          wrench_body: str | None = None, engine=None, progress: bool = True) -> list:
+    """Run the sweep; its rows, sorted by run (also in ``out_dir``/summary.csv)."""
+    data = read_scene_data(scene_path)
+    values = {p.name: p.default for p in node_params.PARAMS}
+    values.update(params or {})
+    values.update(scene_file=scene_path, publish_tf=False, record='')
+    for name, value in values.items():
+        node_params.check(name, value)
+    if not isinstance(steps, int) or not 1 <= steps <= 10 ** 9:
+        raise ValueError(f'--steps must be from 1 to 1e9, got {steps!r}')
+    if not isinstance(seeds, int) or not 1 <= seeds <= MAX_RUNS:
+        raise ValueError(f'--seeds must be from 1 to {MAX_RUNS}, got {seeds!r}')
+    context = {'scene': data, 'scene_path': scene_path, 'params': values, 'steps': steps,
+               'wrench': load_profile(wrench_csv) if wrench_csv else None,
+               'wrench_body': wrench_body}
+    runs, draws = plan(varies, seeds)
+    full = [(run, seed, {**grid, **drawn(draws, run, seed)}) for run, seed, grid in runs]
+    # The first run's variant is checked here: a bad key is one line, before any worker.
+    probe = copy.deepcopy(data)
+    for key, value in full[0][2].items():
+        set_key(probe, key, value)
+    scene = scene_from_data(probe, scene_path)
+    config_from(values, scene)
+    if wrench_body and not any(b.name == wrench_body and not b.static for b in scene.bodies):
+        raise ValueError(f'--wrench-body {wrench_body}: no moving body of that name')
+    os.makedirs(out_dir, exist_ok=True)
+    own = engine is None
+    engine = engine or LocalEngine(os.cpu_count() or 1)
+    tasks = [(context, chunk) for chunk in chunks(full, engine.workers)]
+    keys = [k for k, _ in varies]
+    rows = []
+    partial = os.path.join(out_dir, 'summary.partial.jsonl')
+    show = Progress(len(full), 'runs') if progress else (lambda done: None)
+    try:
+        with open(partial, 'w') as f:
+            for i, result in engine.map(run_task, tasks):
+                if isinstance(result, BaseException):
+                    why = f'task failed twice: {type(result).__name__}: {result}'
+                    result = [({'run': run, 'seed': seed, **{k: _cell(v) for k, v in
+                                                             vals.items()},
+                                'error': why.splitlines()[0][:500]}, b'')
+                              for run, seed, vals in tasks[i][1]]
+                for row, blob in result:
+                    if blob:
+                        _write_atomically(os.path.join(out_dir, file_name(row['run'])), blob)
+                        row['file'] = file_name(row['run'])
+                    rows.append(row)
+                    f.write(json.dumps(row, sort_keys=True) + '\n')
+                    f.flush()
+                show(len(rows))
+    finally:
+        if own:
+            engine.close()
+    rows.sort(key=lambda r: r['run'])
+    _write_summary(os.path.join(out_dir, 'summary.csv'), rows, keys)
+    os.unlink(partial)
+    return rows
+
+
+def _write_atomically(path: str, data: bytes) -> None:
+    tmp = path + '.part'
+    with open(tmp, 'wb') as f:
+        f.write(data)
+    os.replace(tmp, path)
+
+
+def _write_summary(path: str, rows: list, keys: list) -> None:
+    columns = ['run', 'seed', *keys]
+    for row in rows:
+        for c in row:
+            if c not in columns and c not in ('steps', 'energy', 'contacts', 'max_contacts',
+                                              'wall_s', 'cpu_s', 'file', 'error'):
+                columns.append(c)
+    columns += ['energy', 'contacts', 'max_contacts', 'steps', 'file', 'error', 'wall_s',
+                'cpu_s']
+    with open(path, 'w', newline='') as f:
+        writer = csv.DictWriter(f, columns, extrasaction='ignore')
+        writer.writeheader()
+        for row in rows:
+            writer.writerow(row)
+
+
+def verify_many(paths: list, engine=None, progress: bool = True) -> list:
+    """replay --verify of every file on the engine: [(path, identical, summary)] in order."""
+    own = engine is None
+    engine = engine or LocalEngine(os.cpu_count() or 1)
+    items = []
+    for p in paths:
+        with open(p, 'rb') as f:
+            items.append((p, f.read()))
+    tasks = [(chunk,) for chunk in chunks(items, engine.workers)]
+    results = {}
+    show = Progress(len(items), 'files') if progress else (lambda done: None)
+    try:
+        for i, result in engine.map(verify_task, tasks):
+            if isinstance(result, BaseException):
+                result = [(name, False, f'task failed twice: {result}') for name, _ in
+                          tasks[i][0]]
+            for name, ok, text in result:
+                results[name] = (ok, text)
+            show(len(results))
+    finally:
+        if own:
+            engine.close()
+    return [(p, *results[p]) for p in paths]
+
+
+# -- command line ------------------------------------------------------------------------------
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):
+        print(f'{self.prog}: {message}', file=sys.stderr)
+        sys.exit(2)
+
+
+def main(args=None) -> int:
+    argv = sys.argv if args is None else args
+    parser = _Parser(prog='sweep', description=__doc__,
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('inputs', nargs='+', help='SCENE.yaml, or with --verify the files')
+    parser.add_argument('--verify', action='store_true', help='replay --verify every file')
+    parser.add_argument('--vary', action='append', default=[], metavar='KEY=SPEC')
+    parser.add_argument('--seeds', type=int, default=1)
+    parser.add_argument('--steps', type=int, default=1000, help='physics steps a run (rounded '
+                        'up to whole publish periods)')
+    parser.add_argument('--out', default='sweep_out', help='directory of the runs')
+    parser.add_argument('--wrench', metavar='CSV', help='a wrench schedule for every run')
+    parser.add_argument('--wrench-body', metavar='NAME')
+    parser.add_argument('--param', action='append', default=[], metavar='NAME=VALUE',
+                        help='a node parameter (YAML value), e.g. dt=0.0005')
+    parser.add_argument('--workers', type=int, default=os.cpu_count() or 1)
+    parser.add_argument('--ray', metavar='ADDRESS', help="run on Ray: 'local', 'auto' or an "
+                        'address')
+    opts = parser.parse_args(ros_arguments.non_ros_args(argv, 'sweep'))
+    if not 1 <= opts.workers <= 4096:
+        parser.error(f'--workers must be from 1 to 4096, got {opts.workers}')
+    try:
+        if opts.verify:
+            engine = make_engine(opts.ray, opts.workers)
+            results = verify_many(opts.inputs, engine)
+            bad = [r for r in results if not r[1]]
+            for path, ok, text in results:
+                if not ok:
+                    print(f'MISMATCH {path}: {text}')
+            print(f'sweep: {len(results) - len(bad)} of {len(results)} recordings verify '
+                  'bit for bit')
+            return 1 if bad else 0
+        if len(opts.inputs) != 1:
+            parser.error('one scene file (or --verify and files)')
+        varies = []
+        for item in opts.vary:
+            key, sep, spec = item.partition('=')
+            if not sep or not key:
+                parser.error(f'--vary takes KEY=SPEC, got {item!r}')
+            varies.append((key, parse_spec(key, spec)))
+        params = {}
+        for item in opts.param:
+            name, sep, text = item.partition('=')
+            if not sep or name not in node_params.BY_NAME:
+                parser.error(f'--param takes NAME=VALUE with a node parameter, got {item!r}')
+            try:
+                params[name] = safe_yaml.load(text, max_depth=3, max_nodes=100)
+            except safe_yaml.YamlError as e:
+                parser.error(f'--param {name}: {e.reason}')
+        engine = make_engine(opts.ray, opts.workers)
+        try:
+            rows = sweep(opts.inputs[0], varies, opts.seeds, opts.steps, opts.out, params,
+                         opts.wrench, opts.wrench_body, engine)
+        finally:
+            engine.close()
+        failed = sum(1 for r in rows if r.get('error'))
+        print(f'sweep: {len(rows)} runs in {opts.out} ({failed} failed); summary '
+              f'{os.path.join(opts.out, "summary.csv")}')
+        return 0
+    except (ValueError, OSError) as e:
+        print(f'sweep: {str(e).splitlines()[0]}', file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print('sweep: interrupted', file=sys.stderr)
+        return 130
+
+
+if __name__ == '__main__':
+    sys.exit(main())
