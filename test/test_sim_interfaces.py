@@ -84,6 +84,16 @@ def _set(probe, name, position, q, linear=(0.0,) * 3, angular=(0.0,) * 3, frame=
                       SetEntityState.Request(entity=name, state=s)).result
 
 
+def _verified_counts(installed, ros_env, f):
+    """The installed replay --verify passes on recording ``f``; its messages per topic, as
+    rosbags (an independent reader) counts them."""
+    result = subprocess.run([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), '--verify',
+                             str(f)], env=ros_env, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stdout + result.stderr
+    with AnyReader([f]) as reader:
+        return {c.topic: c.msgcount for c in reader.connections}
+
+
 def _sim_state(probe):
     return probe.call(GetSimulationState, 'get_simulation_state',
                       GetSimulationState.Request()).state.state
@@ -233,11 +243,7 @@ def test_the_standard_api_drives_the_simulator(start_sim, probe, tmp_path, insta
     sim.stop()
 
     # All of it was recorded at the steps it took effect, and replays bit for bit.
-    result = subprocess.run([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), '--verify',
-                             str(f)], env=ros_env, capture_output=True, text=True, timeout=600)
-    assert result.returncode == 0, result.stdout + result.stderr
-    with AnyReader([f]) as reader:
-        counts = {c.topic: c.msgcount for c in reader.connections}
+    counts = _verified_counts(installed, ros_env, f)
     # b: one world-frame set (pose and twist), then the reset and the stop; a: the relative set
     assert counts['/rb_sim/input/b/set_pose'] == counts['/rb_sim/input/b/set_twist'] == 1
     assert counts['/rb_sim/input/a/set_pose'] == 1 and counts['/rb_sim/input/a/reset'] == 2
@@ -376,11 +382,7 @@ def test_spawned_and_deleted_bodies_move_publish_and_replay(
     probe.wait_for(lambda: len(late) > 5, what='a body spawned while playing, publishing')
     sim.stop()
 
-    result = subprocess.run([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), '--verify',
-                             str(f)], env=ros_env, capture_output=True, text=True, timeout=600)
-    assert result.returncode == 0, result.stdout + result.stderr
-    with AnyReader([f]) as reader:
-        counts = {c.topic: c.msgcount for c in reader.connections}
+    counts = _verified_counts(installed, ros_env, f)
     assert counts['/rb_sim/input/ball/spawn'] == 2 and counts['/rb_sim/input/ball/delete'] == 1
     assert counts['/rb_sim/input/ball_2/delete'] == 1 and counts['/late/imu'] > 5
     assert counts['/ball/pose'] > 0

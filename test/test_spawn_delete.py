@@ -33,6 +33,13 @@ def _with(spec, **colliders):
     return replace(spec, **colliders)
 
 
+def _box_on_ground(spin=0.0):
+    """A 1 kg box of 0.5 m edges resting on the plane z = 0 (turning about z at ``spin``)."""
+    box = BodySpec('box', 1.0, (1 / 6,) * 3, initial_position=(0.0, 0.0, 0.25),
+                   initial_angular_velocity=(0.0, 0.0, spin), colliders=(Box((0.5,) * 3),))
+    return box, BodySpec('ground', static=True, colliders=(Plane((0.0, 0.0, 1.0)),))
+
+
 def _pair(bodies, method):
     config = Config(gravity=G, bodies=bodies, integrator=method)
     return Simulation(config), Simulation(config)
@@ -98,9 +105,7 @@ def test_a_spawned_ball_lands_on_the_ground_and_rests():
 
 def test_deleting_the_ground_drops_what_rested_on_it():
     """A box asleep on a static plane wakes and falls freely once the plane is deleted."""
-    box = BodySpec('box', 1.0, (1 / 6,) * 3, initial_position=(0.0, 0.0, 0.25),
-                   colliders=(Box((0.5, 0.5, 0.5)),))
-    ground = BodySpec('ground', static=True, colliders=(Plane((0.0, 0.0, 1.0)),))
+    box, ground = _box_on_ground()
     sim = Simulation(Config(gravity=G, bodies=(box, ground),
                             contact=ContactSettings(sleep_time=0.2)))
     sim.run(1000)
@@ -116,9 +121,7 @@ def test_deleting_the_ground_drops_what_rested_on_it():
 
 def test_without_warm_starts_a_delete_wakes_every_sleeper():
     """No warm start records what rested on what: every sleeper wakes (and falls)."""
-    box = BodySpec('box', 1.0, (1 / 6,) * 3, initial_position=(0.0, 0.0, 0.25),
-                   colliders=(Box((0.5, 0.5, 0.5)),))
-    ground = BodySpec('ground', static=True, colliders=(Plane((0.0, 0.0, 1.0)),))
+    box, ground = _box_on_ground()
     world = CollisionWorld((box, ground), 1e-3, G, warm_start=False, sleep_time=0.2)
     world.step(1000)
     assert world.sleeping == ['box']
@@ -131,9 +134,7 @@ def test_without_warm_starts_a_delete_wakes_every_sleeper():
 def test_a_resting_pile_stays_put_when_a_body_appears_elsewhere():
     """Sleep state and warm starts carry over: a box asleep on the ground stays asleep and
     exactly where it was when a ball is spawned far away, and keeps resting after it lands."""
-    box = BodySpec('box', 1.0, (1 / 6,) * 3, initial_position=(0.0, 0.0, 0.25),
-                   colliders=(Box((0.5, 0.5, 0.5)),))
-    ground = BodySpec('ground', static=True, colliders=(Plane((0.0, 0.0, 1.0)),))
+    box, ground = _box_on_ground()
     sim = Simulation(Config(gravity=G, bodies=(box, ground),
                             contact=ContactSettings(sleep_time=0.2)))
     sim.run(1000)
@@ -180,10 +181,7 @@ def test_a_body_resting_in_contact_goes_on_bit_for_bit_when_another_is_deleted()
     """Awake (no sleeping) on the ground, a box's contacts are warm-started from the step
     before, by collider numbers: deleting a body renumbers them, and the box still takes
     every bit of the run in which that body never was."""
-    box = BodySpec('box', 1.0, (1 / 6,) * 3, initial_position=(0.0, 0.0, 0.25),
-                   initial_angular_velocity=(0.0, 0.0, 0.3),
-                   colliders=(Box((0.5, 0.5, 0.5)),))
-    ground = BodySpec('ground', static=True, colliders=(Plane((0.0, 0.0, 1.0)),))
+    box, ground = _box_on_ground(spin=0.3)
     high = BodySpec('high', 1.0, (0.004,) * 3, initial_position=(0.0, 0.0, 1000.0),
                     colliders=(Sphere(0.1),))
     contact = ContactSettings(sleep_time=0.0, friction=0.3)
@@ -220,9 +218,7 @@ def test_a_run_keeps_at_most_max_bodies(monkeypatch):
 
 
 def test_without_warm_starts_a_spawn_leaves_sleepers_asleep():
-    box = BodySpec('box', 1.0, (1 / 6,) * 3, initial_position=(0.0, 0.0, 0.25),
-                   colliders=(Box((0.5, 0.5, 0.5)),))
-    ground = BodySpec('ground', static=True, colliders=(Plane((0.0, 0.0, 1.0)),))
+    box, ground = _box_on_ground()
     world = CollisionWorld((box, ground), 1e-3, G, warm_start=False, sleep_time=0.2)
     world.step(1000)
     far = _with(FAR, colliders=(Sphere(0.1),))

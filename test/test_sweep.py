@@ -39,6 +39,14 @@ def _run(scene, out, engine, seeds=2):
                        progress=False)
 
 
+def _run_locally(scene, out, workers=2):
+    engine = sweep.LocalEngine(workers)
+    try:
+        return _run(scene, out, engine)
+    finally:
+        engine.close()
+
+
 def _same_files(a, b):
     """Every recording of ``a`` holds what its namesake in ``b`` holds, bit for bit (not byte
     for byte: rclpy's CDR leaves padding uninitialised; recording/compare.py)."""
@@ -96,19 +104,11 @@ def test_a_local_sweep_runs_every_variant_and_every_file_verifies(scene, tmp_pat
 def test_ray_gives_the_same_files_and_rows_and_a_dead_worker_loses_nothing(
         scene, tmp_path, monkeypatch):
     local = tmp_path / 'local'
-    engine = sweep.LocalEngine(2)
-    try:
-        _run(scene, local, engine)
-    finally:
-        engine.close()
+    _run_locally(scene, local, workers=1)  # tasks of several runs (of one with 2 workers)
     # A worker dies on its first try of run 3 (os._exit: as if killed), on either engine.
     monkeypatch.setenv(sweep.DIE_ONCE_ENV, f'{tmp_path / "died-local"}:3')
     dead_local = tmp_path / 'dead_local'
-    engine = sweep.LocalEngine(2)
-    try:
-        _run(scene, dead_local, engine)
-    finally:
-        engine.close()
+    _run_locally(scene, dead_local)
     assert (tmp_path / 'died-local').exists()
     assert _same_files(dead_local, local) and _summary(dead_local) == _summary(local)
     monkeypatch.setenv(sweep.DIE_ONCE_ENV, f'{tmp_path / "died-ray"}:4')
@@ -174,3 +174,35 @@ def test_the_comparison_sees_one_bit(scene, tmp_path):
     diff = compare.difference(str(a / 'run_000000.mcap'), str(b / 'run_000001.mcap'))
     assert 'metadata' in diff  # imu_seed is a parameter: the metadata says so first
     assert compare.message_values(-0.0) != compare.message_values(0.0)
+
+
+def test_a_run_that_always_kills_its_worker_fails_alone(scene, tmp_path, monkeypatch):
+    """Run 2 kills its worker every time: after its retry it is recorded as failed; the
+    runs that shared the pool with it are run again, not charged, and all succeed."""
+    monkeypatch.setenv(sweep.DIE_ONCE_ENV, 'always:2')
+    rows = _run_locally(scene, tmp_path / 'o')
+    failed = [r['run'] for r in rows if r.get('error')]
+    assert failed == [2] and 'worker died twice' in rows[2]['error']
+    assert len(list((tmp_path / 'o').glob('*.mcap'))) == 5
+
+
+def test_the_wrench_schedule_is_what_send_wrench_sends(tmp_path, scene):
+    """A 1 N push on the 1 kg probe from t = 0, the profile's only row, held 0.05 s, then the
+    zero send_wrench sends: the probe ends at 0.05 m/s (the zero taken at the period boundary,
+    t = 0.05 s, as the node takes inputs)."""
+    profile = tmp_path / 'p.csv'
+    profile.write_text('t,fx,fy,fz,tx,ty,tz\n0,1,0,0,0,0,0\n')
+    engine = sweep.LocalEngine(1)
+    try:
+        rows = sweep.sweep(scene, [], 1, 200, str(tmp_path / 'o'), None,
+                           str(profile), 'probe', engine, progress=False, wrench_hold=0.05)
+    finally:
+        engine.close()
+    assert float(rows[0]['probe.vx']) == pytest.approx(0.05, abs=1e-12)
+    assert sweep.verify_many([str(tmp_path / 'o' / 'run_000000.mcap')], progress=False)[0][1]
+
+
+def test_a_ray_address_that_is_not_one_is_one_line(scene, tmp_path, capsys):
+    code = sweep.main(['sweep', scene, '--out', str(tmp_path / 'o'), '--ray', 'bogus://x'])
+    err = capsys.readouterr().err
+    assert code == 2 and err.startswith('sweep: --ray bogus://x') and err.count('\n') == 1

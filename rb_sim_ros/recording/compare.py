@@ -12,6 +12,7 @@ their bits, so 0.0 differs from -0.0 and a NaN equals the same NaN).
 
 from __future__ import annotations
 
+import itertools
 import struct
 
 from rb_sim_ros.recording.reader import RecordingReader
@@ -43,13 +44,12 @@ def difference(a: str, b: str) -> str:
         return f'metadata {names} differs'
     if ra.topics != rb.topics:
         return f'topics differ: {sorted(set(ra.topics) ^ set(rb.topics)) or "their info"}'
-    ma, mb = ra.messages(), rb.messages()
-    for k, (x, y) in enumerate(zip(ma, mb)):
+    for k, (x, y) in enumerate(itertools.zip_longest(ra.messages(), rb.messages())):
+        if x is None or y is None:
+            return f'message {k}: only one of them has it'
         if (x.topic, x.log_time_ns, x.publish_time_ns, x.sequence) != \
                 (y.topic, y.log_time_ns, y.publish_time_ns, y.sequence):
             return f'message {k}: {x.topic} at {x.log_time_ns} != {y.topic} at {y.log_time_ns}'
         if message_values(x.message) != message_values(y.message):
             return f'message {k} on {x.topic} at {x.log_time_ns} ns: the fields differ'
-    if next(ma, None) is not None or next(mb, None) is not None:
-        return 'one holds more messages'
     return ''

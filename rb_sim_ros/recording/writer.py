@@ -136,7 +136,7 @@ class RecordingWriter:
     short still has one. Message timestamps are always passed in (integer nanoseconds); the
     writer never reads a clock for them. ``background`` False writes inline, on the caller's
     thread (no writer thread: for a process that does nothing else, such as a sweep's
-    worker; chunks then close by size only).
+    worker; chunks then close by size only, and only that one thread may write).
 
     Use as a context manager, or call ``finish()`` (idempotent); a writer still open when the
     interpreter exits is finished then. A file that cannot be created or started raises

@@ -17,8 +17,10 @@ from a to b), or a distribution drawn per run: ``uniform(a, b)``, ``normal(mu, s
 runs are the product of the lists and ranges, times the seeds, numbered in that order. A wrench
 schedule (a CSV as send_wrench reads it) applies to every run, to ``--wrench-body`` (default
 the first moving body), each row from the first publish period at or after its time, as the
-node would take it. Node parameters (``dt``, ``publish_rate``, ``integrator``, the IMU's noise)
-come from ``--param NAME=VALUE``.
+node takes what send_wrench sends: held (send_wrench republishes it, so command_timeout does
+not fire) until the next, the last one ``--wrench-hold`` seconds (default 0), then a zero.
+Node parameters (``dt``, ``publish_rate``, ``integrator``, the IMU's noise) come from
+``--param NAME=VALUE``.
 
 Each run writes ``run_NNNNNN.mcap`` (what the node would record: pose, twist, odom, imu and
 accel of every moving body, inputs at their steps; ``replay --verify`` accepts it) and one row
@@ -42,11 +44,11 @@ driver, so workers need no shared file system.
 from __future__ import annotations
 
 import argparse
+import collections
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 import copy
 import csv
-import itertools
 import json
 import math
 import multiprocessing
@@ -58,7 +60,7 @@ import time
 
 import numpy as np
 
-from rb_sim_ros.core.rigid_body import Wrench
+from rb_sim_ros.core.rigid_body import Wrench, ZERO_WRENCH
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.ros import node_params, replay, ros_arguments
 from rb_sim_ros.ros.node_recorder import NodeRecorder
@@ -74,7 +76,7 @@ MAX_RUNS = 10_000_000
 MAX_VALUES = 100_000  # in one list or range
 OUTPUT_KINDS = ('pose', 'twist', 'odom', 'imu', 'accel')
 # Fault injection for the tests: "<marker file>:<run>" makes the worker running that run die
-# (os._exit) the first time, as a killed worker would.
+# (os._exit) the first time, as a killed worker would; "always:<run>" every time.
 DIE_ONCE_ENV = 'RB_SIM_SWEEP_DIE_ONCE'
 
 
@@ -151,20 +153,44 @@ def set_key(data: dict, key: str, value) -> None:
             raise ValueError(f"--vary {key}: '{'.'.join(parts[:i])}' holds no fields")
 
 
+class Plan:
+    """The runs of a sweep, by number, without listing them: run r is seed r mod seeds of
+    the grid point r div seeds, the grid being the product of the lists and ranges in the
+    order given (the last varies fastest); distributions are drawn per run (``drawn``)."""
+
+    def __init__(self, varies, seeds: int) -> None:
+        self.keys = [k for k, (kind, _) in varies if kind == 'values']
+        self.grids = [v for _, (kind, v) in varies if kind == 'values']
+        self.draws = {k: v for k, (kind, v) in varies if kind == 'draw'}
+        self.seeds = seeds
+        self.count = math.prod(len(g) for g in self.grids) * seeds
+        if self.count > MAX_RUNS:
+            raise ValueError(f'{self.count} runs: at most {MAX_RUNS}')
+
+    def __len__(self) -> int:
+        return self.count
+
+    def run(self, r: int) -> tuple:
+        """(run, seed, {key: value}) of run ``r``."""
+        point, seed = divmod(r, self.seeds)
+        values = {}
+        for key, grid in zip(reversed(self.keys), reversed(self.grids)):
+            point, k = divmod(point, len(grid))
+            values[key] = grid[k]
+        values = {k: values[k] for k in self.keys}  # in the order given
+        values.update(drawn(self.draws, r, seed))
+        return r, seed, values
+
+
 def plan(varies, seeds: int):
-    """[(run, seed, grid values by key)] and the distributions by key: the product of the lists
-    and ranges (in the order given), each for seeds 0..seeds-1."""
-    grid_keys = [k for k, (kind, _) in varies if kind == 'values']
-    grids = [v for _, (kind, v) in varies if kind == 'values']
-    draws = {k: v for k, (kind, v) in varies if kind == 'draw'}
-    count = math.prod(len(g) for g in grids) * seeds
-    if count > MAX_RUNS:
-        raise ValueError(f'{count} runs: at most {MAX_RUNS}')
+    """[(run, seed, grid values by key)] and the distributions by key (for small sweeps and
+    the tests; ``Plan`` is the lazy form)."""
+    p = Plan(varies, seeds)
     runs = []
-    for values in itertools.product(*grids):
-        for seed in range(seeds):
-            runs.append((len(runs), seed, dict(zip(grid_keys, values))))
-    return runs, draws
+    for r in range(len(p)):
+        run, seed, values = p.run(r)
+        runs.append((run, seed, {k: values[k] for k in p.keys}))
+    return runs, p.draws
 
 
 def drawn(draws: dict, run: int, seed: int) -> dict:
@@ -216,11 +242,16 @@ def _simulate(config, params, context, out_path) -> dict:
     periods = max(1, math.ceil(context['steps'] / spp))
     target = context.get('wrench_body') or (moving[0] if moving else '')
     events = {}
-    for t, values, frame in context.get('wrench') or ():
-        # From the first period boundary at or after t: period p starts at step (p - 1) spp.
-        period = math.ceil(t / (config.dt * spp) - 1e-9) + 1
-        events.setdefault(period, []).append(SetWrench(
+    profile = context.get('wrench') or ()
+
+    def at(t):  # the first period boundary at or after t: period p starts at step (p-1) spp
+        return math.ceil(t / (config.dt * spp) - 1e-9) + 1
+    for t, values, frame in profile:
+        events.setdefault(at(t), []).append(SetWrench(
             Wrench(values[:3], values[3:], frame or params['wrench_frame']), target))
+    if profile:  # as send_wrench: the last row held --wrench-hold more, then a zero wrench
+        events.setdefault(at(profile[-1][0] + context['wrench_hold']), []).append(
+            SetWrench(ZERO_WRENCH, target))
     most = 0
     error = ''
     try:
@@ -292,34 +323,58 @@ def _cell(value) -> str:
 
 
 # -- tasks and engines -----------------------------------------------------------------------
-def run_task(context: dict, runs: list) -> list:
-    """A task: [(row, recording bytes)] of ``runs`` [(run, seed, values)], each recorded in a
-    directory of its own under the name it gets (the file name is in the recording)."""
+def run_task(context: dict, start: int, stop: int) -> list:
+    """A task: [(row, recording bytes)] of runs ``start`` to ``stop`` - 1 of the context's
+    plan, each recorded in a directory of its own under the name it gets (the file name is
+    in the recording). A run that fails in any way is a row with its error; the task goes on."""
     results = []
     die = os.environ.get(DIE_ONCE_ENV, '')
     with tempfile.TemporaryDirectory(prefix='rb_sim_sweep_') as d:
-        for run, seed, values in runs:
+        for r in range(start, stop):
+            run, seed, values = context['plan'].run(r)
             if die:
                 marker, _, which = die.rpartition(':')
-                if which == str(run) and not os.path.exists(marker):
-                    open(marker, 'w').close()
+                if which == str(run) and (marker == 'always' or not os.path.exists(marker)):
+                    if marker != 'always':
+                        open(marker, 'w').close()
                     os._exit(17)  # the worker dies, as if killed
             path = os.path.join(d, file_name(run))
-            row = run_one(context, run, seed, values, path)
+            try:
+                row = run_one(context, run, seed, values, path)
+            except Exception as e:  # noqa: B902 - a bug in one run must not cost the others
+                row = {'run': run, 'seed': seed, **{k: _cell(v) for k, v in values.items()},
+                       'error': f'{type(e).__name__}: {e}'.splitlines()[0][:500]}
             data = b''
             if os.path.exists(path):
-                with open(path, 'rb') as f:
-                    data = f.read()
+                if 'steps' in row:  # it ran (to its end, or to where it went non-finite)
+                    with open(path, 'rb') as f:
+                        data = f.read()
                 os.unlink(path)
             results.append((row, data))
     return results
 
 
-def verify_task(items: list) -> list:
-    """A task of ``replay --verify``: [(name, identical, one-line summary)] of [(name, bytes)]."""
+class _Files:
+    """Files for a worker, read when the task is sent (pickled), not before: the driver holds
+    the bytes of the tasks in flight only, and workers need no shared disk."""
+
+    def __init__(self, paths: list) -> None:
+        self.paths = list(paths)
+        self.items = None
+
+    def __getstate__(self) -> dict:
+        items = []
+        for path in self.paths:
+            with open(path, 'rb') as f:
+                items.append((path, f.read()))
+        return {'paths': self.paths, 'items': items}
+
+
+def verify_task(_shared, files: _Files) -> list:
+    """A task of ``replay --verify``: [(path, identical, one-line summary)] of the files."""
     out = []
     with tempfile.TemporaryDirectory(prefix='rb_sim_verify_') as d:
-        for name, data in items:
+        for name, data in files.items:
             path = os.path.join(d, os.path.basename(name))
             with open(path, 'wb') as f:
                 f.write(data)
@@ -327,8 +382,9 @@ def verify_task(items: list) -> list:
                 r = replay.verify(path)
                 out.append((name, r.identical, f'{r.outputs} of {r.recorded} outputs compared, '
                             f'{r.mismatched_messages} differ'))
-            except (ValueError, OSError) as e:
-                out.append((name, False, str(e).replace(path, name).splitlines()[0]))
+            except Exception as e:  # noqa: B902 - one bad file is its own line
+                out.append((name, False, f'{type(e).__name__}: {e}'.replace(
+                    path, name).splitlines()[0]))
             os.unlink(path)
     return out
 
@@ -337,11 +393,11 @@ def file_name(run: int) -> str:
     return f'run_{run:06d}.mcap'
 
 
-def chunks(items: list, workers: int) -> list:
-    """Tasks of several items: about eight per worker (scheduling amortised, the load still
-    balanced), at most 64 items each."""
-    size = max(1, min(64, math.ceil(len(items) / max(1, 8 * workers))))
-    return [items[i:i + size] for i in range(0, len(items), size)]
+def chunks(count: int, workers: int) -> list:
+    """Tasks as (start, stop) of ``count`` items: about eight per worker (scheduling
+    amortised, the load still balanced), at most 64 items each."""
+    size = max(1, min(64, math.ceil(count / max(1, 8 * workers))))
+    return [(i, min(i + size, count)) for i in range(0, count, size)]
 
 
 class LocalEngine:
@@ -358,43 +414,67 @@ class LocalEngine:
                                          mp_context=multiprocessing.get_context('spawn'))
         return self._pool
 
-    def map(self, fn, tasks: list):
-        """Yield (task index, result or exception) as tasks finish; each task that fails is
-        tried once more. A dead worker breaks the pool and every task in it: a new pool takes
-        them (each counts the attempt). The pool is kept for the next map."""
-        pool = self._pool or self._fresh()
-        attempts = dict.fromkeys(range(len(tasks)), 0)
-        pending = {}
+    def map(self, fn, shared, tasks: list):
+        """Yield (task index, result or exception) as tasks finish, ``fn(shared, *task)``.
 
-        def submit(i):
-            attempts[i] += 1
-            pending[pool.submit(fn, *tasks[i])] = i
-        for i in range(len(tasks)):
-            submit(i)
-        while pending:
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
-            retry, broken = [], False
-            for future in done:
-                i = pending.pop(future)
+        At most ``workers`` tasks are in the pool at once. A task that raises is tried once
+        more. A worker that dies breaks the pool and the tasks in it: they run again one at
+        a time, so that the one that kills its worker is found; it is tried once more alone,
+        then given up (the others are not charged)."""
+        pool = self._pool or self._fresh()
+        waiting = collections.deque(range(len(tasks)))
+        alone = collections.deque()  # suspects of a dead worker, to run one at a time
+        attempts = [0] * len(tasks)
+        running = {}
+        solo = None  # the task running alone, if one is
+        while waiting or alone or running:
+            broken = False
+            try:
+                if alone and not running:
+                    solo = alone.popleft()
+                    running[pool.submit(fn, shared, *tasks[solo])] = solo
+                elif not alone:
+                    solo = None
+                    while waiting and len(running) < self.workers:
+                        i = waiting.popleft()
+                        try:
+                            running[pool.submit(fn, shared, *tasks[i])] = i
+                        except BrokenProcessPool:
+                            waiting.appendleft(i)
+                            raise
+            except BrokenProcessPool:
+                broken = True
+            failed = []
+            for future in (wait(running, return_when=FIRST_COMPLETED)[0]
+                           if running and not broken else ()):
+                i = running.pop(future)
                 try:
                     result = future.result()
-                except BrokenProcessPool as e:
+                except BrokenProcessPool:
                     broken = True
-                    retry.append((i, e))
+                    failed.append(i)
                     continue
                 except Exception as e:  # noqa: B902 - a task's failure is recorded
-                    retry.append((i, e))
+                    attempts[i] += 1
+                    if attempts[i] < 2:
+                        waiting.appendleft(i)
+                    else:
+                        yield i, e
                     continue
                 yield i, result
-            if broken:
-                retry.extend((i, RuntimeError('its worker died')) for i in pending.values())
-                pending.clear()
-                pool = self._fresh()
-            for i, error in retry:
-                if attempts[i] < 2:
-                    submit(i)
+            if not broken:
+                continue
+            suspects = failed + list(running.values())
+            running.clear()
+            pool = self._fresh()
+            if solo is not None and suspects == [solo]:  # it killed its worker, alone
+                attempts[solo] += 1
+                if attempts[solo] < 2:
+                    alone.appendleft(solo)
                 else:
-                    yield i, error
+                    yield solo, RuntimeError('its worker died twice')
+            else:  # which one? each runs alone next; none is charged yet
+                alone.extend(suspects)
 
     def close(self) -> None:
         if self._pool is not None:
@@ -403,22 +483,36 @@ class LocalEngine:
 
 class RayEngine:
     """Ray tasks (ray.init with the address given; 'local' starts one here with ``workers``
-    CPUs). Ray retries a task once when its worker dies or it raises."""
+    CPUs). Ray retries a task once when its worker dies or it raises. The shared part goes
+    to the object store once; at most four tasks a CPU are in flight."""
 
     def __init__(self, address: str, workers: int) -> None:
-        import ray
+        try:
+            import ray
+        except ImportError:
+            raise ValueError('--ray needs ray (pip install ray)') from None
         self.ray = ray
-        if address == 'local':
-            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
-                     ignore_reinit_error=True)
-        else:
-            ray.init(address=address, log_to_driver=False, ignore_reinit_error=True)
+        try:
+            if address == 'local':
+                ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
+                         ignore_reinit_error=True)
+            else:
+                ray.init(address=address, log_to_driver=False, ignore_reinit_error=True)
+        except (RuntimeError, ConnectionError, ValueError, OSError) as e:
+            raise ValueError(f'--ray {address}: cannot start or join Ray: '
+                             f'{str(e).strip().splitlines()[0] if str(e).strip() else e!r}'
+                             ) from None
         self.workers = int(ray.cluster_resources().get('CPU', workers))
 
-    def map(self, fn, tasks: list):
+    def map(self, fn, shared, tasks: list):
         remote = self.ray.remote(max_retries=1, retry_exceptions=True)(fn)
-        refs = {remote.remote(*task): i for i, task in enumerate(tasks)}
-        while refs:
+        shared_ref = self.ray.put(shared)
+        waiting = collections.deque(range(len(tasks)))
+        refs = {}
+        while waiting or refs:
+            while waiting and len(refs) < 4 * self.workers:
+                i = waiting.popleft()
+                refs[remote.remote(shared_ref, *tasks[i])] = i
             done, _ = self.ray.wait(list(refs), num_returns=1)
             for ref in done:
                 i = refs.pop(ref)
@@ -456,7 +550,8 @@ class Progress:
 
 def sweep(scene_path: str, varies: list, seeds: int, steps: int, out_dir: str,
           params: dict | None = None, wrench_csv: str | None = None,
-          wrench_body: str | None = None, engine=None, progress: bool = True) -> list:
+          wrench_body: str | None = None, engine=None, progress: bool = True,
+          wrench_hold: float = 0.0) -> list:
     """Run the sweep; its rows, sorted by run (also in ``out_dir``/summary.csv)."""
     data = read_scene_data(scene_path)
     values = {p.name: p.default for p in node_params.PARAMS}
@@ -468,14 +563,16 @@ def sweep(scene_path: str, varies: list, seeds: int, steps: int, out_dir: str,
         raise ValueError(f'--steps must be from 1 to 1e9, got {steps!r}')
     if not isinstance(seeds, int) or not 1 <= seeds <= MAX_RUNS:
         raise ValueError(f'--seeds must be from 1 to {MAX_RUNS}, got {seeds!r}')
+    if not (isinstance(wrench_hold, (int, float)) and 0 <= wrench_hold <= 1e9):
+        raise ValueError(f'--wrench-hold must be from 0 to 1e9 s, got {wrench_hold!r}')
+    runs = Plan(varies, seeds)
     context = {'scene': data, 'scene_path': scene_path, 'params': values, 'steps': steps,
-               'wrench': load_profile(wrench_csv) if wrench_csv else None,
-               'wrench_body': wrench_body}
-    runs, draws = plan(varies, seeds)
-    full = [(run, seed, {**grid, **drawn(draws, run, seed)}) for run, seed, grid in runs]
+               'wrench': load_profile(wrench_csv, values['max_wrench']) if wrench_csv
+               else None, 'wrench_body': wrench_body, 'wrench_hold': float(wrench_hold),
+               'plan': runs}
     # The first run's variant is checked here: a bad key is one line, before any worker.
     probe = copy.deepcopy(data)
-    for key, value in full[0][2].items():
+    for key, value in runs.run(0)[2].items():
         set_key(probe, key, value)
     scene = scene_from_data(probe, scene_path)
     config_from(values, scene)
@@ -484,20 +581,22 @@ def sweep(scene_path: str, varies: list, seeds: int, steps: int, out_dir: str,
     os.makedirs(out_dir, exist_ok=True)
     own = engine is None
     engine = engine or LocalEngine(os.cpu_count() or 1)
-    tasks = [(context, chunk) for chunk in chunks(full, engine.workers)]
+    tasks = chunks(len(runs), engine.workers)
     keys = [k for k, _ in varies]
     rows = []
     partial = os.path.join(out_dir, 'summary.partial.jsonl')
-    show = Progress(len(full), 'runs') if progress else (lambda done: None)
+    show = Progress(len(runs), 'runs') if progress else (lambda done: None)
     try:
         with open(partial, 'w') as f:
-            for i, result in engine.map(run_task, tasks):
+            for i, result in engine.map(run_task, context, tasks):
                 if isinstance(result, BaseException):
                     why = f'task failed twice: {type(result).__name__}: {result}'
-                    result = [({'run': run, 'seed': seed, **{k: _cell(v) for k, v in
-                                                             vals.items()},
-                                'error': why.splitlines()[0][:500]}, b'')
-                              for run, seed, vals in tasks[i][1]]
+                    result = []
+                    for r in range(*tasks[i]):
+                        run, seed, vals = runs.run(r)
+                        result.append(({'run': run, 'seed': seed,
+                                        **{k: _cell(v) for k, v in vals.items()},
+                                        'error': why.splitlines()[0][:500]}, b''))
                 for row, blob in result:
                     if blob:
                         _write_atomically(os.path.join(out_dir, file_name(row['run'])), blob)
@@ -542,18 +641,15 @@ def verify_many(paths: list, engine=None, progress: bool = True) -> list:
     """replay --verify of every file on the engine: [(path, identical, summary)] in order."""
     own = engine is None
     engine = engine or LocalEngine(os.cpu_count() or 1)
-    items = []
-    for p in paths:
-        with open(p, 'rb') as f:
-            items.append((p, f.read()))
-    tasks = [(chunk,) for chunk in chunks(items, engine.workers)]
+    tasks = chunks(len(paths), engine.workers)
     results = {}
-    show = Progress(len(items), 'files') if progress else (lambda done: None)
+    show = Progress(len(paths), 'files') if progress else (lambda done: None)
     try:
-        for i, result in engine.map(verify_task, tasks):
+        for i, result in engine.map(verify_task, None,
+                                    [(_Files(paths[a:b]),) for a, b in tasks]):
             if isinstance(result, BaseException):
-                result = [(name, False, f'task failed twice: {result}') for name, _ in
-                          tasks[i][0]]
+                result = [(name, False, f'task failed twice: {result}') for name in
+                          paths[slice(*tasks[i])]]
             for name, ok, text in result:
                 results[name] = (ok, text)
             show(len(results))
@@ -583,6 +679,9 @@ def main(args=None) -> int:
     parser.add_argument('--out', default='sweep_out', help='directory of the runs')
     parser.add_argument('--wrench', metavar='CSV', help='a wrench schedule for every run')
     parser.add_argument('--wrench-body', metavar='NAME')
+    parser.add_argument('--wrench-hold', type=float, default=0.0, metavar='SECONDS',
+                        help="how long the profile's last row is held before the zero wrench "
+                        "(send_wrench's --duration)")
     parser.add_argument('--param', action='append', default=[], metavar='NAME=VALUE',
                         help='a node parameter (YAML value), e.g. dt=0.0005')
     parser.add_argument('--workers', type=int, default=os.cpu_count() or 1)
@@ -622,7 +721,7 @@ def main(args=None) -> int:
         engine = make_engine(opts.ray, opts.workers)
         try:
             rows = sweep(opts.inputs[0], varies, opts.seeds, opts.steps, opts.out, params,
-                         opts.wrench, opts.wrench_body, engine)
+                         opts.wrench, opts.wrench_body, engine, wrench_hold=opts.wrench_hold)
         finally:
             engine.close()
         failed = sum(1 for r in rows if r.get('error'))
