@@ -311,6 +311,16 @@ MUTANTS = [
      ['test/test_plots_render.py::'
       'test_a_name_spawned_again_is_plotted_and_drawn_as_the_body_it_names_then'],
      'a body spawned again under a name is plotted with the mass of the first'),
+    # -- issue 18: sweeps ------------------------------------------------------------------
+    ('sweep-profile-held-for-ever', 'rb_sim_ros/ros/sweep.py',
+     [('    if profile:  # as send_wrench:', '    if False:  # as send_wrench:')],
+     ['test/test_sweep.py::test_the_wrench_schedule_is_what_send_wrench_sends'],
+     "the profile's last row held to the end of the run, not ended by a zero"),
+    ('sweep-grid-order', 'rb_sim_ros/ros/sweep.py',
+     [('        for key, grid in zip(reversed(self.keys), reversed(self.grids)):',
+       '        for key, grid in zip(self.keys, self.grids):')],
+     ['test/test_sweep.py::test_specs_lists_ranges_and_distributions'],
+     'runs numbered with the first list varying fastest, not the last'),
 ]
 
 
