@@ -2,9 +2,9 @@
 # Licensed under the Apache License, Version 2.0
 """The collision world's step as one compiled call: n steps of integrate, detect, solve, write.
 
-``world_steps(w, n)`` takes ``w``, a ``World`` (a named tuple of the world's arrays, built by
-``collision_world.CollisionWorld`` for each call), through ``n`` steps of the order written in
-``collision_world``'s module docstring:
+``world_steps(arrays, n)`` takes ``w = World(*arrays)`` (a named tuple of the world's arrays,
+built by ``collision_world.CollisionWorld`` for each call) through ``n`` steps of the order
+written in ``collision_world``'s module docstring:
 
 1. the awake bodies take one step of the step kernel (``step_kernel.advance_body``), the ones
    without colliders too;
@@ -84,11 +84,14 @@ World = namedtuple('World', [
 
 
 @kernel
-def world_steps(w, n, warm_keys, warm_normal, warm_tangent):
-    """``n`` steps of the world (see the module doc). Returns the warm-start arrays and the
-    last step's contacts: (warm_keys, warm_normal, warm_tangent, point, normal, depth,
-    normal_impulse, collider_a, collider_b); w.status[S_COLLIDED] says whether a contact pass
-    ran in this call (else the contacts returned are not the last step's)."""
+def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
+    """``n`` steps of the world (see the module doc) of ``arrays``, a World's arrays as a plain
+    tuple in its order (one crosses from Python in two thirds of the time of a named tuple).
+    Returns the warm-start arrays and the last step's contacts: (warm_keys, warm_normal,
+    warm_tangent, point, normal, depth, normal_impulse, collider_a, collider_b);
+    w.status[S_COLLIDED] says whether a contact pass ran in this call (else the contacts
+    returned are not the last step's)."""
+    w = World(*arrays)
     point, normal = np.zeros((0, 3)), np.zeros((0, 3))
     depth, impulse = np.zeros(0), np.zeros(0)
     ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
@@ -102,15 +105,199 @@ def world_steps(w, n, warm_keys, warm_normal, warm_tangent):
         # again. (One call site of each stage: they are compiled inline.)
         integrated = w.status[S_UNCHECKED] == 0
         if integrated:
-            row = _integrate(w)
+            row = _integrate(w.step_rows, w.body_of_row, w.asleep, w.state, w.spare,
+                             w.params, w.coefficients, w.kstatus, w.taken, w.bad, w.work,
+                             w.clock)
             w.status[S_STEP] += 1
             w.status[S_STEPS_DONE] += 1
             if row >= 0:
                 w.status[S_KIND], w.status[S_ROW] = INTEGRATION, row
                 w.status[S_ERROR_STEP] = w.status[S_STEP] - 1
                 break
-        (warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca,
-         cbb) = _collide(w, integrated, warm_keys, warm_normal, warm_tangent)
+        # 2. - 5. on the bodies' current states (``integrated``: the awake bodies have taken
+        # this step's integration).
+        nb = w.rows.shape[0]
+        nc = w.cbody.shape[0]
+        step = w.status[S_STEP] - 1 if integrated else w.status[S_STEP]
+        static = np.empty(nc, dtype=np.bool_)
+        while True:
+            # x, R, v, omega and margins of the bodies; colliders placed (step 2's start).
+            wk.read_bodies(w.state, w.rows, w.q, w.has_q, w.x, w.rot, w.v, w.w)
+            wk.speculative_margins(w.v, w.w, w.reach, nb, float(w.config[C_DT]),
+                                   float(w.config[C_G]), w.config[C_SPECULATIVE] != 0.0, w.margin)
+            wk.place_colliders(w.dyn, w.cbody, w.x, w.rot, w.local_pos, w.local_rot, w.half,
+                               w.half_length, w.radius, w.margin, w.centres, w.rotations, w.lower,
+                               w.upper)
+            any_asleep = False
+            for c in range(nc):
+                static[c] = w.cstatic[c] or w.asleep[w.cbody[c]]
+            for k in range(nb):
+                any_asleep = any_asleep or w.asleep[k]
+            pairs = bp.sweep_and_prune(w.lower, w.upper, w.cowner, static, int(-1))
+            if not any_asleep or pairs.shape[0] == 0:
+                break
+            woken = np.zeros(nb + 1, dtype=np.bool_)
+            found = False
+            for k in range(pairs.shape[0]):
+                a, b = w.cbody[pairs[k, 0]], w.cbody[pairs[k, 1]]
+                if w.asleep[a] and not w.asleep[b] and a < nb:
+                    woken[a], found = True, True
+                if w.asleep[b] and not w.asleep[a] and b < nb:
+                    woken[b], found = True, True
+            if not found:
+                break
+            clock = w.status[S_STEP] - (1 if integrated else 0)
+            for k in range(nb):
+                if woken[k]:
+                    w.asleep[k] = False
+                    w.slow_steps[k] = 0
+                    w.clock[w.rows[k]] = clock  # its clock stood still while asleep
+            if integrated:
+                # Asleep when (1) ran: take that step now, so that they meet the solve as an
+                # awake body would, with this step's gravity and wrench, and read again. If one
+                # fails, the others still take it; the step stops there.
+                failed = -1
+                for k in range(nb):
+                    if woken[k] and _advance_row(w.state, w.spare, w.params, w.coefficients,
+                                                 w.kstatus, w.taken, w.bad, w.work, w.clock,
+                                                 w.rows[k]) and failed < 0:
+                        failed = w.rows[k]
+                if failed >= 0:
+                    w.status[S_KIND], w.status[S_ROW] = INTEGRATION, failed
+                    w.status[S_ERROR_STEP] = w.clock[failed]
+                    break
+        if w.status[S_KIND] != OK:  # a woken body failed its step: the step stops there
+            point, normal = np.zeros((0, 3)), np.zeros((0, 3))
+            depth, impulse = np.zeros(0), np.zeros(0)
+            ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+            w.status[S_COLLIDED] = 1
+            break
+        # Planes: the awake moving colliders only.
+        awake = np.empty(w.dyn.shape[0], dtype=np.int64)
+        count = 0
+        for k in range(w.dyn.shape[0]):
+            if not w.asleep[w.cbody[w.dyn[k]]]:
+                awake[count] = w.dyn[k]
+                count += 1
+        planes = w.plane_normals.shape[0]
+        if planes:
+            plane_pairs = bp.plane_candidates(awake[:count], w.cbody, w.rotations, w.half,
+                                              w.half_length, w.radius, w.centres,
+                                              w.plane_normals, w.plane_points, w.margin)
+        else:
+            plane_pairs = np.zeros((0, 2), dtype=np.int64)
+        # 3. The narrow phase of every candidate: collider pairs, then (collider, plane).
+        p1, p2 = pairs.shape[0], plane_pairs.shape[0]
+        pair_a = np.empty(p1 + p2, dtype=np.int64)
+        pair_b = np.empty(p1 + p2, dtype=np.int64)
+        margins = np.empty(p1 + p2)
+        for k in range(p1):
+            pair_a[k], pair_b[k] = pairs[k, 0], pairs[k, 1]
+            margins[k] = w.margin[w.cbody[pairs[k, 0]]] + w.margin[w.cbody[pairs[k, 1]]]
+        for k in range(p2):
+            pair_a[p1 + k], pair_b[p1 + k] = plane_pairs[k, 0], nc + plane_pairs[k, 1]
+            margins[p1 + k] = w.margin[w.cbody[plane_pairs[k, 0]]]
+        rows = (p1 + p2) * nk.MAX_CONTACTS_PER_PAIR
+        point, normal = np.empty((rows, 3)), np.empty((rows, 3))
+        depth = np.empty(rows)
+        feature, source = np.empty(rows, dtype=np.int64), np.empty(rows, dtype=np.int64)
+        m = nk.collide_pairs(pair_a, pair_b, w.kinds, w.geoms, w.centres, w.rotations, margins,
+                             point, normal, depth, feature, source)
+        point, normal, depth = point[:m], normal[:m], depth[:m]
+        stats = w.stats
+        for k in range(8):
+            stats[k] = 0
+        stats[CANDIDATE_PAIRS], stats[PLANE_PAIRS], stats[CONTACTS] = p1, p2, m
+        ca = np.empty(m, dtype=np.int64)
+        cbb = np.empty(m, dtype=np.int64)
+        body_a = np.empty(m, dtype=np.int64)
+        body_b = np.empty(m, dtype=np.int64)
+        keys = np.empty(m, dtype=np.int64)
+        total = max(nc + planes, 1)
+        for k in range(m):
+            ca[k], cbb[k] = pair_a[source[k]], pair_b[source[k]]
+            body_a[k] = w.cbody[ca[k]]
+            body_b[k] = w.cbody[cbb[k]] if cbb[k] < nc else nb
+            keys[k] = (ca[k] * total + cbb[k]) * (1 << FEATURE_BITS) + (
+                feature[k] % (1 << FEATURE_BITS))
+        impulse = np.zeros(m)
+        w.energy[SOLVE_BEFORE] = w.energy[SOLVE_AFTER] = 0.0
+        if m == 0:
+            warm_keys, warm_normal, warm_tangent = _store_warm(
+                nb, w.cbody, w.plane_normals.shape[0], w.asleep, keys, impulse, np.zeros((0, 3)),
+                warm_keys, warm_normal, warm_tangent)
+            for k in range(nb):
+                w.slow_steps[k] = 0
+            _finish_stats(w.asleep, w.stats, nb)
+            w.status[S_COLLIDED] = 1
+            w.status[S_UNCHECKED] = 0
+            continue
+        # 4. The solve: the bodies (the last slot static), warm start, materials.
+        inv_inertia = np.zeros((nb + 1, 9))
+        for k in range(nb):
+            _inverse_inertia_world(w.rows, w.params, w.state, k, inv_inertia)
+        warm_n, warm_t = np.zeros(m), np.zeros((m, 3))
+        use_warm = w.config[C_WARM_START] != 0.0 and warm_keys.shape[0] > 0
+        if use_warm:
+            _match(keys, warm_keys, warm_normal, warm_tangent, warm_n, warm_t)
+        e, mu = np.empty(m), np.empty(m)
+        for k in range(m):
+            if w.config[C_MATERIALS] != 0.0:
+                fa, fb = float(w.friction[ca[k]]), float(w.friction[cbb[k]])
+                mean = math.sqrt(fa * fb)
+                e[k] = max(float(w.restitution[ca[k]]), float(w.restitution[cbb[k]]))
+                mu[k] = min(mean, max(fa, fb))
+            else:
+                e[k], mu[k] = w.settings[sk.RESTITUTION], w.settings[sk.FRICTION]
+        nn = nb + 1
+        v1, w1 = np.empty((nn, 3)), np.empty((nn, 3))
+        disp, turn = np.empty((nn, 3)), np.empty((nn, 3))
+        tangent, p_impulse = np.empty((m, 3)), np.empty(m)
+        touched = np.empty(nn, dtype=np.bool_)
+        colours, v_iter, p_iter = sk.solve_arrays(
+            body_a, body_b, point, normal, depth, w.x, w.v, w.w, w.inverse_mass, inv_inertia,
+            w.settings, warm_n, warm_t, use_warm, e, mu, v1, w1, disp, turn, impulse, tangent,
+            p_impulse, touched)
+        # 5. Checks, warm start kept, write-back, sleeping.
+        spared = _check_solve(w.status, w.flagged, w.energy, float(w.config[C_GAIN_TOLERANCE]),
+                              w.rows, w.state, w.params, w.inverse_mass, w.v, w.w, nb, body_a,
+                              body_b, v1, w1, disp, turn, step)
+        if w.config[C_WARM_START] != 0.0:
+            warm_keys, warm_normal, warm_tangent = _store_warm(
+                nb, w.cbody, w.plane_normals.shape[0], w.asleep, keys, impulse, tangent, warm_keys,
+                warm_normal, warm_tangent)
+        write = np.empty(nb, dtype=np.int64)
+        count = 0
+        n_touched = 0
+        for k in range(nb):
+            if touched[k]:
+                n_touched += 1
+                if not spared[k]:
+                    write[count] = k
+                    count += 1
+        bad = np.zeros(count, dtype=np.bool_)
+        wk.write_contacts(w.state, w.params, w.rows, w.q, w.has_q, write[:count], w.x, w.rot, v1,
+                          w1, disp, turn, float(w.config[C_MIN_TURN]), bad)
+        for k in range(count):
+            if bad[k] and w.status[S_KIND] == OK:
+                w.status[S_KIND], w.status[S_ERROR_STEP] = WRITE_NON_FINITE, step
+                w.status[S_ROW] = write[k]
+                w.flagged[0] = write[k]
+                w.status[S_FLAGGED] = 1
+                for c in range(3):  # what it would have been, for the message
+                    w.energy[c] = w.x[write[k], c] + disp[write[k], c]
+                    w.energy[3 + c] = v1[write[k], c]
+                    w.energy[6 + c] = w1[write[k], c]
+        if w.config[C_SLEEP_STEPS] > 0.0 and integrated:
+            _fall_asleep(w.config, w.reach, w.asleep, w.slow_steps, w.cbody, w.rows, w.state,
+                         w.params, nb, body_a, body_b, impulse, v1, w1, pairs)
+        active = 0
+        for k in range(m):
+            if impulse[k] > 0.0:
+                active += 1
+        stats[ACTIVE], stats[TOUCHED] = active, n_touched
+        stats[COLOURS], stats[V_ITER], stats[P_ITER] = colours, v_iter, p_iter
+        _finish_stats(w.asleep, w.stats, nb)
         w.status[S_COLLIDED] = 1
         if w.status[S_KIND] != OK:
             break
@@ -118,270 +305,102 @@ def world_steps(w, n, warm_keys, warm_normal, warm_tangent):
     return warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca, cbb
 
 
+# The stages take the arrays they use, never ``w``, and steps 2 - 5 are written out in
+# ``world_steps`` (a call of more than 29 arguments cannot be inlined): numba increfs every
+# array of a named tuple argument on entry and decrefs it on exit, and with a call in between
+# LLVM cannot drop the pairs. For the 52 arrays of ``w`` that cost about 0.45 us an
+# invocation, once a step for each stage and once a body for each integration: more than a
+# resting body's whole step (bench/contact_step_bench.py, bench/resting_bench.py).
+
+
 @inline_kernel
-def _advance_row(w, row):
+def _advance_row(state, spare, params, coefficients, kstatus, taken, bad, work, clock, row):
     """One step of store row ``row``; True if it failed (then it stays at its state before;
-    the reason in w.kstatus)."""
+    the reason in kstatus)."""
     one = int(1)
-    K.advance_body(w.state, w.spare, w.params, w.coefficients, row, one, bool(False),
-                   w.kstatus, w.taken, w.bad, w.work)
-    failed = w.kstatus[row] != K.STATUS_OK
+    K.advance_body(state, spare, params, coefficients, row, one, bool(False), kstatus, taken,
+                   bad, work)
+    failed = kstatus[row] != K.STATUS_OK
     if failed:
-        K.advance_body(w.state, w.spare, w.params, w.coefficients, row, one, bool(True),
-                       w.kstatus, w.taken, w.bad, w.work)
-    for c in range(w.state.shape[1]):
-        w.state[row, c] = w.spare[row, c]
-    w.clock[row] += w.taken[row]
+        K.advance_body(state, spare, params, coefficients, row, one, bool(True), kstatus,
+                       taken, bad, work)
+    for c in range(state.shape[1]):
+        state[row, c] = spare[row, c]
+    clock[row] += taken[row]
     return failed
 
 
 @inline_kernel
-def _integrate(w):
+def _integrate(step_rows, body_of_row, asleep, state, spare, params, coefficients, kstatus,
+               taken, bad, work, clock):
     """Every awake body one step, in row order; the first row that failed, or -1 (the others
     still take their step)."""
     first = -1
-    for j in range(w.step_rows.shape[0]):
-        row = w.step_rows[j]
-        k = w.body_of_row[row]
-        if k >= 0 and w.asleep[k]:
+    for j in range(step_rows.shape[0]):
+        row = step_rows[j]
+        k = body_of_row[row]
+        if k >= 0 and asleep[k]:
             continue
-        if _advance_row(w, row) and first < 0:
+        if _advance_row(state, spare, params, coefficients, kstatus, taken, bad, work, clock,
+                        row) and first < 0:
             first = row
     return first
 
 
 @inline_kernel
-def _read(w, nb):
-    """x, R, v, omega and margins of the bodies; colliders placed (step 2's start)."""
-    wk.read_bodies(w.state, w.rows, w.q, w.has_q, w.x, w.rot, w.v, w.w)
-    wk.speculative_margins(w.v, w.w, w.reach, nb, float(w.config[C_DT]), float(w.config[C_G]),
-                           w.config[C_SPECULATIVE] != 0.0, w.margin)
-    wk.place_colliders(w.dyn, w.cbody, w.x, w.rot, w.local_pos, w.local_rot, w.half,
-                       w.half_length, w.radius, w.margin, w.centres, w.rotations, w.lower,
-                       w.upper)
-
-
-@inline_kernel
-def _collide(w, integrated, warm_keys, warm_normal, warm_tangent):
-    """Steps 2-5 on the bodies' current states; ``integrated``: the awake bodies have taken
-    this step's integration."""
-    nb = w.rows.shape[0]
-    nc = w.cbody.shape[0]
-    step = w.status[S_STEP] - 1 if integrated else w.status[S_STEP]
-    static = np.empty(nc, dtype=np.bool_)
-    while True:
-        _read(w, nb)
-        any_asleep = False
-        for c in range(nc):
-            static[c] = w.cstatic[c] or w.asleep[w.cbody[c]]
-        for k in range(nb):
-            any_asleep = any_asleep or w.asleep[k]
-        pairs = bp.sweep_and_prune(w.lower, w.upper, w.cowner, static, int(-1))
-        if not any_asleep or pairs.shape[0] == 0:
-            break
-        woken = np.zeros(nb + 1, dtype=np.bool_)
-        found = False
-        for k in range(pairs.shape[0]):
-            a, b = w.cbody[pairs[k, 0]], w.cbody[pairs[k, 1]]
-            if w.asleep[a] and not w.asleep[b] and a < nb:
-                woken[a], found = True, True
-            if w.asleep[b] and not w.asleep[a] and b < nb:
-                woken[b], found = True, True
-        if not found:
-            break
-        clock = w.status[S_STEP] - (1 if integrated else 0)
-        for k in range(nb):
-            if woken[k]:
-                w.asleep[k] = False
-                w.slow_steps[k] = 0
-                w.clock[w.rows[k]] = clock  # its clock stood still while asleep
-        if integrated:
-            # Asleep when (1) ran: take that step now, so that they meet the solve as an
-            # awake body would, with this step's gravity and wrench, and read again. If one
-            # fails, the others still take it; the step stops there.
-            failed = -1
-            for k in range(nb):
-                if woken[k] and _advance_row(w, w.rows[k]) and failed < 0:
-                    failed = w.rows[k]
-            if failed >= 0:
-                w.status[S_KIND], w.status[S_ROW] = INTEGRATION, failed
-                w.status[S_ERROR_STEP] = w.clock[failed]
-                return (warm_keys, warm_normal, warm_tangent, np.zeros((0, 3)),
-                        np.zeros((0, 3)), np.zeros(0), np.zeros(0),
-                        np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
-    # Planes: the awake moving colliders only.
-    awake = np.empty(w.dyn.shape[0], dtype=np.int64)
-    count = 0
-    for k in range(w.dyn.shape[0]):
-        if not w.asleep[w.cbody[w.dyn[k]]]:
-            awake[count] = w.dyn[k]
-            count += 1
-    planes = w.plane_normals.shape[0]
-    if planes:
-        plane_pairs = bp.plane_candidates(awake[:count], w.cbody, w.rotations, w.half,
-                                          w.half_length, w.radius, w.centres,
-                                          w.plane_normals, w.plane_points, w.margin)
-    else:
-        plane_pairs = np.zeros((0, 2), dtype=np.int64)
-    # 3. The narrow phase of every candidate: collider pairs, then (collider, plane).
-    p1, p2 = pairs.shape[0], plane_pairs.shape[0]
-    pair_a = np.empty(p1 + p2, dtype=np.int64)
-    pair_b = np.empty(p1 + p2, dtype=np.int64)
-    margins = np.empty(p1 + p2)
-    for k in range(p1):
-        pair_a[k], pair_b[k] = pairs[k, 0], pairs[k, 1]
-        margins[k] = w.margin[w.cbody[pairs[k, 0]]] + w.margin[w.cbody[pairs[k, 1]]]
-    for k in range(p2):
-        pair_a[p1 + k], pair_b[p1 + k] = plane_pairs[k, 0], nc + plane_pairs[k, 1]
-        margins[p1 + k] = w.margin[w.cbody[plane_pairs[k, 0]]]
-    rows = (p1 + p2) * nk.MAX_CONTACTS_PER_PAIR
-    point, normal = np.empty((rows, 3)), np.empty((rows, 3))
-    depth = np.empty(rows)
-    feature, source = np.empty(rows, dtype=np.int64), np.empty(rows, dtype=np.int64)
-    m = nk.collide_pairs(pair_a, pair_b, w.kinds, w.geoms, w.centres, w.rotations, margins,
-                         point, normal, depth, feature, source)
-    point, normal, depth = point[:m], normal[:m], depth[:m]
-    stats = w.stats
-    for k in range(8):
-        stats[k] = 0
-    stats[CANDIDATE_PAIRS], stats[PLANE_PAIRS], stats[CONTACTS] = p1, p2, m
-    ca = np.empty(m, dtype=np.int64)
-    cbb = np.empty(m, dtype=np.int64)
-    body_a = np.empty(m, dtype=np.int64)
-    body_b = np.empty(m, dtype=np.int64)
-    keys = np.empty(m, dtype=np.int64)
-    total = max(nc + planes, 1)
-    for k in range(m):
-        ca[k], cbb[k] = pair_a[source[k]], pair_b[source[k]]
-        body_a[k] = w.cbody[ca[k]]
-        body_b[k] = w.cbody[cbb[k]] if cbb[k] < nc else nb
-        keys[k] = (ca[k] * total + cbb[k]) * (1 << FEATURE_BITS) + (
-            feature[k] % (1 << FEATURE_BITS))
-    impulse = np.zeros(m)
-    w.energy[SOLVE_BEFORE] = w.energy[SOLVE_AFTER] = 0.0
-    if m == 0:
-        warm_keys, warm_normal, warm_tangent = _store_warm(
-            w, keys, impulse, np.zeros((0, 3)), warm_keys, warm_normal, warm_tangent)
-        for k in range(nb):
-            w.slow_steps[k] = 0
-        _finish_stats(w, nb)
-        return (warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca, cbb)
-    # 4. The solve: the bodies (the last slot static), warm start, materials.
-    inv_inertia = np.zeros((nb + 1, 9))
-    for k in range(nb):
-        _inverse_inertia_world(w, k, inv_inertia)
-    warm_n, warm_t = np.zeros(m), np.zeros((m, 3))
-    use_warm = w.config[C_WARM_START] != 0.0 and warm_keys.shape[0] > 0
-    if use_warm:
-        _match(keys, warm_keys, warm_normal, warm_tangent, warm_n, warm_t)
-    e, mu = np.empty(m), np.empty(m)
-    for k in range(m):
-        if w.config[C_MATERIALS] != 0.0:
-            fa, fb = float(w.friction[ca[k]]), float(w.friction[cbb[k]])
-            mean = math.sqrt(fa * fb)
-            e[k] = max(float(w.restitution[ca[k]]), float(w.restitution[cbb[k]]))
-            mu[k] = min(mean, max(fa, fb))
-        else:
-            e[k], mu[k] = w.settings[sk.RESTITUTION], w.settings[sk.FRICTION]
-    nn = nb + 1
-    v1, w1 = np.empty((nn, 3)), np.empty((nn, 3))
-    disp, turn = np.empty((nn, 3)), np.empty((nn, 3))
-    tangent, p_impulse = np.empty((m, 3)), np.empty(m)
-    touched = np.empty(nn, dtype=np.bool_)
-    colours, v_iter, p_iter = sk.solve_arrays(
-        body_a, body_b, point, normal, depth, w.x, w.v, w.w, w.inverse_mass, inv_inertia,
-        w.settings, warm_n, warm_t, use_warm, e, mu, v1, w1, disp, turn, impulse, tangent,
-        p_impulse, touched)
-    # 5. Checks, warm start kept, write-back, sleeping.
-    spared = _check_solve(w, nb, body_a, body_b, inv_inertia, v1, w1, disp, turn, step)
-    if w.config[C_WARM_START] != 0.0:
-        warm_keys, warm_normal, warm_tangent = _store_warm(
-            w, keys, impulse, tangent, warm_keys, warm_normal, warm_tangent)
-    write = np.empty(nb, dtype=np.int64)
-    count = 0
-    n_touched = 0
-    for k in range(nb):
-        if touched[k]:
-            n_touched += 1
-            if not spared[k]:
-                write[count] = k
-                count += 1
-    bad = np.zeros(count, dtype=np.bool_)
-    wk.write_contacts(w.state, w.params, w.rows, w.q, w.has_q, write[:count], w.x, w.rot, v1,
-                      w1, disp, turn, float(w.config[C_MIN_TURN]), bad)
-    for k in range(count):
-        if bad[k] and w.status[S_KIND] == OK:
-            w.status[S_KIND], w.status[S_ERROR_STEP] = WRITE_NON_FINITE, step
-            w.status[S_ROW] = write[k]
-            w.flagged[0] = write[k]
-            w.status[S_FLAGGED] = 1
-            for c in range(3):  # what it would have been, for the message
-                w.energy[c] = w.x[write[k], c] + disp[write[k], c]
-                w.energy[3 + c] = v1[write[k], c]
-                w.energy[6 + c] = w1[write[k], c]
-    if w.config[C_SLEEP_STEPS] > 0.0 and integrated:
-        _fall_asleep(w, nb, body_a, body_b, impulse, v1, w1, pairs)
-    active = 0
-    for k in range(m):
-        if impulse[k] > 0.0:
-            active += 1
-    stats[ACTIVE], stats[TOUCHED] = active, n_touched
-    stats[COLOURS], stats[V_ITER], stats[P_ITER] = colours, v_iter, p_iter
-    _finish_stats(w, nb)
-    return (warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca, cbb)
-
-
-@inline_kernel
-def _finish_stats(w, nb):
+def _finish_stats(asleep, stats, nb):
     """The totals, and the sleepers counted."""
     sleeping = 0
     for k in range(nb):
-        if w.asleep[k]:
+        if asleep[k]:
             sleeping += 1
-    w.stats[SLEEPING] = sleeping
+    stats[SLEEPING] = sleeping
     for k in range(7):
-        w.stats[8 + k] += w.stats[k]
+        stats[8 + k] += stats[k]
 
 
 @inline_kernel
-def _inverse_inertia_world(w, k, out):
+def _inverse_inertia_world(rows, params, state, k, out):
     """R I_body^-1 R^T of body k (row-major into out[k]), from its principal frame r (the
     state row) and inverse principal moments: r diag(j) r^T."""
-    row = w.rows[k]
-    jx = float(w.params[row, K.INVERSE_MOMENTS])
-    jy = float(w.params[row, K.INVERSE_MOMENTS + 1])
-    jz = float(w.params[row, K.INVERSE_MOMENTS + 2])
+    row = rows[k]
+    jx = float(params[row, K.INVERSE_MOMENTS])
+    jy = float(params[row, K.INVERSE_MOMENTS + 1])
+    jz = float(params[row, K.INVERSE_MOMENTS + 2])
     for a in range(3):
-        ra0 = float(w.state[row, K.R + 3 * a])
-        ra1 = float(w.state[row, K.R + 3 * a + 1])
-        ra2 = float(w.state[row, K.R + 3 * a + 2])
+        ra0 = float(state[row, K.R + 3 * a])
+        ra1 = float(state[row, K.R + 3 * a + 1])
+        ra2 = float(state[row, K.R + 3 * a + 2])
         for b in range(3):
-            out[k, 3 * a + b] = (ra0 * jx * float(w.state[row, K.R + 3 * b])
-                                 + ra1 * jy * float(w.state[row, K.R + 3 * b + 1])
-                                 + ra2 * jz * float(w.state[row, K.R + 3 * b + 2]))
+            out[k, 3 * a + b] = (ra0 * jx * float(state[row, K.R + 3 * b])
+                                 + ra1 * jy * float(state[row, K.R + 3 * b + 1])
+                                 + ra2 * jz * float(state[row, K.R + 3 * b + 2]))
 
 
 @inline_kernel
-def _energy(w, k, vel, ang):
+def _energy(rows, state, params, inverse_mass, k, vel, ang):
     """Kinetic energy (J) of body k at (vel, ang): 1/2 m v.v + 1/2 w . I w, I = r diag(I_p) r^T
     (principal moments from the params row)."""
-    row = w.rows[k]
+    row = rows[k]
     vx, vy, vz = float(vel[k, 0]), float(vel[k, 1]), float(vel[k, 2])
     wx, wy, wz = float(ang[k, 0]), float(ang[k, 1]), float(ang[k, 2])
     # omega in the principal frame: r^T w
-    total = (vx * vx + vy * vy + vz * vz) / float(w.inverse_mass[k])
+    total = (vx * vx + vy * vy + vz * vz) / float(inverse_mass[k])
     for j in range(3):
-        b = (float(w.state[row, K.R + j]) * wx + float(w.state[row, K.R + 3 + j]) * wy
-             + float(w.state[row, K.R + 6 + j]) * wz)
-        total += float(w.params[row, K.MOMENTS + j]) * b * b
+        b = (float(state[row, K.R + j]) * wx + float(state[row, K.R + 3 + j]) * wy
+             + float(state[row, K.R + 6 + j]) * wz)
+        total += float(params[row, K.MOMENTS + j]) * b * b
     return 0.5 * total
 
 
 @inline_kernel
-def _check_solve(w, nb, body_a, body_b, inv_inertia, v1, w1, disp, turn, step):
+def _check_solve(status, flagged_bodies, energy, gain_tolerance, rows, state, params,
+                 inverse_mass, v0, w0, nb, body_a, body_b, v1, w1, disp, turn, step):
     """The bodies not to write (True): those the solve gave a non-finite value, or, if it gave
-    the bodies more kinetic energy than they had (the last guard, docs/collisions.md "Energy"),
-    the ones whose energy rose, largest gain first. The error is recorded in w.status."""
+    the bodies more kinetic energy (at v1, w1) than they had (at v0, w0; the last guard,
+    docs/collisions.md "Energy"), the ones whose energy rose, largest gain first. The error is
+    recorded in ``status`` (w.status), the bodies in ``flagged_bodies``, the energies in
+    ``energy``."""
     involved = np.zeros(nb + 1, dtype=np.bool_)
     for k in range(body_a.shape[0]):
         involved[body_a[k]] = True
@@ -396,24 +415,24 @@ def _check_solve(w, nb, body_a, body_b, inv_inertia, v1, w1, disp, turn, step):
             total += (v1[k, c] * 0.0 + w1[k, c] * 0.0 + disp[k, c] * 0.0 + turn[k, c] * 0.0)
         if total != 0.0:
             spared[k] = True
-            w.flagged[flagged] = k
+            flagged_bodies[flagged] = k
             flagged += 1
     if flagged:
-        if w.status[S_KIND] == OK:
-            w.status[S_KIND], w.status[S_ERROR_STEP] = SOLVE_NON_FINITE, step
-            w.status[S_FLAGGED] = flagged
+        if status[S_KIND] == OK:
+            status[S_KIND], status[S_ERROR_STEP] = SOLVE_NON_FINITE, step
+            status[S_FLAGGED] = flagged
         return spared
     e0 = np.zeros(nb)
     e1 = np.zeros(nb)
     total0, total1 = 0.0, 0.0
     for k in range(nb):
         if involved[k]:
-            e0[k] = _energy(w, k, w.v, w.w)
-            e1[k] = _energy(w, k, v1, w1)
+            e0[k] = _energy(rows, state, params, inverse_mass, k, v0, w0)
+            e1[k] = _energy(rows, state, params, inverse_mass, k, v1, w1)
             total0 += e0[k]
             total1 += e1[k]
-    w.energy[SOLVE_BEFORE], w.energy[SOLVE_AFTER] = total0, total1
-    if total1 <= total0 * (1.0 + float(w.config[C_GAIN_TOLERANCE])) or not (
+    energy[SOLVE_BEFORE], energy[SOLVE_AFTER] = total0, total1
+    if total1 <= total0 * (1.0 + gain_tolerance) or not (
             total0 <= 1.7976931348623157e308):
         return spared
     gain = np.empty(nb)
@@ -423,12 +442,12 @@ def _check_solve(w, nb, body_a, body_b, inv_inertia, v1, w1, disp, turn, step):
     for k in order:
         if involved[k] and e1[k] > e0[k]:
             spared[k] = True
-            w.flagged[flagged] = k
+            flagged_bodies[flagged] = k
             flagged += 1
-    if w.status[S_KIND] == OK:
-        w.status[S_KIND], w.status[S_ERROR_STEP] = SOLVE_ENERGY, step
-        w.status[S_FLAGGED] = flagged
-        w.energy[0], w.energy[1] = total0, total1
+    if status[S_KIND] == OK:
+        status[S_KIND], status[S_ERROR_STEP] = SOLVE_ENERGY, step
+        status[S_FLAGGED] = flagged
+        energy[0], energy[1] = total0, total1
     return spared
 
 
@@ -445,25 +464,25 @@ def _match(keys, old_keys, old_normal, old_tangent, normal, tangent):
 
 
 @inline_kernel
-def _store_warm(w, keys, normal, tangent, old_keys, old_normal, old_tangent):
+def _store_warm(nb, cbody, planes, asleep, keys, normal, tangent, old_keys, old_normal,
+                old_tangent):
     """This step's impulses for the next one's warm start, sorted by key, with the kept
     impulses of contacts between sleepers (or a sleeper and the static world): they are not
     found while asleep, and a pile that wakes resumes from its resting impulses, not from 0."""
-    nb = w.rows.shape[0]
-    nc = w.cbody.shape[0]
-    total = max(nc + w.plane_normals.shape[0], 1)
+    nc = cbody.shape[0]
+    total = max(nc + planes, 1)
     keep = np.zeros(old_keys.shape[0], dtype=np.bool_)
     kept = 0
     any_asleep = False
     for k in range(nb):
-        any_asleep = any_asleep or w.asleep[k]
+        any_asleep = any_asleep or asleep[k]
     if any_asleep:
         for k in range(old_keys.shape[0]):
             pair = old_keys[k] >> FEATURE_BITS
             a, b = pair // total, pair % total
-            body_a = w.cbody[a] if a < nc else nb
-            body_b = w.cbody[b] if b < nc else nb
-            if (w.asleep[body_a] or body_a == nb) and (w.asleep[body_b] or body_b == nb):
+            body_a = cbody[a] if a < nc else nb
+            body_b = cbody[b] if b < nc else nb
+            if (asleep[body_a] or body_a == nb) and (asleep[body_b] or body_b == nb):
                 keep[k] = True
                 kept += 1
     m = keys.shape[0]
@@ -493,7 +512,8 @@ def _store_warm(w, keys, normal, tangent, old_keys, old_normal, old_tangent):
 
 
 @inline_kernel
-def _fall_asleep(w, nb, body_a, body_b, impulse, v1, w1, pairs):
+def _fall_asleep(config, reach, asleep, slow_steps, cbody, rows, state, params, nb, body_a,
+                 body_b, impulse, v1, w1, pairs):
     """Count the steps each awake body has been slow (every point of its colliders under
     sleep_speed) while pressed by a contact; bodies that have been so for sleep_time sleep, at
     exact rest, together with every body near them (the broad phase's pairs, transitively),
@@ -503,19 +523,19 @@ def _fall_asleep(w, nb, body_a, body_b, impulse, v1, w1, pairs):
         if impulse[k] > 0.0:
             supported[body_a[k]] = True
             supported[body_b[k]] = True
-    sleep_steps = int(w.config[C_SLEEP_STEPS])
+    sleep_steps = int(config[C_SLEEP_STEPS])
     any_ready = False
     ready = np.zeros(nb, dtype=np.bool_)
     for k in range(nb):
         vx, vy, vz = float(v1[k, 0]), float(v1[k, 1]), float(v1[k, 2])
         wx, wy, wz = float(w1[k, 0]), float(w1[k, 1]), float(w1[k, 2])
         speed = math.sqrt(vx * vx + vy * vy + vz * vz) + math.sqrt(
-            wx * wx + wy * wy + wz * wz) * float(w.reach[k])
-        if supported[k] and speed < float(w.config[C_SLEEP_SPEED]) and not w.asleep[k]:
-            w.slow_steps[k] += 1
+            wx * wx + wy * wy + wz * wz) * float(reach[k])
+        if supported[k] and speed < float(config[C_SLEEP_SPEED]) and not asleep[k]:
+            slow_steps[k] += 1
         else:
-            w.slow_steps[k] = 0
-        ready[k] = w.slow_steps[k] >= sleep_steps
+            slow_steps[k] = 0
+        ready[k] = slow_steps[k] >= sleep_steps
         any_ready = any_ready or ready[k]
     if not any_ready:
         return
@@ -527,16 +547,16 @@ def _fall_asleep(w, nb, body_a, body_b, impulse, v1, w1, pairs):
     while changed:
         changed = False
         for k in range(pairs.shape[0]):
-            a, b = w.cbody[pairs[k, 0]], w.cbody[pairs[k, 1]]
+            a, b = cbody[pairs[k, 0]], cbody[pairs[k, 1]]
             if a < nb and b < nb and blocked[a] != blocked[b]:
                 blocked[a] = blocked[b] = True
                 changed = True
     for k in range(nb):
         if ready[k] and not blocked[k]:
-            row = w.rows[k]
+            row = rows[k]
             for c in range(3):
-                w.state[row, K.V + c] = 0.0
-                w.state[row, K.W + c] = 0.0
-            w.state[row, K.HISTORY] = K.HISTORY_NONE
-            K.evaluate(w.state, w.params, row)
-            w.asleep[k] = True
+                state[row, K.V + c] = 0.0
+                state[row, K.W + c] = 0.0
+            state[row, K.HISTORY] = K.HISTORY_NONE
+            K.evaluate(state, params, row)
+            asleep[k] = True
