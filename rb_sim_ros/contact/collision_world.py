@@ -193,8 +193,9 @@ class CollisionWorld:
         self.steppers, self.static = make_steppers(bodies, dt, integrator, self._gravity)
         self._all_steppers = tuple(self.steppers.values())
         self._step_count = 0
-        self.last_stats = StepStats()
-        self.totals = StepStats()
+        self._unsynced, self._unsynced_seconds, self._call_seconds = False, 0.0, 0.0
+        self._last_stats = StepStats()
+        self._totals = StepStats()
         self._last = None
         self._warm_keys = np.zeros(0, dtype=np.int64)
         self._warm_normal = np.zeros(0)
@@ -463,10 +464,11 @@ class CollisionWorld:
         return ws.world_steps(self._world(), n, self._warm_keys, self._warm_normal,
                               self._warm_tangent)
 
-    def _world(self) -> ws.World:
-        """The world's arrays for the step kernel (the store's, as they are now)."""
+    def _world(self) -> tuple:
+        """The world's arrays for the step kernel (the store's, as they are now), in the order
+        of ``world_step.World``."""
         st = self._store
-        return ws.World(
+        return (
             st.state, st.spare, st.params, st.coefficients, st.work, st.status, st.taken,
             st.bad, st.clock, self._rows, self._q, self._has_q, self._reach,
             self._inverse_mass, self._step_rows, self._body_of_row, self._kinds, self._geoms,
@@ -478,18 +480,51 @@ class CollisionWorld:
             self._config, self._status, self._stats, self._flagged, self._energy)
 
     def _account(self, steps: int, seconds: float) -> None:
-        """last_stats from the kernel's statistics of the last step; totals summed."""
+        """Note a call's wall time; ``last_stats`` and ``totals`` are made from the kernel's
+        statistics when read (``_sync``), not after every call."""
+        self._call_seconds = seconds / max(steps, 1)
+        self._unsynced_seconds += seconds
+        self._unsynced = True
+
+    @property
+    def last_stats(self) -> StepStats:
+        """What the last step did (StepStats)."""
+        self._sync()
+        return self._last_stats
+
+    @last_stats.setter
+    def last_stats(self, value: StepStats) -> None:
+        self._sync()
+        self._last_stats = value
+
+    @property
+    def totals(self) -> StepStats:
+        """The StepStats summed over the steps taken since construction, or since a user set
+        ``totals`` (to a fresh StepStats, say)."""
+        self._sync()
+        return self._totals
+
+    @totals.setter
+    def totals(self, value: StepStats) -> None:
+        self._sync()
+        self._totals = value
+
+    def _sync(self) -> None:
+        """last_stats from the kernel's statistics of the last step; into totals what the
+        calls since the last sync added."""
+        if not self._unsynced:
+            return
+        self._unsynced = False
         s = self._stats
-        self.last_stats = StepStats(
+        self._last_stats = StepStats(
             int(s[ws.CANDIDATE_PAIRS]), int(s[ws.PLANE_PAIRS]), int(s[ws.CONTACTS]),
             int(s[ws.ACTIVE]), int(s[ws.TOUCHED]), int(s[ws.SLEEPING]), int(s[ws.COLOURS]),
-            int(s[ws.V_ITER]), int(s[ws.P_ITER]), {'step': seconds / max(steps, 1)})
-        # The kernel counts since construction; the totals add what this call added (so a
-        # user who resets ``totals`` counts from there).
+            int(s[ws.V_ITER]), int(s[ws.P_ITER]), {'step': self._call_seconds})
+        # The kernel counts since construction; the totals add what the calls added.
         counts = s[8:8 + ws.P_ITER + 1].copy()
         added = counts - self._counted
         self._counted = counts
-        t = self.totals
+        t = self._totals
         t.candidate_pairs += int(added[ws.CANDIDATE_PAIRS])
         t.plane_pairs += int(added[ws.PLANE_PAIRS])
         t.contacts += int(added[ws.CONTACTS])
@@ -497,7 +532,8 @@ class CollisionWorld:
         t.touched += int(added[ws.TOUCHED])
         t.velocity_iterations += int(added[ws.V_ITER])
         t.position_iterations += int(added[ws.P_ITER])
-        t.seconds['step'] = t.seconds.get('step', 0.0) + seconds
+        t.seconds['step'] = t.seconds.get('step', 0.0) + self._unsynced_seconds
+        self._unsynced_seconds = 0.0
 
     def _error(self) -> IntegrationError:
         """The IntegrationError of what stopped the kernel (its status), with names."""
