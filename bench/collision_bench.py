@@ -122,6 +122,7 @@ def run_ours(s: dict, max_settle: int, steps: int) -> dict:
         world.step(1)
         times.append(time.perf_counter() - t)
         colours.append(world.last_stats.colours)
+    totals = world.totals  # read again: the sums are brought up to date when read
     per = {k: (getattr(totals, k) - v) / steps for k, v in base.items()}
     positions = np.array([world.state(b.name).position for b in world.bodies])
     return {'seconds_per_step': float(np.median(times)), 'settle_steps': settle,

@@ -3,6 +3,7 @@
 """The compiled kernels: one source for the compiled and the interpreted path, Thm 1 as the
 report writes it, and a cache that cannot serve stale machine code."""
 
+import ast
 import json
 import os
 from pathlib import Path
@@ -81,6 +82,22 @@ def test_every_compiled_module_is_in_the_cache_stamp():
     with_kernels = {f for f in package.rglob('*.py')
                     if re.search(r'^@(parallel_)?kernel\b', f.read_text(), re.M)}
     assert with_kernels and with_kernels <= set(jit.kernel_sources())
+
+
+def test_the_world_tuple_is_never_passed_to_a_function():
+    """numba increfs every array of a tuple argument on entry and decrefs it on exit, and with
+    a call in between LLVM keeps all those atomic operations: passing the World (48 arrays) to
+    a stage cost 0.45 us an invocation, more than a body's step (bench/resting_bench.py). The
+    stages of world_step.py take the arrays they use; only world_steps holds ``w``."""
+    package = Path(jit.__file__).resolve().parent.parent
+    tree = ast.parse((package / 'contact' / 'world_step.py').read_text())
+    passed = [f'line {node.lineno}' for node in ast.walk(tree) if isinstance(node, ast.Call)
+              for arg in [*node.args, *(k.value for k in node.keywords)]
+              if isinstance(arg, (ast.Name, ast.Starred)) and 'w' in {
+                  n.id for n in ast.walk(arg) if isinstance(n, ast.Name)}]
+    takes = [f.name for f in ast.walk(tree) if isinstance(f, ast.FunctionDef)
+             and f.name != 'world_steps' and 'w' in {a.arg for a in f.args.args}]
+    assert not passed and not takes, (passed, takes)
 
 
 def test_the_stamp_changes_with_any_kernel_source(tmp_path, monkeypatch):

@@ -500,7 +500,8 @@ class CollisionWorld:
     @property
     def totals(self) -> StepStats:
         """The StepStats summed over the steps taken since construction, or since a user set
-        ``totals`` (to a fresh StepStats, say)."""
+        ``totals`` (to a fresh StepStats, say). The sums are brought up to date when this is
+        read: read it again after stepping, rather than keeping the object."""
         self._sync()
         return self._totals
 

@@ -308,7 +308,7 @@ def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
 # The stages take the arrays they use, never ``w``, and steps 2 - 5 are written out in
 # ``world_steps`` (a call of more than 29 arguments cannot be inlined): numba increfs every
 # array of a named tuple argument on entry and decrefs it on exit, and with a call in between
-# LLVM cannot drop the pairs. For the 52 arrays of ``w`` that cost about 0.45 us an
+# LLVM cannot drop the pairs. For the 48 arrays of ``w`` that cost about 0.45 us an
 # invocation, once a step for each stage and once a body for each integration: more than a
 # resting body's whole step (bench/contact_step_bench.py, bench/resting_bench.py).
 
