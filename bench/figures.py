@@ -224,7 +224,7 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((coll, '#Sleeping', f'{awake["seconds_per_step"] / asleep["seconds_per_step"]:.0f}x '
               'cheaper'))
     q.append((coll, '#Sleeping',
-              f'{awake["seconds_per_step"] / mj_awake["seconds_per_step"]:.0f}x MuJoCo'))
+              f'{awake["seconds_per_step"] / mj_awake["seconds_per_step"]:.1f}x MuJoCo'))
     q.append((coll, '#Sleeping',
               f'{asleep["seconds_per_step"] / mj_asleep["seconds_per_step"]:.1f}x it with both'))
     q.append((coll, '#Sleeping', f'wakes {asleep["awake_after_drop"]} of '
