@@ -269,6 +269,7 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     first = life['first_start_s']
     q.append((readme, 'first node start', f'{first["cold"]:.0f} s / {first["warm"]:.1f} s'))
     q.append((readme, '#The engine', f'{first["cold"]:.0f} s'))
+    q.append((coll, '#What is left', f'the collision demo: {first["cold"]:.0f} s to its first'))
 
     contact = load('contact_step_bench', folder)['seconds_per_step']
     names = ('sliding box', 'bouncing ball', 'rolling ball', 'tipping cube')

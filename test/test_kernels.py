@@ -87,8 +87,9 @@ def test_every_compiled_module_is_in_the_cache_stamp():
 def test_the_world_tuple_is_never_passed_to_a_function():
     """numba increfs every array of a tuple argument on entry and decrefs it on exit, and with
     a call in between LLVM keeps all those atomic operations: passing the World (48 arrays) to
-    a stage cost 0.45 us an invocation, more than a body's step (bench/resting_bench.py). The
-    stages of world_step.py take the arrays they use; only world_steps holds ``w``."""
+    a stage cost 0.45 us an invocation (in a compiled loop over resting boxes, 720 against
+    270 ns a body). The stages of world_step.py take the arrays they use; only world_steps
+    holds ``w``."""
     package = Path(jit.__file__).resolve().parent.parent
     tree = ast.parse((package / 'contact' / 'world_step.py').read_text())
     passed = [f'line {node.lineno}' for node in ast.walk(tree) if isinstance(node, ast.Call)

@@ -10,6 +10,7 @@ import os
 from pathlib import Path
 import signal
 import subprocess
+import sys
 
 from geometry_msgs.msg import PoseStamped, Twist, Wrench, WrenchStamped
 import pytest
@@ -402,12 +403,15 @@ def test_replay_refuses_malformed_metadata_in_one_line(installed, ros_env, tmp_p
 def test_replay_stops_on_sigint_without_a_traceback(probe, installed, ros_env, tmp_path):
     err = tmp_path / 'stderr.txt'
     with open(err, 'w') as err_file:
-        # SIGINT at its default, as a terminal gives it: under a shell's background job it is
-        # inherited ignored, and Python then leaves it ignored.
-        proc = subprocess.Popen([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), str(FIXTURE),
+        # SIGINT at its default, as a terminal gives it (under a shell's background job it is
+        # inherited ignored, and Python then leaves it ignored): set by a small launcher that
+        # execs the replay, not by preexec_fn, which is unsafe once rclpy's threads run.
+        launcher = ('import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); '
+                    'os.execv(sys.argv[1], sys.argv[1:])')
+        proc = subprocess.Popen([sys.executable, '-c', launcher,
+                                 str(installed / 'lib' / 'rb_sim_ros' / 'replay'), str(FIXTURE),
                                  '--rate', '0.001'], env=ros_env, stdout=subprocess.PIPE,
-                                stderr=err_file, text=True,
-                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+                                stderr=err_file, text=True)
         try:
             probe.wait_for(lambda: 'replay: t =' in err.read_text(), timeout=60,
                            what='playback to start')
