@@ -64,7 +64,7 @@ from rb_sim_ros.contact import world_step as ws
 from rb_sim_ros.contact.bodies import BodySpec, make_steppers
 from rb_sim_ros.contact.collision_shapes import Plane, Shape
 from rb_sim_ros.core.rigid_body import finite_floats, non_negative, State
-from rb_sim_ros.core.stepper import IntegrationError, step_all
+from rb_sim_ros.core.stepper import carry_over, IntegrationError, step_all
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
 FEATURE_BITS = 12
@@ -597,12 +597,7 @@ class CollisionWorld:
               recheck: bool) -> None:
         """Take over the run of ``old`` (a world, or None for bodies stepped without one,
         ``steppers`` by name) at ``step_count``: see ``rebuilt``."""
-        for name, s in self.steppers.items():
-            before = steppers.get(name)
-            if before is not None:
-                s.take_over(before)
-            else:  # a new body: its clock is the run's
-                s.rest(step_count)
+        carry_over(self.steppers, steppers, step_count)
         self._step_count = step_count
         self._unchecked = True if recheck or old is None else old._unchecked
         if old is not None:

@@ -46,6 +46,18 @@ class IntegrationError(RuntimeError):
         self.step = step
 
 
+def carry_over(steppers: dict, before: dict, step_count: int) -> None:
+    """A run rebuilt around other bodies goes on: each of ``steppers`` (by name) takes over
+    the motion of the one of its name in ``before`` (``Stepper.take_over``); a new one rests
+    until ``step_count``, so that its clock is the run's."""
+    for name, s in steppers.items():
+        old = before.get(name)
+        if old is not None:
+            s.take_over(old)
+        else:
+            s.rest(step_count)
+
+
 def step_all(steppers, n: int) -> None:
     """Step every stepper n steps; if one goes non-finite the others still advance, and the
     first IntegrationError (in the order given) is raised after (that stepper stays at its

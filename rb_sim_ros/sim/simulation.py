@@ -19,7 +19,7 @@ from rb_sim_ros.contact.collision_shapes import shape_from_dict, shape_to_dict, 
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import finite_floats, State, Wrench, ZERO_WRENCH
-from rb_sim_ros.core.stepper import step_all, Stepper
+from rb_sim_ros.core.stepper import carry_over, step_all, Stepper
 
 __all__ = ['BodySpec', 'body_from_dict', 'body_to_dict', 'Config', 'ContactSettings', 'Delete',
            'Event', 'make_steppers', 'Reset', 'SetPose', 'SetTwist', 'SetWrench', 'Simulation',
@@ -224,11 +224,7 @@ class Simulation:
             if self.world is None:
                 world.warm_up()  # the first world of this run: compiled (or loaded) now
         else:
-            for name, s in steppers.items():
-                if name in self.steppers:
-                    s.take_over(self.steppers[name])
-                else:
-                    s.rest(self._step_count)  # a new body: its clock is the run's
+            carry_over(steppers, self.steppers, self._step_count)
         self._use(config, world, steppers, static)
 
     @property
