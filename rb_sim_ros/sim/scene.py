@@ -427,6 +427,11 @@ def _yaml_error(path: str, e: safe_yaml.YamlError) -> SceneError:
     where, keys = path, list(e.path)
     if len(keys) >= 2 and keys[0] == 'bodies' and isinstance(keys[1], int):
         where, keys = f'{path}: body {keys[1]}', keys[2:]
+    return _yaml_refusal(where, keys, e)
+
+
+def _yaml_refusal(where: str, keys: list, e: safe_yaml.YamlError) -> SceneError:
+    """``where: field.path: reason (line n)`` of the YAML refusal ``e`` at ``keys``."""
     field = ''.join((_key(k) if isinstance(k, int) or i == 0 else '.' + _key(k))
                     for i, k in enumerate(keys))
     line = f' (line {e.line})' if e.line else ''
@@ -514,10 +519,7 @@ def body_entry(text: Any, name: str = '', where: str = 'resource_string',
     try:
         data = safe_yaml.load(text, max_depth=MAX_DEPTH - 2, max_nodes=MAX_ENTRY_BYTES)
     except safe_yaml.YamlError as e:
-        field = ''.join(_key(k) if isinstance(k, int) or i == 0 else '.' + _key(k)
-                        for i, k in enumerate(e.path))
-        line = f' (line {e.line})' if e.line else ''
-        raise SceneError(f'{where}: {field + ": " if field else ""}{e.reason}{line}') from None
+        raise _yaml_refusal(where, list(e.path), e) from None
     if not isinstance(data, dict):
         raise SceneError(f'{where}: must be a body entry (a mapping of fields such as mass, '
                          f'inertia, position, colliders), got {_show(data)}')
