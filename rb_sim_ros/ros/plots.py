@@ -260,8 +260,8 @@ def plot(rec, out_dir: str, bodies=None, progress=None) -> list[str]:
         ax.set_ylabel('contacts')
         ax.set_title('contacts of the last step of each publish (re-simulated)')
         ax.grid(True, alpha=0.3)
-        shown = [m for m in all_marks if m[1] != 'wrench'
-                 or sum(1 for k in all_marks if k[1] == 'wrench') <= MAX_WRENCH_MARKS]
+        wrenches = sum(1 for k in all_marks if k[1] == 'wrench')
+        shown = [m for m in all_marks if m[1] != 'wrench' or wrenches <= MAX_WRENCH_MARKS]
         _mark(ax, shown)
         _legend_for_events(fig, shown)
         fig.tight_layout(rect=(0, 0, 0.88, 1))

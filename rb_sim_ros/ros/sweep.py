@@ -62,7 +62,7 @@ import numpy as np
 
 from rb_sim_ros.core.rigid_body import Wrench, ZERO_WRENCH
 from rb_sim_ros.core.stepper import IntegrationError
-from rb_sim_ros.ros import node_params, replay, ros_arguments
+from rb_sim_ros.ros import node_params, node_recorder, replay, ros_arguments
 from rb_sim_ros.ros.node_recorder import NodeRecorder
 from rb_sim_ros.ros.ros_messages import OutputMessages
 from rb_sim_ros.ros.send_wrench import load_profile
@@ -74,7 +74,7 @@ from rb_sim_ros.sim.simulation import SetWrench, Simulation
 
 MAX_RUNS = 10_000_000
 MAX_VALUES = 100_000  # in one list or range
-OUTPUT_KINDS = ('pose', 'twist', 'odom', 'imu', 'accel')
+OUTPUT_KINDS = tuple(node_recorder.OUTPUTS)
 # Fault injection for the tests: "<marker file>:<run>" makes the worker running that run die
 # (os._exit) the first time, as a killed worker would; "always:<run>" every time.
 DIE_ONCE_ENV = 'RB_SIM_SWEEP_DIE_ONCE'
