@@ -153,3 +153,67 @@ def test_warm_up_compiles_and_changes_nothing():
     assert [warmed.pose_twist(b.name) for b in bodies] == [cold.pose_twist(b.name)
                                                            for b in bodies]
     assert warmed.contact_stats().contacts == cold.contact_stats().contacts
+
+
+def _mixed_batch(n: int = 75):
+    """A batch whose bodies between them take every branch of a step: diagonal, rotated and
+    isotropic inertias, forces and torques in both frames, damping, gravity, spins past the
+    small-angle series (0.4 rad a step), bodies at rest (skipped), a new wrench (history
+    re-evaluated) and orthonormalisation countdowns running out during the run."""
+    from rb_sim_ros.core.batch import BatchStepper
+    rng = np.random.default_rng(7)
+    inertias = []
+    for k in range(n):
+        moments = np.sort(rng.uniform(0.5, 1.0, 3))
+        if k % 4 == 3:
+            moments[:] = moments[0]
+        q = so3.exp(rng.normal(size=3)) if k % 2 else np.eye(3)
+        inertias.append(q @ np.diag(moments) @ q.T)
+    omega = rng.normal(size=(n, 3)) * 3.0
+    omega[::9] *= 400.0 / np.linalg.norm(omega[::9], axis=1, keepdims=True) / 3.0
+    b = BatchStepper(rng.uniform(0.5, 3.0, n), np.array(inertias), 1e-3,
+                     rng.normal(size=(n, 3)), [so3.exp(rng.normal(size=3)) for _ in range(n)],
+                     rng.normal(size=(n, 3)), omega, gravity=(0.0, 0.0, -9.81),
+                     linear_damping=rng.uniform(0, 0.3, n) * (np.arange(n) % 3 == 0),
+                     angular_damping=rng.uniform(0, 0.2, n) * (np.arange(n) % 5 == 0))
+    half = (n + 1) // 2
+    b.set_wrench(np.arange(0, n, 2), rng.normal(size=(half, 3)), rng.normal(size=(half, 3)),
+                 (['world', 'body'] * n)[:half])
+    b.step(3)  # past the start-up: valid histories
+    rest = np.arange(5, n, 11)
+    b.set_state(rest, angular_velocities=(0.0, 0.0, 0.0))
+    b.set_wrench(rest, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 'world')
+    b.step(2)
+    b.set_wrench(np.arange(1, n, 7), rng.normal(size=3), rng.normal(size=3), 'body')  # stale
+    state = b._state.copy()
+    state[:, K.COUNTDOWN] = rng.integers(1, 30, n)
+    return b, state
+
+
+def test_a_block_of_lanes_gives_each_body_the_bits_of_its_own_steps():
+    """``advance`` steps bodies in blocks of SIMD lanes; each body must end with the bits
+    ``advance_body`` gives it alone: state, status, steps taken and work counted, for a batch
+    that takes every branch (``_mixed_batch``) over 40 steps."""
+    b, state = _mixed_batch()
+    n = state.shape[0]
+    lanes = [i for i in range(n) if K._lane_ready(state, b._params, i)]
+    assert 0.6 * n < len(lanes) < n  # most bodies in lanes, some not
+    bodies = np.arange(n, dtype=np.int64)
+    runs = []
+    for blocked in (True, False):
+        dst, work = np.zeros_like(state), b._work.copy()
+        status, taken = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
+        bad = np.zeros((n, 3))
+        if blocked:
+            assert K._blocked(b._coefficients, bodies, 40, False)
+            K.advance(state, dst, b._params, b._coefficients, bodies, 40, False, status, taken,
+                      bad, work)
+        else:
+            for i in bodies:
+                K.advance_body(state, dst, b._params, b._coefficients, i, 40, False, status,
+                               taken, bad, work)
+        runs.append((dst, status, taken, work))
+    for blocked, alone in zip(*runs):
+        assert blocked.tobytes() == alone.tobytes()
+    dst = runs[0][0]
+    assert not np.array_equal(dst[lanes, K.X:K.HISTORY], state[lanes, K.X:K.HISTORY])

@@ -67,9 +67,12 @@ def _exp_series(phi, terms=40):
     return total, tail + 4.0 * np.finfo(float).eps * size
 
 
-@pytest.mark.parametrize('angle', [0.0, 1e-300, 1e-160, 1e-20, 1e-9, 1e-5, 1e-3, 0.1, 1.0,
-                                   3.0, math.pi - 1e-3])
+@pytest.mark.parametrize('angle', [0.0, 1e-300, 1e-160, 1e-20, 1e-9, 1e-5, 1e-3, 0.1,
+                                   0.25 - 1e-12, 0.25, 0.25 + 1e-12, 1.0, 3.0,
+                                   math.pi - 1e-3])
 def test_exp_agrees_with_the_power_series_at_every_angle(angle):
+    """Both sides of the step kernel's switch from the series of sin(t)/t and
+    (1 - cos t)/t^2 to sin and cos at t = 0.25 (SMALL_ANGLE_SQ) included."""
     axis = np.array([2.0, -3.0, 6.0]) / 7.0
     phi = angle * axis
     series, bound = _exp_series(phi)

@@ -24,14 +24,15 @@ from rosbags.highlevel import AnyReader
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.ros import node_params, replay
-from rb_sim_ros.ros.node_recorder import NodeRecorder
+from rb_sim_ros.ros.node_recorder import NodeRecorder, OUTPUTS
 from rb_sim_ros.ros.ros_messages import OutputMessages
 from rb_sim_ros.sim.simulation import (BodySpec, Config, Delete, SetWrench, Simulation,
                                        Spawn)
 from test_recording import disk_full_after
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
-OUTPUT_KINDS = ('pose', 'twist', 'odom')
+OUTPUT_KINDS = ('pose', 'twist', 'odom')  # what the runs recorded offline here publish
+RECORDED_KINDS = tuple(OUTPUTS)  # what the node records of a body (the fixture)
 
 
 def _fixture_parts():
@@ -112,9 +113,11 @@ def _set(d, key, value):
 
 
 def _rosbags_outputs(path):
+    """(topic, time) of every output message of a recording, read by rosbags: each body's
+    outputs (node_recorder.OUTPUTS) and /tf."""
     with AnyReader([Path(path)]) as reader:
         return [(c.topic, t) for c, t, _raw in reader.messages()
-                if c.topic.rsplit('/', 1)[-1] in OUTPUT_KINDS]
+                if c.topic.rsplit('/', 1)[-1] in RECORDED_KINDS or c.topic == '/tf']
 
 
 # -- the fixture, untouched and rewritten ------------------------------------------------------
@@ -125,7 +128,7 @@ def test_the_rewritten_fixture_verifies_and_every_output_is_counted(tmp_path):
     n = len(_rosbags_outputs(f))
     assert n > 0 and f'{n} of {n} recorded output messages compared' in out
     per_topic = {t: sum(1 for topic, _ in _rosbags_outputs(f) if topic == t)
-                 for t in ('/pose', '/twist', '/odom')}
+                 for t in ('/pose', '/twist', '/odom', '/imu', '/accel', '/tf')}
     for topic, count in per_topic.items():
         assert f'{topic:<24} {count} of {count} compared' in out
     assert 'identical: every output message re-simulated bit for bit' in out

@@ -162,7 +162,7 @@ def make_step(method: Multistep, dt, rotate: bool = True):
     tiny = so3.TINY_ANGLE_SQ
 
     def step(x, v, r, w, a, b, a_prev, b_prev):
-        out = step_kernel.multistep_step(*coefficients, tiny, rotate, *x, *v, *r, *w, *a, *b,
-                                         *a_prev, *b_prev)
+        out = step_kernel.multistep_step(*coefficients, tiny, False, rotate, *x, *v, *r, *w,
+                                         *a, *b, *a_prev, *b_prev)
         return out[0:3], out[3:6], out[6:15], out[15:18]
     return step

@@ -11,14 +11,47 @@ import math
 from rb_sim_ros.core.jit import kernel
 
 
+# Below this squared angle exp_so3 takes A and B from their Taylor series in t^2 (``small_angle``):
+# t <= 0.25 rad, where the series below leaves out less than 3e-21 of either; no sqrt, sin, cos
+# or division, so a block of bodies (``step_kernel.advance``) steps in SIMD lanes.
+SMALL_ANGLE_SQ = 0.0625
+# sin(t)/t = sum (-t^2)^k / (2k+1)!, (1 - cos t)/t^2 = sum (-t^2)^k / (2k+2)!, k = 0 .. 6.
+_A1, _A2, _A3 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0
+_A4, _A5, _A6 = 1.0 / 362880.0, -1.0 / 39916800.0, 1.0 / 6227020800.0
+_B1, _B2, _B3 = -1.0 / 24.0, 1.0 / 720.0, -1.0 / 40320.0
+_B4, _B5, _B6 = 1.0 / 3628800.0, -1.0 / 479001600.0, 1.0 / 87178291200.0
+
+
+@kernel
+def small_angle(t2):
+    """(A, B) = (sin(t)/t, (1 - cos t)/t^2) for t^2 < SMALL_ANGLE_SQ, by Horner in t^2."""
+    a = 1.0 + t2 * (_A1 + t2 * (_A2 + t2 * (_A3 + t2 * (_A4 + t2 * (_A5 + t2 * _A6)))))
+    b = 0.5 + t2 * (_B1 + t2 * (_B2 + t2 * (_B3 + t2 * (_B4 + t2 * (_B5 + t2 * _B6)))))
+    return a, b
+
+
+@kernel
+def _rodrigues(px, py, pz, xx2, yy2, zz2, ca, cb):
+    """I + A [p] + B [p]^2 as 9 row-major floats, with p's squares."""
+    bxy, bxz, byz = cb * px * py, cb * px * pz, cb * py * pz
+    ax_, ay_, az_ = ca * px, ca * py, ca * pz
+    return (1.0 - cb * (yy2 + zz2), bxy - az_, bxz + ay_,
+            bxy + az_, 1.0 - cb * (xx2 + zz2), byz - ax_,
+            bxz - ay_, byz + ax_, 1.0 - cb * (xx2 + yy2))
+
+
 @kernel
 def exp_so3(px, py, pz, tiny):
     """exp([p]) as 9 row-major floats: I + A [p] + B [p]^2 (Rodrigues) with A = sin(t)/t and
-    B = (1 - cos t)/t^2 in half-angle form, t^2 lifted by ``tiny`` (so3.TINY_ANGLE_SQ): no
-    branch on the angle. A non-finite angle gives nan (Python's sin would raise; numba's gives
-    nan)."""
+    B = (1 - cos t)/t^2: from their series below SMALL_ANGLE_SQ (``small_angle``), else in
+    half-angle form with t^2 lifted by ``tiny`` (so3.TINY_ANGLE_SQ). A non-finite angle gives
+    nan (Python's sin would raise; numba's gives nan)."""
     xx2, yy2, zz2 = px * px, py * py, pz * pz
-    t2 = xx2 + yy2 + zz2 + tiny
+    t2 = xx2 + yy2 + zz2
+    if t2 < SMALL_ANGLE_SQ:
+        ca, cb = small_angle(t2)
+        return _rodrigues(px, py, pz, xx2, yy2, zz2, ca, cb)
+    t2 = t2 + tiny
     if t2 <= 1.7976931348623157e308:
         t = math.sqrt(t2)
         s = math.sin(0.5 * t)
@@ -26,11 +59,16 @@ def exp_so3(px, py, pz, tiny):
         cb = 2.0 * s * s / t2
     else:
         ca = cb = math.nan
-    bxy, bxz, byz = cb * px * py, cb * px * pz, cb * py * pz
-    ax_, ay_, az_ = ca * px, ca * py, ca * pz
-    return (1.0 - cb * (yy2 + zz2), bxy - az_, bxz + ay_,
-            bxy + az_, 1.0 - cb * (xx2 + zz2), byz - ax_,
-            bxz - ay_, byz + ax_, 1.0 - cb * (xx2 + yy2))
+    return _rodrigues(px, py, pz, xx2, yy2, zz2, ca, cb)
+
+
+@kernel
+def exp_so3_small(px, py, pz):
+    """``exp_so3`` of a p the caller knows to be below SMALL_ANGLE_SQ: no branch, no call
+    (SIMD lanes); the same bits as exp_so3 there."""
+    xx2, yy2, zz2 = px * px, py * py, pz * pz
+    ca, cb = small_angle(xx2 + yy2 + zz2)
+    return _rodrigues(px, py, pz, xx2, yy2, zz2, ca, cb)
 
 
 @kernel

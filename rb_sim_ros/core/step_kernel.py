@@ -39,8 +39,9 @@ import math
 import numpy as np
 
 from rb_sim_ros.core.free_flow import flow_advance, flow_start, free_flow, invariants
-from rb_sim_ros.core.jit import kernel, parallel_kernel, prange
-from rb_sim_ros.core.rotation_kernels import exp_so3, mul33, orthonormalize
+from rb_sim_ros.core.jit import inline_kernel, kernel, parallel_kernel, prange
+from rb_sim_ros.core.rotation_kernels import (
+    exp_so3, exp_so3_small, mul33, orthonormalize, SMALL_ANGLE_SQ)
 
 # -- state row ---------------------------------------------------------------------------------
 X, V, R, W, A, B = 0, 3, 6, 15, 18, 21
@@ -137,22 +138,38 @@ def accelerations(p, i, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz,
                   linear_only):
     """(a, beta) of Thm 1 for body i of ``p`` (params) at R (principal frame), omega, v: world
     frame. ``linear_only``: the body does not turn (omega = 0 under no torque): beta = 0."""
-    flags = int(p[i, FLAGS])
-    fx, fy, fz = float(p[i, FORCE]), float(p[i, FORCE + 1]), float(p[i, FORCE + 2])
-    gx, gy, gz = float(p[i, GRAVITY]), float(p[i, GRAVITY + 1]), float(p[i, GRAVITY + 2])
-    c_lin, c_ang = float(p[i, LINEAR_DAMPING]), float(p[i, ANGULAR_DAMPING])
+    return thm1(params_row(p, i), r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz,
+                vx, vy, vz, linear_only)
+
+
+@kernel
+def params_row(p, i):
+    """Row i of ``p`` (params) as a tuple of PARAM_WIDTH floats."""
+    return (float(p[i, 0]), float(p[i, 1]), float(p[i, 2]), float(p[i, 3]), float(p[i, 4]),
+            float(p[i, 5]), float(p[i, 6]), float(p[i, 7]), float(p[i, 8]), float(p[i, 9]),
+            float(p[i, 10]), float(p[i, 11]), float(p[i, 12]), float(p[i, 13]),
+            float(p[i, 14]), float(p[i, 15]), float(p[i, 16]), float(p[i, 17]),
+            float(p[i, 18]), float(p[i, 19]), float(p[i, 20]), float(p[i, 21]))
+
+
+@inline_kernel
+def thm1(row, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, vx, vy, vz,
+         linear_only):
+    """``accelerations`` from a params row as a tuple (``params_row``): arithmetic only,
+    written into its caller, so that a block's lanes (``_lane_step``) run it side by side."""
+    (ix, iy, iz, jx, jy, jz, fx, fy, fz, tx0, ty0, tz0, gx, gy, gz, wa0, wa1, wa2, c_lin, c_ang,
+     _, flag_bits) = row
+    flags = int(flag_bits)
     if flags & FORCE_IN_BODY:
         a0 = r00 * fx + r01 * fy + r02 * fz + gx
         a1 = r10 * fx + r11 * fy + r12 * fz + gy
         a2 = r20 * fx + r21 * fy + r22 * fz + gz
     else:
-        a0, a1, a2 = float(p[i, WORLD_A]), float(p[i, WORLD_A + 1]), float(p[i, WORLD_A + 2])
+        a0, a1, a2 = wa0, wa1, wa2
     if c_lin != 0.0:
         a0, a1, a2 = a0 - c_lin * vx, a1 - c_lin * vy, a2 - c_lin * vz
     if linear_only:
         return a0, a1, a2, 0.0, 0.0, 0.0
-    tx0, ty0, tz0 = float(p[i, TORQUE]), float(p[i, TORQUE + 1]), float(p[i, TORQUE + 2])
-    jx = float(p[i, INVERSE_MOMENTS])
     if flags & ISOTROPIC:
         # No gyroscopic term ([w] I w = I w x w = 0) and no change of frame.
         if (flags & TORQUE_IN_BODY) and not (flags & TORQUE_FREE):
@@ -162,8 +179,6 @@ def accelerations(p, i, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz,
         else:
             b0, b1, b2 = tx0 * jx, ty0 * jx, tz0 * jx
     else:
-        ix, iy, iz = float(p[i, MOMENTS]), float(p[i, MOMENTS + 1]), float(p[i, MOMENTS + 2])
-        jy, jz = float(p[i, INVERSE_MOMENTS + 1]), float(p[i, INVERSE_MOMENTS + 2])
         # omega and tau in the body frame: R^T v.
         bx = r00 * wx + r10 * wy + r20 * wz
         by = r01 * wx + r11 * wy + r21 * wz
@@ -187,41 +202,60 @@ def accelerations(p, i, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz,
 
 
 @kernel
-def rotation_step(dt, rn, rp, rc, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22,
-                  wx, wy, wz, bx, by, bz, bpx, bpy, bpz):
-    """R_{n+1} of eq. (27), last line: exp([p]) R with p = omega dt + rn beta + rp beta_prev
-    + rc (beta x omega), exp by ``exp_so3``."""
+def rotation_vector(dt, rn, rp, rc, wx, wy, wz, bx, by, bz, bpx, bpy, bpz):
+    """p of eq. (27), last line: omega dt + rn beta + rp beta_prev + rc (beta x omega)."""
     px = wx * dt + rn * bx + rp * bpx + rc * (by * wz - bz * wy)
     py = wy * dt + rn * by + rp * bpy + rc * (bz * wx - bx * wz)
     pz = wz * dt + rn * bz + rp * bpz + rc * (bx * wy - by * wx)
-    e00, e01, e02, e10, e11, e12, e20, e21, e22 = exp_so3(px, py, pz, tiny)
+    return px, py, pz
+
+
+@inline_kernel
+def rotation_step(dt, rn, rp, rc, tiny, small, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+                  wx, wy, wz, bx, by, bz, bpx, bpy, bpz):
+    """R_{n+1} of eq. (27), last line: exp([p]) R with p from ``rotation_vector``, exp by
+    ``exp_so3`` (``small``: the caller knows |p|^2 < SMALL_ANGLE_SQ, ``exp_so3_small``)."""
+    px, py, pz = rotation_vector(dt, rn, rp, rc, wx, wy, wz, bx, by, bz, bpx, bpy, bpz)
+    e00, e01, e02, e10, e11, e12, e20, e21, e22 = (
+        exp_so3_small(px, py, pz) if small else exp_so3(px, py, pz, tiny))
     return mul33(e00, e01, e02, e10, e11, e12, e20, e21, e22,
                  r00, r01, r02, r10, r11, r12, r20, r21, r22)
 
 
 @kernel
-def multistep_step(dt, vn, vp, pn, pp, rn, rp, rc, tiny, rotate,
+def multistep_step(dt, vn, vp, pn, pp, rn, rp, rc, tiny, small, rotate,
                    xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
                    wx, wy, wz, ax, ay, az, bx, by, bz, apx, apy, apz, bpx, bpy, bpz):
     """One step of Proof 3 (eq. (11)-(13) and (27)) with the coefficients of a method times
     powers of dt (``method_coefficients``): (x, v, R, omega) at t + dt, 18 floats, from the
     state and the accelerations at t (a, beta) and t - dt (a_prev, beta_prev), world frame.
     ``rotate=False``: a body that does not turn (omega = beta = beta_prev = 0), whose R and
-    omega the full update would give back, keeps them."""
-    nx0 = xx + vx * dt + pn * ax + pp * apx
-    nx1 = xy + vy * dt + pn * ay + pp * apy
-    nx2 = xz + vz * dt + pn * az + pp * apz
-    nv0 = vx + vn * ax + vp * apx
-    nv1 = vy + vn * ay + vp * apy
-    nv2 = vz + vn * az + vp * apz
+    omega the full update would give back, keeps them. ``small``: see ``rotation_step``."""
+    nx0, nx1, nx2, nv0, nv1, nv2 = translation_step(
+        dt, vn, vp, pn, pp, xx, xy, xz, vx, vy, vz, ax, ay, az, apx, apy, apz)
     if not rotate:
         return (nx0, nx1, nx2, nv0, nv1, nv2, r00, r01, r02, r10, r11, r12, r20, r21, r22,
                 wx, wy, wz)
     q00, q01, q02, q10, q11, q12, q20, q21, q22 = rotation_step(
-        dt, rn, rp, rc, tiny, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+        dt, rn, rp, rc, tiny, small, r00, r01, r02, r10, r11, r12, r20, r21, r22,
         wx, wy, wz, bx, by, bz, bpx, bpy, bpz)
+    nw0, nw1, nw2 = omega_step(vn, vp, wx, wy, wz, bx, by, bz, bpx, bpy, bpz)
     return (nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12, q20, q21, q22,
-            wx + vn * bx + vp * bpx, wy + vn * by + vp * bpy, wz + vn * bz + vp * bpz)
+            nw0, nw1, nw2)
+
+
+@inline_kernel
+def translation_step(dt, vn, vp, pn, pp, xx, xy, xz, vx, vy, vz, ax, ay, az, apx, apy, apz):
+    """x and v at t + dt of ``multistep_step``: 6 floats."""
+    return (xx + vx * dt + pn * ax + pp * apx, xy + vy * dt + pn * ay + pp * apy,
+            xz + vz * dt + pn * az + pp * apz,
+            vx + vn * ax + vp * apx, vy + vn * ay + vp * apy, vz + vn * az + vp * apz)
+
+
+@inline_kernel
+def omega_step(vn, vp, wx, wy, wz, bx, by, bz, bpx, bpy, bpz):
+    """omega at t + dt of ``multistep_step``: 3 floats."""
+    return wx + vn * bx + vp * bpx, wy + vn * by + vp * bpy, wz + vn * bz + vp * bpz
 
 
 @kernel
@@ -297,7 +331,7 @@ def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
         (_, _, _, v10, v11, v12, q00, q01, q02, q10, q11, q12, q20, q21, q22,
          w10, w11, w12) = multistep_step(
             float(c[8]), float(c[9]), float(c[10]), float(c[11]), float(c[12]),
-            float(c[13]), float(c[14]), float(c[15]), tiny, bool(True),
+            float(c[13]), float(c[14]), float(c[15]), tiny, bool(False), bool(True),
             xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
             wx, wy, wz, ax, ay, az, bx, by, bz, ax, ay, az, bx, by, bz)
         a10, a11, a12, b10, b11, b12 = accelerations(
@@ -347,7 +381,7 @@ def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
     for _ in range(n):
         (nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12, q20, q21, q22,
          nw0, nw1, nw2) = multistep_step(
-            dt, vn, vp, pn, pp, rn, rp, rc, tiny, not frozen_rotation,
+            dt, vn, vp, pn, pp, rn, rp, rc, tiny, bool(False), not frozen_rotation,
             xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
             wx, wy, wz, ax, ay, az, bx, by, bz, apx, apy, apz, bpx, bpy, bpz)
         work[i, WORK_TRANSLATION if frozen_rotation else WORK_FULL] += 1
@@ -829,21 +863,206 @@ def advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work):
         status[i] = STATUS_NON_FINITE  # somewhere in the run: a checked run finds where
 
 
+# -- blocks: bodies side by side ------------------------------------------------------------
+# ``advance`` steps up to BLOCK bodies at once: their rows are copied into lanes (one array,
+# field f of lane k at f * BLOCK + k), each step is a loop over the lanes, which LLVM turns
+# into SIMD, and the rows are written back. A lane does what ``advance_body`` does, with the
+# same functions in the same order, so it gives the same bits; what a lane leaves out goes to
+# ``advance_body``: a body without a valid history (start-up, a new wrench), one whose rotation
+# is skipped, a checked run, a method other than a two-step one. A step whose lanes all have a
+# rotation vector below SMALL_ANGLE_SQ and no orthonormalisation due is taken branch-free
+# (``_lanes_fast``); any other step takes the lanes one by one with the full branches.
+BLOCK = 32
+BLOCK_MIN = 4  # fewer bodies: one by one
+L_X, L_A, L_B, L_AP, L_BP, L_COUNTDOWN, L_XP = 0, 18, 21, 24, 27, 30, 31  # L_X .. : as X ..
+LANE_FIELDS = 49
+
+
+@kernel
+def _lanes_step(S, P, m, dt, vn, vp, pn, pp, rn, rp, rc, tiny, every, fast):
+    """One step of the m lanes of ``S`` (params ``P``): ``advance_body``'s loop body,
+    unchecked and rotating, with the same functions. ``fast``: ``_lanes_fast`` found every
+    rotation vector small and no orthonormalisation due. No array is passed to a function in
+    the loop (numba would count a reference to it in each pass, and LLVM would not make SIMD
+    of the loop)."""
+    for k in range(m):
+        (xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz,
+         ax, ay, az, bx, by, bz, apx, apy, apz, bpx, bpy, bpz) = (
+            float(S[0 * BLOCK + k]), float(S[1 * BLOCK + k]), float(S[2 * BLOCK + k]),
+            float(S[3 * BLOCK + k]), float(S[4 * BLOCK + k]), float(S[5 * BLOCK + k]),
+            float(S[6 * BLOCK + k]), float(S[7 * BLOCK + k]), float(S[8 * BLOCK + k]),
+            float(S[9 * BLOCK + k]), float(S[10 * BLOCK + k]), float(S[11 * BLOCK + k]),
+            float(S[12 * BLOCK + k]), float(S[13 * BLOCK + k]), float(S[14 * BLOCK + k]),
+            float(S[15 * BLOCK + k]), float(S[16 * BLOCK + k]), float(S[17 * BLOCK + k]),
+            float(S[18 * BLOCK + k]), float(S[19 * BLOCK + k]), float(S[20 * BLOCK + k]),
+            float(S[21 * BLOCK + k]), float(S[22 * BLOCK + k]), float(S[23 * BLOCK + k]),
+            float(S[24 * BLOCK + k]), float(S[25 * BLOCK + k]), float(S[26 * BLOCK + k]),
+            float(S[27 * BLOCK + k]), float(S[28 * BLOCK + k]), float(S[29 * BLOCK + k]))
+        row = (
+            float(P[0 * BLOCK + k]), float(P[1 * BLOCK + k]), float(P[2 * BLOCK + k]),
+            float(P[3 * BLOCK + k]), float(P[4 * BLOCK + k]), float(P[5 * BLOCK + k]),
+            float(P[6 * BLOCK + k]), float(P[7 * BLOCK + k]), float(P[8 * BLOCK + k]),
+            float(P[9 * BLOCK + k]), float(P[10 * BLOCK + k]), float(P[11 * BLOCK + k]),
+            float(P[12 * BLOCK + k]), float(P[13 * BLOCK + k]), float(P[14 * BLOCK + k]),
+            float(P[15 * BLOCK + k]), float(P[16 * BLOCK + k]), float(P[17 * BLOCK + k]),
+            float(P[18 * BLOCK + k]), float(P[19 * BLOCK + k]), float(P[20 * BLOCK + k]),
+            float(P[21 * BLOCK + k]))
+        # multistep_step's parts, as it calls them
+        nx0, nx1, nx2, nv0, nv1, nv2 = translation_step(
+            dt, vn, vp, pn, pp, xx, xy, xz, vx, vy, vz, ax, ay, az, apx, apy, apz)
+        q00, q01, q02, q10, q11, q12, q20, q21, q22 = rotation_step(
+            dt, rn, rp, rc, tiny, fast, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+            wx, wy, wz, bx, by, bz, bpx, bpy, bpz)
+        nw0, nw1, nw2 = omega_step(vn, vp, wx, wy, wz, bx, by, bz, bpx, bpy, bpz)
+        countdown = float(S[L_COUNTDOWN * BLOCK + k]) - 1.0
+        if not fast and countdown <= 0.0:
+            q00, q01, q02, q10, q11, q12, q20, q21, q22 = orthonormalize(
+                q00, q01, q02, q10, q11, q12, q20, q21, q22)
+            countdown = every
+        na0, na1, na2, nb0, nb1, nb2 = thm1(
+            row, q00, q01, q02, q10, q11, q12, q20, q21, q22, nw0, nw1, nw2, nv0, nv1, nv2,
+            bool(False))
+        # the new x, v, R, omega, a, beta; a_prev, beta_prev: this step's a, beta
+        S[0 * BLOCK + k], S[1 * BLOCK + k], S[2 * BLOCK + k] = nx0, nx1, nx2
+        S[3 * BLOCK + k], S[4 * BLOCK + k], S[5 * BLOCK + k] = nv0, nv1, nv2
+        S[6 * BLOCK + k], S[7 * BLOCK + k], S[8 * BLOCK + k] = q00, q01, q02
+        S[9 * BLOCK + k], S[10 * BLOCK + k], S[11 * BLOCK + k] = q10, q11, q12
+        S[12 * BLOCK + k], S[13 * BLOCK + k], S[14 * BLOCK + k] = q20, q21, q22
+        S[15 * BLOCK + k], S[16 * BLOCK + k], S[17 * BLOCK + k] = nw0, nw1, nw2
+        S[18 * BLOCK + k], S[19 * BLOCK + k], S[20 * BLOCK + k] = na0, na1, na2
+        S[21 * BLOCK + k], S[22 * BLOCK + k], S[23 * BLOCK + k] = nb0, nb1, nb2
+        S[24 * BLOCK + k], S[25 * BLOCK + k], S[26 * BLOCK + k] = ax, ay, az
+        S[27 * BLOCK + k], S[28 * BLOCK + k], S[29 * BLOCK + k] = bx, by, bz
+        S[L_COUNTDOWN * BLOCK + k] = countdown
+
+
+@kernel
+def _lanes_fast(S, m, dt, rn, rp, rc):
+    """Whether every one of the m lanes has a rotation vector below SMALL_ANGLE_SQ (the same
+    p, to the bit, as its step will have) and no orthonormalisation due this step."""
+    slow = 0
+    for k in range(m):
+        wx, wy, wz = float(S[15 * BLOCK + k]), float(S[16 * BLOCK + k]), float(S[17 * BLOCK + k])
+        bx, by, bz = float(S[21 * BLOCK + k]), float(S[22 * BLOCK + k]), float(S[23 * BLOCK + k])
+        bpx, bpy, bpz = (float(S[27 * BLOCK + k]), float(S[28 * BLOCK + k]),
+                         float(S[29 * BLOCK + k]))
+        px, py, pz = rotation_vector(dt, rn, rp, rc, wx, wy, wz, bx, by, bz, bpx, bpy, bpz)
+        small = px * px + py * py + pz * pz < SMALL_ANGLE_SQ
+        slow += 0 if small and float(S[L_COUNTDOWN * BLOCK + k]) > 1.0 else 1
+    return slow == 0
+
+
+@kernel
+def _lane_ready(src, p, i):
+    """Whether body i takes its steps in a lane: a valid history and a rotation to step
+    (``advance_body``'s skip of a body that does not turn is not a lane's)."""
+    if float(src[i, HISTORY]) != HISTORY_VALID:
+        return False
+    flags = int(p[i, FLAGS])
+    if not (flags & SPECIALIZE) or not (flags & TORQUE_FREE):
+        return True
+    for col in range(W, W + 3):
+        if src[i, col] != 0.0:
+            return True
+    for col in range(B, B + 3):
+        if src[i, col] != 0.0 or src[i, col + (BP - B)] != 0.0:
+            return True
+    return False
+
+
+@kernel
+def _advance_block(src, dst, p, c, bodies, start, stop, n, status, taken, bad, work):
+    """n steps (n >= 1, unchecked) of the bodies bodies[start:stop] (at most BLOCK), in lanes
+    where they can be (see BLOCK)."""
+    S = np.empty(LANE_FIELDS * BLOCK)
+    P = np.empty(PARAM_WIDTH * BLOCK)
+    rows = np.empty(BLOCK, dtype=np.int64)
+    m = 0
+    for j in range(start, stop):
+        i = bodies[j]
+        if not _lane_ready(src, p, i):
+            advance_body(src, dst, p, c, i, n, bool(False), status, taken, bad, work)
+            continue
+        for f in range(L_AP):  # x, v, R, omega, a, beta
+            S[f * BLOCK + m] = src[i, X + f]
+        for f in range(6):  # a_prev, beta_prev
+            S[(L_AP + f) * BLOCK + m] = src[i, AP + f]
+        S[L_COUNTDOWN * BLOCK + m] = float(int(src[i, COUNTDOWN]))
+        for f in range(PARAM_WIDTH):
+            P[f * BLOCK + m] = p[i, f]
+        rows[m] = i
+        m += 1
+    if m == 0:
+        return
+    dt, vn, vp, pn, pp = float(c[0]), float(c[1]), float(c[2]), float(c[3]), float(c[4])
+    rn, rp, rc = float(c[5]), float(c[6]), float(c[7])
+    tiny, every = float(c[16]), float(int(c[17]))
+    for step in range(n):
+        if step == n - 1:  # the state before the last step is the history's
+            for f in range(18):
+                for k in range(m):
+                    S[(L_XP + f) * BLOCK + k] = S[(L_X + f) * BLOCK + k]
+        if _lanes_fast(S, m, dt, rn, rp, rc):
+            _lanes_step(S, P, m, dt, vn, vp, pn, pp, rn, rp, rc, tiny, every, True)
+        else:
+            _lanes_step(S, P, m, dt, vn, vp, pn, pp, rn, rp, rc, tiny, every, bool(False))
+    for k in range(m):
+        i = rows[k]
+        for f in range(L_AP):
+            dst[i, X + f] = S[f * BLOCK + k]
+        for f in range(18):
+            dst[i, XP + f] = S[(L_XP + f) * BLOCK + k]
+        for f in range(6):
+            dst[i, AP + f] = S[(L_AP + f) * BLOCK + k]
+        dst[i, COUNTDOWN] = S[L_COUNTDOWN * BLOCK + k]
+        dst[i, HISTORY] = HISTORY_VALID
+        work[i, WORK_FULL] += n
+        taken[i] = n
+        status[i] = STATUS_OK
+        (xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+         wx, wy, wz) = _get(dst, i)
+        if not (_finite(xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22,
+                        wx, wy, wz)
+                and wx * wx + wy * wy + wz * wz <= float(p[i, MAX_TURN_SQ])):
+            status[i] = STATUS_NON_FINITE  # somewhere in the run: a checked run finds where
+
+
+@kernel
+def _blocked(coefficients, bodies, n, checked):
+    """Whether ``advance`` takes these bodies in blocks."""
+    return (not checked and n >= 1 and coefficients[STEPS] == 2.0
+            and bodies.shape[0] >= BLOCK_MIN)
+
+
 @kernel
 def advance(src, dst, params, coefficients, bodies, n, checked, status, taken, bad, work):
-    """n steps of each body listed in ``bodies`` (int64 indices), one after the other."""
-    for k in range(bodies.shape[0]):
-        advance_body(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
-                     bad, work)
+    """n steps of each body listed in ``bodies`` (int64 indices), one after the other, or a
+    block after the other (BLOCK)."""
+    count = bodies.shape[0]
+    if not _blocked(coefficients, bodies, n, checked):
+        for k in range(count):
+            advance_body(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
+                         bad, work)
+        return
+    for start in range(0, count, BLOCK):
+        _advance_block(src, dst, params, coefficients, bodies, start, min(start + BLOCK, count),
+                       n, status, taken, bad, work)
 
 
 @parallel_kernel
 def advance_parallel(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
                      work):
     """``advance`` with the bodies shared among the cores (they are independent)."""
-    for k in prange(bodies.shape[0]):
-        advance_body(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
-                     bad, work)
+    count = bodies.shape[0]
+    if not _blocked(coefficients, bodies, n, checked):
+        for k in prange(count):
+            advance_body(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
+                         bad, work)
+        return
+    for b in prange((count + BLOCK - 1) // BLOCK):
+        start = b * BLOCK
+        _advance_block(src, dst, params, coefficients, bodies, start, min(start + BLOCK, count),
+                       n, status, taken, bad, work)
 
 
 @kernel
