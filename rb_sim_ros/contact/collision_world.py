@@ -451,9 +451,10 @@ class CollisionWorld:
 
     def warm_up(self) -> None:
         """Compile (or load from the cache) every kernel a step of this world runs, without
-        taking a step: ``world_steps`` for 0 steps, and the bodies' own step kernel."""
+        taking a step: ``world_steps`` for 0 steps, or the bodies' own step kernel when the
+        world is disabled (it steps them with it then)."""
         for s in self._all_steppers[:1]:
-            s._store.warm_up()
+            s._store.warm_up(stepping=not self.enabled)
         if self.enabled:
             self._call(0)
 

@@ -21,6 +21,10 @@ caller can commit (swap) or go back at no cost. What one body's n steps do, in o
 3. n steps of eq. (11)-(13) and (27); every ORTHONORMALIZE_EVERY steps R is pulled back to SO(3)
    by one Newton step of the polar decomposition.
 
+Blocks. ``advance`` takes up to BLOCK bodies at a time side by side, in SIMD lanes, when
+there are BLOCK_MIN or more; a lane calls what ``advance_body`` calls, in the same order, so a
+body gets the same bits in a block as alone (see BLOCK below).
+
 Checking. ``checked=False`` checks the end state only (finite, and a body with unequal moments
 turning at most MAX_TURN rad a step): a non-finite value never becomes finite again in this
 arithmetic. ``checked=True`` checks every step and stops before the first bad one, the state

@@ -137,12 +137,15 @@ class BodyStore:
     def __len__(self) -> int:
         return len(self.clock)
 
-    def warm_up(self) -> None:
+    def warm_up(self, stepping: bool = True) -> None:
         """Compile (or load from the cache) the kernels a step runs, without taking one: the
-        first call of a process pays for that, so a node makes it before its clock starts."""
+        first call of a process pays for that, so a node makes it before its clock starts.
+        ``stepping=False``: only those that write rows, for a store whose steps another
+        kernel takes (an enabled collision world's ``world_steps``)."""
         rows = np.zeros(0, dtype=np.int64)
-        K.advance(self.state, self.spare, self.params, self.coefficients, rows, 0, False,
-                  self.status, self.taken, self.bad, self.work)
+        if stepping:
+            K.advance(self.state, self.spare, self.params, self.coefficients, rows, 0, False,
+                      self.status, self.taken, self.bad, self.work)
         K.copy_rows(self.state, self.spare, rows)
         if len(self.clock):
             K.evaluate_bodies(self.state, self.params, rows)
