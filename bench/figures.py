@@ -253,7 +253,7 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     rows = {r['n']: r for r in batch['rows']}
     big = rows[100_000]
     q.append((readme, 'batch path, ns per body-step',
-              f'{rows[10_000]["batch_free_ns"]:.0f} / {big["batch_free_ns"]:.0f} / '
+              f'{rows[10_000]["batch_free_ns"]:.1f} / {big["batch_free_ns"]:.1f} / '
               f'{big["batch_free_one_step_per_call_ns"]:.0f} '
               f'({big["mujoco_euler_ns"]:.0f} / {big["mujoco_rk4_ns"]:.0f})'))
     q.append((readme, 'memory per body',
@@ -280,7 +280,7 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((readme, '#Collisions', f'{min(ratios):.1f}x to {max(ratios):.1f}x'))
     q.append((readme, '**Fast**', f'costs {ratios[0]:.1f}x'))
 
-    q.append((readme, '#Many bodies', f'{big["batch_free_ns"]:.0f} ns per body-step'))
+    q.append((readme, '#Many bodies', f'{big["batch_free_ns"]:.1f} ns per body-step'))
     q.append((readme, '#Many bodies', f'{big["batch_free_one_step_per_call_ns"]:.0f} ns'))
     q.append((readme, '#Many bodies',
               f'{big["mujoco_euler_ns"] / big["batch_free_ns"]:.1f}x less'))
