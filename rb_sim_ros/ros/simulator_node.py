@@ -136,7 +136,6 @@ class SimulatorNode(Node):
         for index, spec in enumerate(
                 self.config.bodies[:values['max_body_topics'] if not single else 1]):
             self._add_ports(spec, '' if single else spec.name + '/', single, index)
-        self._moving = [p for p in self.ports.values() if self.sim.is_moving(p.name)]
         self._apply_settings()
         self._tf = self._tf_msg = self._tf_static = self._pub_tf_static = None
         self._tf_static_frames: list = []
@@ -147,7 +146,6 @@ class SimulatorNode(Node):
             self.get_logger().warning(
                 'publish_tf: tf2_msgs is not installed, so no /tf (on a ROS install: '
                 'ros-jazzy-tf2-msgs; in the PyPI venv tools/build_msgs.sh builds it)')
-        self._update_tf()
         self._recorder = _open_recorder(self, values)
         over = {'qos_overriding_options': OVERRIDABLE}
         self._pub_clock = (self.create_publisher(ClockMsg, '/clock', QoSProfile(
@@ -158,12 +156,8 @@ class SimulatorNode(Node):
         self._pub_poses = self.create_publisher(PoseArray, 'poses', 10, **over)
         self._poses_msg = PoseArray()
         self._poses_msg.header.frame_id = values['world_frame']
-        self._poses_msg.poses = [Pose() for _ in self.config.bodies]
-        self._markers = self._pub_markers = None
-        if self.config.collides:
-            self._markers = CollisionMarkers(self.config, values['world_frame'])
-            self._pub_markers = self.create_publisher(MarkerArray, 'collision_markers', 1,
-                                                      **over)
+        self._pub_markers = None
+        self._bodies_changed()  # moving bodies, tf, poses, collision markers
         self.interfaces = None
         if SimulationInterfaces is not None:
             self.interfaces = SimulationInterfaces(self)
