@@ -1,8 +1,34 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
+import os
+import subprocess
+import sys
+
 from setuptools import find_packages, setup
+from setuptools.command.install import install
 
 package_name = 'rb_sim_ros'
+
+
+class InstallAndPrecompile(install):
+    """install, then compile the kernels into the installed package's compilation cache
+    (python -m rb_sim_ros.sim.precompile, run from the installed tree), so that the first start
+    of the node loads them instead of compiling them (about 40 s). colcon build runs this; a
+    wheel or staged install (--root) and RB_SIM_ROS_PRECOMPILE=0 skip it, and a failure only
+    warns: the node then compiles at its first start."""
+
+    def run(self):
+        super().run()
+        if self.root is not None or os.environ.get('RB_SIM_ROS_PRECOMPILE', '1') == '0':
+            return
+        print(f'rb_sim_ros: compiling the kernels in {self.install_lib}', file=sys.stderr)
+        try:
+            subprocess.run([sys.executable, '-m', 'rb_sim_ros.sim.precompile'],
+                           cwd=self.install_lib, check=True, timeout=1800)
+        except (OSError, subprocess.SubprocessError) as e:
+            print(f'rb_sim_ros: warning: kernels not compiled ahead ({e}); the first start '
+                  'of the node compiles them', file=sys.stderr)
+
 
 setup(
     name=package_name,
@@ -23,6 +49,7 @@ setup(
     # ROS dependencies come from package.xml (rosdep); PyPI-only ones (mcap for recording)
     # are in requirements.txt, used by the README's commands, never forced on colcon.
     install_requires=['setuptools'],
+    cmdclass={'install': InstallAndPrecompile},
     zip_safe=True,
     maintainer='rb_sim_ros maintainers',
     maintainer_email='maintainers@rb-sim-ros.invalid',

@@ -8,8 +8,9 @@ SIGINT/SIGTERM at full speed with recordings that must verify.
 Start-up: the simulator as users run it (a separate process, a private ROS domain), on a
 scene of N free bodies; the time from starting the process to the first 'poses' message this
 process receives, and the node's peak memory (VmHWM). First, the collision demo's start with an
-empty compilation cache (a clean install: every kernel compiles) and again with the cache it
-wrote (every later start). Stop: `--runs` times, a node at
+empty compilation cache (every kernel compiles) and again with the cache it wrote (every later
+start); then the package installed as colcon build installs it (setup.py install, which
+compiles the kernels into the installed tree: its time) and the first start from there. Stop: `--runs` times, a node at
 real_time_factor 0 recording, `send_wrench` run against it, then SIGINT or SIGTERM
 (alternating); each must exit 0 without a traceback or FATAL, within 2 s of the signal, and its
 recording must pass `replay --verify`. Prints the figures and writes them to
@@ -36,6 +37,10 @@ from geometry_msgs.msg import PoseArray, PoseStamped
 from node_timing import Probe
 
 
+ROOT = Path(__file__).resolve().parents[1]
+SITE = Path('lib') / f'python{sys.version_info[0]}.{sys.version_info[1]}' / 'site-packages'
+
+
 def _env(domain: int) -> dict:
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST',
                PYTHONUNBUFFERED='1')
@@ -51,12 +56,28 @@ def _vm_hwm_mb(pid: int) -> float:
     return float('nan')
 
 
-def startup(n: int, tmp: Path, scene: Path | None = None,
-            cache: Path | None = None) -> tuple[float, float]:
+def install(prefix: Path) -> float:
+    """Install the package into ``prefix`` as colcon build does (setup.py install, which
+    compiles the kernels into the installed tree's cache): the seconds it took."""
+    build = prefix.parent / 'build'
+    build.mkdir(parents=True, exist_ok=True)
+    env = {k: v for k, v in os.environ.items() if k != 'NUMBA_CACHE_DIR'}
+    t0 = time.monotonic()
+    subprocess.run([sys.executable, 'setup.py', '-q', 'egg_info', '--egg-base', str(build),
+                    'build', '--build-base', str(build), 'install', '--prefix', str(prefix),
+                    '--record', str(build / 'install.log'),
+                    '--single-version-externally-managed'],
+                   cwd=ROOT, env=env, check=True, capture_output=True)
+    return time.monotonic() - t0
+
+
+def startup(n: int, tmp: Path, scene: Path | None = None, cache: Path | None = None,
+            installed: Path | None = None) -> tuple[float, float]:
     """Seconds to the first poses and peak memory (MB) of a node on ``n`` free bodies, or on
-    ``scene`` (n: its body count); ``cache``: the kernels' compilation cache to use, and then
-    the poses waited for are the first of a step taken (sim time > 0: the node publishes the
-    starting poses before its first step, which compiles what it needs)."""
+    ``scene`` (n: its body count); ``cache``: the kernels' compilation cache to use, or
+    ``installed``: the prefix of an install (``install``) to run the node from, with its own
+    cache; with either, the poses waited for are the first of a step taken (sim time > 0: the
+    node publishes the starting poses before its first step, which compiles what it needs)."""
     if scene is None:
         scene = tmp / f'bodies_{n}.yaml'
         scene.write_text('bodies:\n' + ''.join(
@@ -70,12 +91,17 @@ def startup(n: int, tmp: Path, scene: Path | None = None,
     env = _env(domain)
     if cache:
         env['NUMBA_CACHE_DIR'] = str(cache)
+    if installed:
+        env.pop('NUMBA_CACHE_DIR', None)
+        env['PYTHONPATH'] = os.pathsep.join(
+            [str(installed / SITE)] + [p for p in [env.get('PYTHONPATH')] if p])
     proc = subprocess.Popen([sys.executable, '-m', 'rb_sim_ros.ros.simulator_node', '--ros-args',
-                             '-p', f'scene_file:={scene}'], env=env,
+                             '-p', f'scene_file:={scene}'], env=env, cwd=tmp,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         def stepped(m):
-            return cache is None or m.header.stamp.sec > 0 or m.header.stamp.nanosec > 0
+            return (cache is None and installed is None) or m.header.stamp.sec > 0 \
+                or m.header.stamp.nanosec > 0
         if not probe.spin_until(lambda: any(stepped(m) for m in got) or proc.poll() is not None,
                                 600.0) or not got:
             raise RuntimeError(f'{n} bodies: no poses ({proc.poll()})')
@@ -150,11 +176,21 @@ def main() -> int:
         tmp = Path(d)
         # A clean install: the collision demo (every kernel of a collision world) with an
         # empty compilation cache, then again with the cache that start wrote.
-        demo = Path(__file__).resolve().parents[1] / 'scenes' / 'collisions.yaml'
+        demo = ROOT / 'scenes' / 'collisions.yaml'
         for what in () if args.quick else ('cold', 'warm'):
             compiling[what], _ = startup(8, tmp, demo, tmp / 'numba-cache')
             print(f'start-up, collision demo, {what} compilation cache: first poses after '
                   f'{compiling[what]:.1f} s', flush=True)
+        # A colcon-style install compiles the kernels into its tree: the install's time, and
+        # the first start of the node from it.
+        if not args.quick:
+            install_s = install(tmp / 'install')
+            print(f'install as colcon build does (kernels compiled): {install_s:.1f} s',
+                  flush=True)
+            compiling['installed'], _ = startup(8, tmp, demo, installed=tmp / 'install')
+            compiling['install_s'] = install_s
+            print(f'start-up, collision demo, first start after that install: first poses after '
+                  f'{compiling["installed"]:.1f} s', flush=True)
         for n in args.bodies:
             seconds, memory = startup(n, tmp)
             starts.append({'bodies': n, 'first_poses_s': seconds, 'peak_memory_mb': memory})
