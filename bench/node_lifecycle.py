@@ -5,18 +5,18 @@ SIGINT/SIGTERM at full speed with recordings that must verify.
 
     python bench/node_lifecycle.py [--bodies 1000 10000] [--runs 20] [--quick]
 
-Start-up: the simulator as users run it (a separate process, a private ROS domain), on a
-scene of N free bodies; the time from starting the process to the first 'poses' message this
-process receives, and the node's peak memory (VmHWM). First, the collision demo's start with an
-empty compilation cache (every kernel compiles) and again with the cache it wrote (every later
-start); then the package installed as colcon build installs it (setup.py install, which
-compiles the kernels into the installed tree: its time) and the first start from there. Stop: `--runs` times, a node at
-real_time_factor 0 recording, `send_wrench` run against it, then SIGINT or SIGTERM
-(alternating); each must exit 0 without a traceback or FATAL, within 2 s of the signal, and its
-recording must pass `replay --verify`. Prints the figures and writes them to
-docs/bench/node_lifecycle.json (a full run); exit 1 if a stop failed. ``--quick`` (200 bodies,
-2 stops, run by the tests) checks the same but not the 2 s (the suite runs on loaded machines)
-and not the first start (it compiles for a minute).
+Start-up: the simulator as users run it (a separate process, a private ROS domain), on a scene of N
+free bodies; the time from starting the process to the first 'poses' message this process receives,
+and the node's peak memory (VmHWM). First, the collision demo's start with an empty compilation
+cache (every kernel compiles) and again with the cache it wrote (every later start); then the
+package installed as colcon build installs it (setup.py install, which compiles the kernels into
+the installed tree: its time) and the first start from there. Stop: `--runs` times, a node at
+real_time_factor 0 recording, `send_wrench` run against it, then SIGINT or SIGTERM (alternating);
+each must exit 0 without a traceback or FATAL, within 2 s of the signal, and its recording must
+pass `replay --verify`. Prints the figures and writes them to docs/bench/node_lifecycle.json (a
+full run); exit 1 if a stop failed. ``--quick`` (200 bodies, 2 stops, run by the tests) checks the
+same but not the 2 s (the suite runs on loaded machines) and not the first start (it compiles for a
+minute).
 """
 
 from __future__ import annotations
