@@ -29,14 +29,17 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def install(prefix: Path) -> Path:
-    """Install the package into ``prefix`` as colcon's ament_python build does."""
+    """Install the package into ``prefix`` as colcon's ament_python build does (which
+    compiles the kernels into the installed tree's own cache, whatever NUMBA_CACHE_DIR says)."""
     build = prefix.parent / 'build'
     build.mkdir(parents=True, exist_ok=True)
     subprocess.run([sys.executable, 'setup.py', '-q', 'egg_info', '--egg-base', str(build),
                     'build', '--build-base', str(build), 'install', '--prefix', str(prefix),
                     '--record', str(build / 'install.log'),
                     '--single-version-externally-managed'],
-                   cwd=ROOT, check=True, capture_output=True)
+                   cwd=ROOT, check=True, capture_output=True,
+                   env={k: v for k, v in os.environ.items()
+                        if k not in ('NUMBA_CACHE_DIR', 'NUMBA_DISABLE_JIT')})
     return prefix
 
 

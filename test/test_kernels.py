@@ -170,7 +170,7 @@ def _mixed_batch(n: int = 75):
         q = so3.exp(rng.normal(size=3)) if k % 2 else np.eye(3)
         inertias.append(q @ np.diag(moments) @ q.T)
     omega = rng.normal(size=(n, 3)) * 3.0
-    omega[::9] *= 400.0 / np.linalg.norm(omega[::9], axis=1, keepdims=True) / 3.0
+    omega[::9] *= 400.0 / np.linalg.norm(omega[::9], axis=1, keepdims=True)
     b = BatchStepper(rng.uniform(0.5, 3.0, n), np.array(inertias), 1e-3,
                      rng.normal(size=(n, 3)), [so3.exp(rng.normal(size=3)) for _ in range(n)],
                      rng.normal(size=(n, 3)), omega, gravity=(0.0, 0.0, -9.81),

@@ -99,8 +99,10 @@ MUTANTS = [
      [HARDENING + 'test_a_timeout_shorter_than_a_step_still_times_out'],
      'a command_timeout shorter than a step never times out'),
     ('no-orthonormalisation', 'rb_sim_ros/core/step_kernel.py',
-     [('            q00, q01, q02, q10, q11, q12, q20, q21, q22 = orthonormalize(\n'
-       '                q00, q01, q02, q10, q11, q12, q20, q21, q22)\n', '            pass\n')],
+     [('        if countdown <= 0 and not frozen_rotation:\n'
+       '            q00, q01, q02, q10, q11, q12, q20, q21, q22 = orthonormalize(\n'
+       '                q00, q01, q02, q10, q11, q12, q20, q21, q22)\n',
+       '        if countdown <= 0 and not frozen_rotation:\n            pass\n')],
      [STEPPER + 'test_a_rotation_written_off_so3_is_pulled_back_within_orthonormalize_every_'
       'steps'],
      'R never pulled back to SO(3)'),
@@ -214,8 +216,8 @@ MUTANTS = [
      [HIGH_ORDER + 'test_local_orders_from_exact_history'],
      "lie3's rotation vector without the (dt^4/24) beta' x omega term"),
     ('lie-history-re-evaluated', 'rb_sim_ros/core/step_kernel.py',
-     [('    if float(src[i, HISTORY]) != HISTORY_VALID:',
-       '    if float(src[i, HISTORY]) == HISTORY_NONE:')],
+     [('    # (docs/integrators.md).\n    if float(src[i, HISTORY]) != HISTORY_VALID:',
+       '    # (docs/integrators.md).\n    if float(src[i, HISTORY]) == HISTORY_NONE:')],
      [HIGH_ORDER + 'test_global_order_with_a_wrench_change_every_eighth_of_a_second'],
      'lie3/lie4 keep their history across a wrench change instead of starting again'),
     ('flow-full-first-kick', 'rb_sim_ros/core/step_kernel.py',

@@ -25,8 +25,13 @@ import os
 from pathlib import Path
 import tempfile
 
-import numba
-from numba.core import caching
+# Intel's SVML, where numba finds it (conda's icc_rt), would let LLVM vectorise sin and cos
+# with its own routines, whose last bits are not libm's: a block's lanes (step_kernel) would no
+# longer give a body the bits of its step alone. Off, unless numba was imported before us.
+os.environ.setdefault('NUMBA_DISABLE_INTEL_SVML', '1')
+
+import numba  # noqa: E402
+from numba.core import caching  # noqa: E402
 
 PACKAGE = Path(__file__).resolve().parent.parent
 # The layers whose modules hold kernels: the text of every module in them is the cache's stamp.

@@ -22,11 +22,9 @@ import numpy as np
 from rb_sim_ros.core import step_kernel
 
 # exp([p]) = I + A [p] + B [p]^2 with A = sin(t)/t and B = (1 - cos t)/t^2, t = |p|. The
-# integrator writes them in half-angle form, A = 2 sin(t/2) cos(t/2) / t and
-# B = 2 sin^2(t/2) / t^2, which has no cancellation at small t, and adds TINY_ANGLE_SQ to t^2 so
-# that t = 0 gives A = 1, B = 1/2 without a branch (a branch would not run on numpy arrays).
-# 1e-300 is invisible next to any t^2 that matters (t^2 < 1e-32 changes R by < 1e-16) and
-# sin(t/2)^2 at t = 1e-150 is still a normal double.
+# integrator's exp_so3 takes them from their series in t^2 below t = 0.25 (rotation_kernels)
+# and above it in half-angle form, A = 2 sin(t/2) cos(t/2) / t and B = 2 sin^2(t/2) / t^2,
+# with TINY_ANGLE_SQ added to t^2 (invisible there: it only keeps the division safe).
 TINY_ANGLE_SQ = 1e-300
 # Below this rotation angle (rad) log() uses its series: atan2(s, w)/s -> 1/w.
 SMALL_ANGLE = 1e-12

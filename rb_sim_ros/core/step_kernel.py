@@ -160,7 +160,7 @@ def params_row(p, i):
 def thm1(row, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz, vx, vy, vz,
          linear_only):
     """``accelerations`` from a params row as a tuple (``params_row``): arithmetic only,
-    written into its caller, so that a block's lanes (``_lane_step``) run it side by side."""
+    written into its caller, so that a block's lanes (``_lanes_step``) run it side by side."""
     (ix, iy, iz, jx, jy, jz, fx, fy, fz, tx0, ty0, tz0, gx, gy, gz, wa0, wa1, wa2, c_lin, c_ang,
      _, flag_bits) = row
     flags = int(flag_bits)
@@ -1007,6 +1007,8 @@ def _advance_block(src, dst, p, c, bodies, start, stop, n, status, taken, bad, w
                 for k in range(m):
                     S[(L_XP + f) * BLOCK + k] = S[(L_X + f) * BLOCK + k]
         if _lanes_fast(S, m, dt, rn, rp, rc):
+            # A literal True (not bool(True)) on purpose: the fast copy is compiled with its
+            # branches folded away, which is what lets LLVM make SIMD of its loop.
             _lanes_step(S, P, m, dt, vn, vp, pn, pp, rn, rp, rc, tiny, every, True)
         else:
             _lanes_step(S, P, m, dt, vn, vp, pn, pp, rn, rp, rc, tiny, every, bool(False))

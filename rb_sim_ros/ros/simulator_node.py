@@ -65,8 +65,9 @@ from rb_sim_ros.ros.collision_markers import CollisionMarkers
 from rb_sim_ros.ros.diagnostics import Diagnostics
 from rb_sim_ros.ros.ros_messages import TF, TF_STATIC
 from rb_sim_ros.sim.scene import load_scene
-from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Reset, SetTwist,
-                                       SetWrench, Simulation, Spawn, warm_up_contacts)
+from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Delete, Reset,
+                                       SetTwist, SetWrench, Simulation, Spawn, warm_up_bodies,
+                                       warm_up_contacts)
 
 __all__ = ['APPLIED_QOS', 'SimulatorNode', 'main']
 
@@ -234,6 +235,10 @@ class SimulatorNode(Node):
             # The first collider of the run: its kernels compiled (or loaded) now, before
             # the lock, not while the step loop waits.
             warm_up_contacts(self.config)
+        elif isinstance(event, Delete) and self.sim.world is not None:
+            # Deleting the last collider leaves no collision world, and its bodies then step
+            # with the step kernel: compiled (or loaded) now, before the lock, too.
+            warm_up_bodies(self.config)
         with self._lock:
             if not self._guarded(self._drain):
                 return self.diagnostics.error
