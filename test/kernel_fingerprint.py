@@ -34,19 +34,26 @@ def _batch_reads(batch) -> tuple:
             batch.angular_velocities())
 
 
+def mixed_inertias(rng, n: int, isotropic_every: int) -> list:
+    """n body-frame inertia tensors (kg m^2): principal moments in [0.5, 1], every
+    ``isotropic_every``-th body isotropic, every second one about rotated axes."""
+    inertias = []
+    for k in range(n):
+        moments = np.sort(rng.uniform(0.5, 1.0, 3))
+        if k % isotropic_every == isotropic_every - 1:
+            moments[:] = moments[0]
+        q = so3.exp(rng.normal(size=3)) if k % 2 else np.eye(3)
+        inertias.append(q @ np.diag(moments) @ q.T)
+    return inertias
+
+
 def batch() -> str:
     """1000 random bodies (diagonal, rotated and isotropic inertias; gravity, damping), with a
     start-up, wrench changes in both frames on a subset, and a few bodies past the 1024-step
     orthonormalisation."""
     rng = np.random.default_rng(3)
     n = 1000
-    inertias = []
-    for k in range(n):
-        moments = np.sort(rng.uniform(0.5, 1.0, 3))
-        if k % 5 == 4:
-            moments[:] = moments[0]
-        q = so3.exp(rng.normal(size=3)) if k % 2 else np.eye(3)
-        inertias.append(q @ np.diag(moments) @ q.T)
+    inertias = mixed_inertias(rng, n, 5)
     b = BatchStepper(rng.uniform(0.5, 3.0, n), np.array(inertias), 1e-3,
                      rng.normal(size=(n, 3)), [so3.exp(rng.normal(size=3)) for _ in range(n)],
                      rng.normal(size=(n, 3)), rng.normal(size=(n, 3)) * 3.0,

@@ -12,6 +12,7 @@ import shutil
 import subprocess
 import sys
 
+import kernel_fingerprint
 import numpy as np
 import pytest
 
@@ -162,13 +163,7 @@ def _mixed_batch(n: int = 75):
     re-evaluated) and orthonormalisation countdowns running out during the run."""
     from rb_sim_ros.core.batch import BatchStepper
     rng = np.random.default_rng(7)
-    inertias = []
-    for k in range(n):
-        moments = np.sort(rng.uniform(0.5, 1.0, 3))
-        if k % 4 == 3:
-            moments[:] = moments[0]
-        q = so3.exp(rng.normal(size=3)) if k % 2 else np.eye(3)
-        inertias.append(q @ np.diag(moments) @ q.T)
+    inertias = kernel_fingerprint.mixed_inertias(rng, n, 4)
     omega = rng.normal(size=(n, 3)) * 3.0
     omega[::9] *= 400.0 / np.linalg.norm(omega[::9], axis=1, keepdims=True)
     b = BatchStepper(rng.uniform(0.5, 3.0, n), np.array(inertias), 1e-3,
