@@ -20,7 +20,7 @@ import sys
 import time
 
 from rb_sim_ros.core import jit
-from rb_sim_ros.sim.simulation import Config, Simulation, warm_up_contacts
+from rb_sim_ros.sim.simulation import Config, warm_up_bodies, warm_up_contacts
 
 
 def precompile() -> float:
@@ -28,7 +28,7 @@ def precompile() -> float:
     seconds it took."""
     start = time.perf_counter()
     config = Config()
-    Simulation(config).warm_up()
+    warm_up_bodies(config)
     warm_up_contacts(config)
     return time.perf_counter() - start
 

@@ -416,17 +416,20 @@ def warm_up_contacts(config: Config) -> None:
     """Compile (or load from the cache) the collision kernels a run like ``config`` (its dt
     and method) would need, touching no run: what a first spawn with colliders would
     otherwise do in its step."""
-    probe = BodySpec('probe', colliders=(Sphere(0.1),))
-    Simulation(Config(dt=config.dt, steps_per_publish=config.steps_per_publish,
-                      integrator=config.integrator, bodies=(probe,))).warm_up()
+    _warm_up_probe(config, BodySpec('probe', colliders=(Sphere(0.1),)))
 
 
 def warm_up_bodies(config: Config) -> None:
     """Compile (or load from the cache) the step kernel of bodies without a collision world,
     touching no run: what a run whose last collider is deleted would otherwise do in its
     step (an enabled world's warm-up leaves it out)."""
+    _warm_up_probe(config, BodySpec('probe'))
+
+
+def _warm_up_probe(config: Config, probe: BodySpec) -> None:
+    """Warm up a run of ``probe`` alone with ``config``'s dt, output period and method."""
     Simulation(Config(dt=config.dt, steps_per_publish=config.steps_per_publish,
-                      integrator=config.integrator, bodies=(BodySpec('probe'),))).warm_up()
+                      integrator=config.integrator, bodies=(probe,))).warm_up()
 
 
 def _build(config: Config):
