@@ -119,17 +119,22 @@ def test_follows_the_core_prediction_for_a_wrench_schedule(start_sim, probe):
         events.append((stamp_ns(msg.header.stamp) // DT_NS, SetWrench(CoreWrench(f, t, frame))))
     sim = Simulation(Config(bodies=(BodySpec(mass=2.0, inertia=(0.2, 0.3, 0.4),
                                              initial_angular_velocity=(0.5, -1.0, 2.0)),)))
-    checked = 0
-    for pose, odom in zip(poses, odoms):
+    # (paired by stamp: a subscription may match a period later than the other, or a loaded
+    # machine's probe miss one)
+    odom_at = {stamp_ns(m.header.stamp): m for m in odoms}
+    checked = paired = 0
+    for pose in poses:
         step = stamp_ns(pose.header.stamp) // DT_NS
-        assert stamp_ns(odom.header.stamp) == stamp_ns(pose.header.stamp)
         events = sim.run_until(step, events)
         x, q, v, w = sim.stepper.pose_twist()
         p, o = pose.pose.position, pose.pose.orientation
         assert (p.x, p.y, p.z) == x and (o.x, o.y, o.z, o.w) == q, f'step {step}'
-        assert odom.pose.pose == pose.pose
+        odom = odom_at.get(stamp_ns(pose.header.stamp))
+        if odom is not None:
+            assert odom.pose.pose == pose.pose
+            paired += 1
         checked += 1
-    assert checked > 20 and not events
+    assert checked > 20 and paired > 20 and not events
 
 
 def _set(probe, **values):
