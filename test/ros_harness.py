@@ -82,7 +82,9 @@ def reserve_domain_id() -> int:
 
 
 def ros_env(prefix: Path) -> dict:
-    env = dict(os.environ)
+    """The environment of a node run from the install at ``prefix``: with the kernels that
+    install compiled (no NUMBA_CACHE_DIR of this process), on a private domain."""
+    env = {k: v for k, v in os.environ.items() if k != 'NUMBA_CACHE_DIR'}
     env['ROS_DOMAIN_ID'] = str(reserve_domain_id())
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     env['AMENT_PREFIX_PATH'] = os.pathsep.join([str(prefix), sys.prefix])

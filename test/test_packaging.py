@@ -77,24 +77,28 @@ def test_share_files_are_installed(installed):
 def test_the_install_compiles_the_kernels_into_its_own_tree(installed, tmp_path):
     """setup.py install (colcon build) compiles the kernels into the installed package's cache:
     a process running from the install then loads every kernel of a run, with and without
-    colliders (``precompile``), and compiles none (numba's compile events count them)."""
+    colliders (``precompile``), and compiles none (numba's compile events count them); the
+    cache's marker says so to a node (which then does not start in the interpreter)."""
     site = ros_harness.site_packages(installed)
     cache = site / 'rb_sim_ros' / '__pycache__' / 'numba'
     for kernel in ('step_kernel.advance-', 'world_step.world_steps-'):
         assert any(f.name.startswith(kernel) for f in cache.glob('*.nbi')), kernel
     code = ('from numba.core import event\n'
             'import rb_sim_ros\n'
+            'from rb_sim_ros.core import jit\n'
             'from rb_sim_ros.sim.precompile import precompile\n'
+            'marked = jit.precompiled()\n'
             "with event.install_recorder('numba:compile') as compiled:\n"
             '    precompile()\n'
-            'print(rb_sim_ros.__file__, len(compiled.buffer))\n')
+            'print(rb_sim_ros.__file__, len(compiled.buffer), marked)\n')
     env = {k: v for k, v in os.environ.items() if k != 'NUMBA_CACHE_DIR'}
     env['PYTHONPATH'] = str(site)
     out = subprocess.run([sys.executable, '-c', code], cwd=tmp_path, env=env,
                          capture_output=True, text=True, timeout=900)
     assert out.returncode == 0, out.stderr[-2000:]
-    where, compiles = out.stdout.split()[-2:]
+    where, compiles, marked = out.stdout.split()[-3:]
     assert Path(where).is_relative_to(site) and compiles == '0', out.stdout
+    assert marked == 'True'  # so a node started from it steps compiled from its first step
 
 
 def test_the_installed_params_yaml_loads_into_a_running_node(start_sim, probe, installed):

@@ -12,7 +12,8 @@ import signal
 import subprocess
 import sys
 
-from geometry_msgs.msg import PoseStamped, Twist, Wrench, WrenchStamped
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseArray, PoseStamped, Twist, Wrench, WrenchStamped
 import pytest
 from rosbags.highlevel import AnyReader
 from std_srvs.srv import Empty, SetBool, Trigger
@@ -21,6 +22,8 @@ from rb_sim_ros.core import multistep
 from rb_sim_ros.recording import RecordingReader
 from rb_sim_ros.ros import replay
 from rb_sim_ros.ros.simulator_node import APPLIED_QOS
+import ros_harness
+from ros_harness import stamp_ns
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
 FIXTURES = FIXTURE.parent
@@ -423,3 +426,39 @@ def test_replay_stops_on_sigint_without_a_traceback(probe, installed, ros_env, t
     text = err.read_text()
     assert proc.returncode == 130, text
     assert 'Traceback' not in text and text.rstrip().endswith('replay: interrupted'), text
+
+
+def test_a_first_start_steps_while_compiling_and_records_the_compiled_bits(
+        probe, installed, ros_env, tmp_path):
+    """No compiled kernels in the cache (a first start from a source checkout): the collision
+    demo moves before they are compiled, stepped in the interpreter while a child process
+    compiles them; then the node goes on compiled, and the recording of both tiers replays
+    bit for bit (replay steps compiled only)."""
+    env = dict(ros_env, NUMBA_CACHE_DIR=str(tmp_path / 'cache'))  # empty: nothing compiled
+    f = tmp_path / 'run.mcap'
+    demo = Path(__file__).resolve().parents[1] / 'scenes' / 'collisions.yaml'
+    arrivals = []  # (kind, value) in the order received: one callback thread
+    probe.node.create_subscription(
+        PoseArray, 'poses', lambda m: arrivals.append(('pose', stamp_ns(m.header.stamp))), 10)
+    probe.node.create_subscription(DiagnosticArray, '/diagnostics', lambda m: arrivals.append(
+        ('kernels', {v.key: v.value for s in m.status for v in s.values}.get('kernels'))), 10)
+    sim = ros_harness.SimProcess(installed, env, ['--ros-args', '-p', f'scene_file:={demo}',
+                                                  '-p', f'record:={f}'], tmp_path)
+
+    def kernels():
+        return [v for k, v in arrivals if k == 'kernels']
+
+    probe.wait_for(lambda: 'compiled' in kernels(), timeout=900, what='compiled kernels')
+    first_compiled = arrivals.index(('kernels', 'compiled'))
+    before = arrivals[:first_compiled]
+    assert [v for k, v in before if k == 'kernels' and not v.startswith('interpreted')] == []
+    moving = [t for k, t in before if k == 'pose' and t > 0]
+    assert len(moving) > 5, before  # it stepped and published while compiling
+    n = len(arrivals)
+    probe.wait_for(lambda: len(arrivals) > n + 100, what='poses stepped compiled')
+    assert sim.stop() == 0
+    log = sim.output()
+    assert 'stepping in the interpreter' in log and 'stepping compiled from step' in log, log
+    result = _replay(installed, env, '--verify', str(f))
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert 'identical: every output message re-simulated bit for bit' in result.stdout

@@ -16,6 +16,13 @@ stamp, a hash of every module of the layers that hold kernels (core and contact)
 there recompiles them all. The cache lives in the package's ``__pycache__/numba``; where that
 is read-only (an installed tree) in the user's cache directory
 (``$XDG_CACHE_HOME/rb_sim_ros/numba``); ``NUMBA_CACHE_DIR`` overrides both.
+
+Two tiers. A process can run every kernel in the interpreter for a while (``run_interpreted``)
+and go back to the compiled ones (``run_compiled``): the node does so on a first start, while a
+child process compiles (``sim/precompile.py``). It swaps each module global of the package that
+names a kernel for the kernel's own Python function (as NUMBA_DISABLE_JIT=1 does at import), so
+the bits are the same in either tier, and nothing compiles in this process meanwhile.
+``precompile`` leaves a marker in the cache (``precompiled``) once every kernel is there.
 """
 
 from __future__ import annotations
@@ -23,7 +30,9 @@ from __future__ import annotations
 import hashlib
 import os
 from pathlib import Path
+import sys
 import tempfile
+import threading
 
 # Intel's SVML, where numba finds it (conda's icc_rt), would let LLVM vectorise sin and cos
 # with its own routines, whose last bits are not libm's: a block's lanes (step_kernel) would no
@@ -32,6 +41,7 @@ os.environ.setdefault('NUMBA_DISABLE_INTEL_SVML', '1')
 
 import numba  # noqa: E402
 from numba.core import caching  # noqa: E402
+from numba.core.registry import cpu_target  # noqa: E402
 
 PACKAGE = Path(__file__).resolve().parent.parent
 # The layers whose modules hold kernels: the text of every module in them is the cache's stamp.
@@ -40,22 +50,79 @@ KERNEL_LAYERS = ('core', 'contact')
 _OPTIONS = dict(cache=True, fastmath=False, error_model='python', nogil=True)
 
 
+# Every kernel made here, by id(): its Python function by the compiled one and the other way
+# round (by id, so that no module global's own __hash__ or __eq__ runs in a swap).
+_PY_FUNCS: dict = {}
+_KERNELS: dict = {}
+_tier = threading.Lock()
+_interpreted = False
+
+
+def _made(compiled):
+    py_func = getattr(compiled, 'py_func', None)
+    if py_func is not None:  # (None with NUMBA_DISABLE_JIT=1: the function itself)
+        _PY_FUNCS[id(compiled)] = (compiled, py_func)
+        _KERNELS[id(py_func)] = (py_func, compiled)
+    return compiled
+
+
 def kernel(function):
     """Compile ``function`` (serial)."""
-    return numba.njit(**_OPTIONS)(function)
+    return _made(numba.njit(**_OPTIONS)(function))
 
 
 def inline_kernel(function):
     """Compile ``function`` into each kernel that calls it (numba's inline='always'): for the
     stages of a step that take the world's arrays as one named tuple, which a call would
     otherwise pass member by member, with a reference count for each."""
-    return numba.njit(inline='always', **_OPTIONS)(function)
+    return _made(numba.njit(inline='always', **_OPTIONS)(function))
 
 
 def parallel_kernel(function):
     """Compile ``function`` with ``numba.prange`` loops run on every core: only for loops over
     independent bodies, never across a sweep whose order matters."""
-    return numba.njit(parallel=True, **_OPTIONS)(function)
+    return _made(numba.njit(parallel=True, **_OPTIONS)(function))
+
+
+def compiling() -> bool:
+    """Whether kernels are compiled in this process (not NUMBA_DISABLE_JIT=1)."""
+    return not numba.config.DISABLE_JIT
+
+
+def interpreted() -> bool:
+    """Whether this process's kernels run in the interpreter now (``run_interpreted``)."""
+    return _interpreted or not compiling()
+
+
+def run_interpreted() -> None:
+    """From now on every kernel runs in the interpreter, with the bits of the compiled one,
+    until ``run_compiled``: no call compiles meanwhile. Only for a process that imported every
+    module of the package it will use (the layers import nothing deferred)."""
+    global _interpreted
+    with _tier:
+        _swap(_PY_FUNCS)
+        _interpreted = True
+
+
+def run_compiled() -> None:
+    """Back to the compiled kernels (the next call of each loads or compiles it)."""
+    global _interpreted
+    with _tier:
+        _swap(_KERNELS)
+        _interpreted = False
+
+
+def _swap(by: dict) -> None:
+    """Rebind every global of the package's modules found in ``by`` to what it maps to (a
+    module imported while interpreted, too)."""
+    for name, module in list(sys.modules.items()):
+        if module is None or not (name == 'rb_sim_ros' or name.startswith('rb_sim_ros.')):
+            continue
+        space = vars(module)
+        for key, value in list(space.items()):
+            pair = by.get(id(value))
+            if pair is not None and pair[0] is value:
+                space[key] = pair[1]
 
 
 prange = numba.prange
@@ -88,6 +155,45 @@ def cache_directories() -> list[Path]:
     return [PACKAGE / '__pycache__' / 'numba', user / 'rb_sim_ros' / 'numba']
 
 
+def cache_directory() -> Path | None:
+    """The first writable of ``cache_directories`` (created), where the kernels are cached;
+    None if none is."""
+    for path in cache_directories():
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+            tempfile.TemporaryFile(dir=path).close()
+        except OSError:
+            continue
+        return path
+    return None
+
+
+def _marker() -> Path | None:
+    """The file ``precompile`` leaves once every kernel is in the cache: named after what
+    keys numba's cache (this source, numba's version, this machine's CPU)."""
+    where = cache_directory()
+    if where is None:
+        return None
+    # (numba's target context: its magic tuple is the triple, CPU name and features)
+    machine = repr(cpu_target.target_context.codegen().magic_tuple())
+    key = hashlib.sha256(f'{source_stamp()} {numba.__version__} {machine}'.encode())
+    return where / f'precompiled-{key.hexdigest()[:20]}'
+
+
+def precompiled() -> bool:
+    """Whether ``mark_precompiled`` ran for these sources, this numba and this machine, in the
+    cache this process uses: its kernels load rather than compile."""
+    marker = _marker()
+    return marker is not None and marker.is_file()
+
+
+def mark_precompiled() -> None:
+    """Say that every kernel is in the cache (``precompile``, once they all are)."""
+    marker = _marker()
+    if marker is not None:
+        marker.write_text(f'numba {numba.__version__}\n')
+
+
 class _SourceHashLocator(caching._CacheLocator):
     """numba's cache locator for rb_sim_ros kernels (see the module's docstring)."""
 
@@ -112,14 +218,9 @@ class _SourceHashLocator(caching._CacheLocator):
     def from_function(cls, py_func, py_file):
         if not getattr(py_func, '__module__', '').startswith('rb_sim_ros.'):
             return None
-        for path in cache_directories():
-            try:
-                path.mkdir(parents=True, exist_ok=True)
-                tempfile.TemporaryFile(dir=path).close()
-            except OSError:
-                continue
-            return cls(py_func, path)
-        return None  # nowhere writable: numba's own locators decide (or compile every time)
+        path = cache_directory()
+        # None: nowhere writable, numba's own locators decide (or compile every time)
+        return None if path is None else cls(py_func, path)
 
 
 _locators = getattr(getattr(caching, 'CacheImpl', None), '_locator_classes', None)

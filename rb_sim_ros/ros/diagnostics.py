@@ -9,6 +9,8 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
+from rb_sim_ros.core import jit
+
 
 class Diagnostics:
     """Counters kept by the node; published about once a wall second."""
@@ -21,6 +23,7 @@ class Diagnostics:
         self.error = ''            # why the physics stopped; reset or unpause clear it
         self.recording_error = ''  # why the recording stopped; stays
         self.contacts = None  # collision_world.StepStats of the last step, when bodies collide
+        self.compiling = ''  # which process compiles the kernels while they run interpreted
         self.ticks = 0
         self.late_ticks = 0
         self._lateness_ns: list[float] = []
@@ -68,6 +71,8 @@ class Diagnostics:
             'tick_lateness_p99_ms': pct(0.99),
             'dropped_periods_total': self.dropped_periods,
             'rejected_inputs_total': self.rejected,
+            'kernels': (f'interpreted: {self.compiling or "NUMBA_DISABLE_JIT=1"}'
+                        if jit.interpreted() else 'compiled'),
         }
         if self.contacts is not None:
             values['contacts'] = self.contacts.contacts

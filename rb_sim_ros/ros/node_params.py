@@ -241,6 +241,12 @@ PARAMS = (
     Param('start_paused', False, 'Start paused at step 0. While paused, inputs take effect '
           'as they arrive (at the step the next step call takes), so a script of inputs and '
           'step calls gives the same run every time.', True, _bool),
+    Param('compile_in_background', True, 'When the compiled kernels are not in the cache yet '
+          '(a first start from a source checkout; colcon build compiles them), step in the '
+          'interpreter, bit for bit as compiled but about 100x slower, while a child process '
+          'compiles them (a minute or two on 2 cores), then go on compiled: the first poses '
+          'come at once. '
+          'false: compile before the first step.', True, _bool),
     Param('publish_clock', True, 'Publish /clock (rosgraph_msgs/Clock, best-effort) with sim '
           'time.', True, _bool),
     Param('scene_file', '', 'A YAML scene (several bodies, gravity, damping; see '

@@ -56,7 +56,7 @@ except ImportError:  # then no simulation_interfaces services, said once at star
     class EntityStateInput:  # never made without them
         pass
 
-from rb_sim_ros.core import multistep
+from rb_sim_ros.core import jit, multistep
 from rb_sim_ros.core.rigid_body import ZERO_WRENCH
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.ros import node_params, ros_arguments, ros_messages
@@ -64,6 +64,7 @@ from rb_sim_ros.ros.body_ports import APPLIED_QOS, BodyPorts, OVERRIDABLE, Twist
 from rb_sim_ros.ros.collision_markers import CollisionMarkers
 from rb_sim_ros.ros.diagnostics import Diagnostics
 from rb_sim_ros.ros.ros_messages import TF, TF_STATIC
+from rb_sim_ros.sim import precompile
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Delete, Reset,
                                        SetTwist, SetWrench, Simulation, Spawn, warm_up_bodies,
@@ -117,7 +118,19 @@ class SimulatorNode(Node):
             node_params.check(name, value)
         self._scene = load_scene(values['scene_file']) if values['scene_file'] else None
         self.config = config_from(values, self._scene)
+        self.diagnostics = Diagnostics()
+        self._compiling = None
+        first = values['compile_in_background'] and jit.compiling() and not jit.precompiled()
+        if first:  # a first start: a child compiles while this process steps interpreted
+            jit.run_interpreted()
         self.sim = Simulation(self.config)
+        if first:
+            self._compiling = precompile.Background()
+            self.diagnostics.compiling = f'process {self._compiling.pid} compiles them'
+            self.get_logger().info(
+                'the kernels are not compiled yet: stepping in the interpreter (the same bits, '
+                f'slower) while process {self._compiling.pid} compiles them (a minute or two, '
+                'once)')
         self.sim.warm_up()  # compiles on a clean install: before the clock, not in a period
         self._v = values
         self._pending: collections.deque = collections.deque()
@@ -128,7 +141,6 @@ class SimulatorNode(Node):
         self._periods = 0
         self._paused = bool(values['start_paused'])
         self._timeout_steps = 0
-        self.diagnostics = Diagnostics()
         self.ports: dict[str, BodyPorts] = {}
         single = self._scene is None
         self._noise = node_params.imu_noise(values)
@@ -412,6 +424,8 @@ class SimulatorNode(Node):
                     self._fail(f'step loop error: {type(e).__name__}: {e}')
 
     def _loop_once(self) -> None:
+        if self._compiling is not None:
+            self._check_compiling()
         if self._paused:
             self._wake.wait(0.1)
             self._wake.clear()
@@ -432,6 +446,25 @@ class SimulatorNode(Node):
             with self._lock:
                 due = self._tick(now, now - due_at)
             self._periods_now(due, as_fast_as_possible=False)
+
+    def _check_compiling(self) -> None:
+        """Once the child compiling the kernels is done, go on with them (loaded from the
+        cache), between two periods: the run's bits do not change."""
+        why = self._compiling.poll()
+        if why is None:
+            return
+        child, self._compiling = self._compiling, None
+        with self._lock:
+            jit.run_compiled()
+            if why:
+                self.get_logger().warning(f'{why}; compiling in this process instead (the '
+                                          'step loop waits for it)')
+            self.sim.warm_up()
+            self.diagnostics.compiling = ''
+            self.get_logger().info(
+                f'kernels compiled ({time.monotonic() - child.started:.0f} s): stepping '
+                f'compiled from step {self.sim.step_count}')
+        child.stop()
 
     def _periods_now(self, count: int, as_fast_as_possible: bool) -> None:
         """Up to ``count`` periods, the lock taken for each (a service waits one at most);
@@ -636,6 +669,9 @@ class SimulatorNode(Node):
         recorder, self._recorder = self._recorder, None
         if recorder is not None:
             recorder.close()
+        child, self._compiling = getattr(self, '_compiling', None), None
+        if child is not None:
+            child.stop()
 
 
 def _timeout_steps(v: dict, config: Config) -> int:

@@ -8,15 +8,22 @@ A run of a scene without colliders needs the step kernel (``step_kernel.advance`
 colliders, or a spawn of the first one, needs the collision world's step
 (``world_step.world_steps``). Both are compiled here, for every integrator (one kernel serves
 them all), and cached where the package caches them (``core/jit.py``): a later start of the
-node, ``replay`` or ``sweep`` loads them instead of compiling. ``setup.py``'s install (what
-``colcon build`` runs) calls this for the tree it installed; set RB_SIM_ROS_PRECOMPILE=0 to
-skip it there. No ROS here.
+node, ``replay`` or ``sweep`` loads them instead of compiling, and a marker in the cache says
+they are all there (``jit.precompiled``). ``setup.py``'s install (what ``colcon build`` runs)
+calls this for the tree it installed; set RB_SIM_ROS_PRECOMPILE=0 to skip it there.
+
+A node that finds no marker (a first start from a source checkout or a wheel) runs this in a
+child process (``Background``) and steps in the interpreter meanwhile (``jit.run_interpreted``):
+its first poses come within seconds instead of after the compilation. No ROS here.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import subprocess
 import sys
+import tempfile
 import time
 
 from rb_sim_ros.core import jit
@@ -30,7 +37,48 @@ def precompile() -> float:
     config = Config()
     warm_up_bodies(config)
     warm_up_contacts(config)
+    jit.mark_precompiled()
     return time.perf_counter() - start
+
+
+class Background:
+    """``python -m rb_sim_ros.sim.precompile`` in a child process (same interpreter,
+    environment and cache), its output kept for a failure's message."""
+
+    def __init__(self) -> None:
+        self.started = time.monotonic()
+        self._out = tempfile.TemporaryFile()
+        # this very package first on its path, whatever the path of the parent was made of
+        path = os.pathsep.join([str(jit.PACKAGE.parent)] + (
+            [os.environ['PYTHONPATH']] if os.environ.get('PYTHONPATH') else []))
+        self._child = subprocess.Popen(
+            [sys.executable, '-m', 'rb_sim_ros.sim.precompile'], stdin=subprocess.DEVNULL,
+            stdout=self._out, stderr=subprocess.STDOUT, env=dict(os.environ, PYTHONPATH=path))
+        self.pid = self._child.pid
+
+    def poll(self) -> str | None:
+        """None while it runs; then '' if every kernel is in the cache, else why not (one
+        line)."""
+        code = self._child.poll()
+        if code is None:
+            return None
+        if code == 0 and jit.precompiled():
+            return ''
+        self._out.seek(0)
+        lines = [x for x in self._out.read().decode(errors='replace').splitlines() if x.strip()]
+        return (f'the compiling process exited with {code}' +
+                (f': {lines[-1].strip()}' if lines else ''))
+
+    def stop(self) -> None:
+        """End the child if it still runs (what it cached so far stays valid)."""
+        if self._child.poll() is None:
+            self._child.terminate()
+            try:
+                self._child.wait(5)
+            except subprocess.TimeoutExpired:
+                self._child.kill()
+                self._child.wait()
+        self._out.close()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,157 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The two tiers of one process (core/jit.py): kernels run in the interpreter for a while, then
+compiled again, and a run goes on with the bits of an all-compiled one; nothing compiles in
+the process meanwhile."""
+
+import ast
+from pathlib import Path
+import sys
+import time
+
+from kernel_fingerprint import _batch_reads, _digest, _sim_digest, mixed_inertias
+from numba.core import event
+import numpy as np
+import pytest
+
+from rb_sim_ros.contact.collision_shapes import Sphere
+from rb_sim_ros.core import jit, so3
+from rb_sim_ros.core.batch import BatchStepper
+from rb_sim_ros.core.rigid_body import Wrench
+from rb_sim_ros.sim import precompile
+from rb_sim_ros.sim.scene import load_scene
+from rb_sim_ros.sim.simulation import BodySpec, Config, Delete, SetWrench, Simulation, Spawn
+
+PACKAGE = Path(__file__).resolve().parents[1] / 'rb_sim_ros'
+DECORATORS = {'kernel', 'inline_kernel', 'parallel_kernel'}
+
+pytestmark = pytest.mark.skipif(not jit.compiling(), reason='NUMBA_DISABLE_JIT=1: one tier')
+
+
+@pytest.fixture(autouse=True)
+def compiled_after():
+    yield
+    jit.run_compiled()
+
+
+def _kernels_in_source() -> set:
+    """(module, function) of every function the sources decorate as a kernel (read with ast,
+    not from jit's own list)."""
+    out = set()
+    for path in PACKAGE.rglob('*.py'):
+        module = '.'.join(path.relative_to(PACKAGE.parent).with_suffix('').parts)
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef) and any(
+                    isinstance(d, ast.Name) and d.id in DECORATORS for d in node.decorator_list):
+                out.add((module, node.name))
+    return out
+
+
+def _kernel_globals() -> tuple[set, set]:
+    """The package's module globals naming a kernel, as (module, name): (compiled,
+    interpreted)."""
+    kernels = _kernels_in_source()
+    compiled, interpreted = set(), set()
+    for name, module in list(sys.modules.items()):
+        if module is None or not name.startswith('rb_sim_ros'):
+            continue
+        for key, value in vars(module).items():
+            function = getattr(value, 'py_func', value)
+            if (getattr(function, '__module__', None),
+                    getattr(function, '__name__', None)) in kernels:
+                (compiled if function is not value else interpreted).add((name, key))
+    return compiled, interpreted
+
+
+def test_a_tier_rebinds_every_global_naming_a_kernel():
+    compiled, interpreted = _kernel_globals()
+    assert not interpreted and len(compiled) > 50  # kernels made at import are compiled
+    assert ('rb_sim_ros.contact.world_step', 'world_steps') in compiled
+    assert ('rb_sim_ros.core.step_kernel', 'advance') in compiled
+    jit.run_interpreted()
+    assert jit.interpreted()
+    assert _kernel_globals() == (set(), compiled)
+    jit.run_compiled()
+    assert not jit.interpreted()
+    assert _kernel_globals() == (compiled, set())
+
+
+def _demo(segments) -> str:
+    """The collision demo in segments of (interpreted?, steps), with a wrench on the crate
+    after the first, a spawned ball after the second and its delete after the third; no
+    compile while interpreted."""
+    gravity, bodies, contact = load_scene(str(PACKAGE.parent / 'scenes' / 'collisions.yaml'))[:3]
+    sim = Simulation(Config(gravity=gravity, bodies=tuple(bodies), contact=contact))
+    events = [SetWrench(Wrench(force=(3.0, 0.0, 0.0), torque=(0.0, 0.0, 0.5)), 'crate'),
+              Spawn(BodySpec('extra', 0.5, (0.002,) * 3, initial_position=(0.0, 0.0, 0.8),
+                             colliders=(Sphere(0.1),))),
+              Delete('extra')]
+    for k, (interpreted, steps) in enumerate(segments):
+        (jit.run_interpreted if interpreted else jit.run_compiled)()
+        with event.install_recorder('numba:compile') as compiles:
+            if k and k <= len(events):
+                sim.apply(events[k - 1])
+            sim.run(steps)
+        assert not (interpreted and compiles.buffer)
+    jit.run_compiled()
+    return _sim_digest(sim, [b.name for b in bodies])
+
+
+def test_the_collision_demo_keeps_its_bits_across_tiers():
+    """Interpreted, compiled, interpreted (a spawn too), compiled: the states of an
+    all-compiled run, to the bit."""
+    tiers = [(True, 40), (False, 200), (True, 30), (True, 20), (False, 300)]
+    assert _demo(tiers) == _demo([(False, n) for _, n in tiers])
+
+
+def _batch(tiers) -> str:
+    """40 bodies (a block of lanes and a rest), a wrench change half way."""
+    rng = np.random.default_rng(8)
+    n = 40
+    b = BatchStepper(rng.uniform(0.5, 3.0, n), np.array(mixed_inertias(rng, n, 4)), 1e-3,
+                     rng.normal(size=(n, 3)), [so3.exp(rng.normal(size=3)) for _ in range(n)],
+                     rng.normal(size=(n, 3)), rng.normal(size=(n, 3)) * 3.0,
+                     gravity=(0.0, 0.0, -9.81), angular_damping=0.1)
+    torques = rng.normal(size=(len(tiers), n, 3))
+    for k, interpreted in enumerate(tiers):
+        (jit.run_interpreted if interpreted else jit.run_compiled)()
+        with event.install_recorder('numba:compile') as compiles:
+            b.set_wrench(None, torque=torques[k], frame='body')
+            b.step(12)
+        assert not (interpreted and compiles.buffer)
+    jit.run_compiled()
+    return _digest(*_batch_reads(b))
+
+
+def test_batch_lanes_keep_their_bits_across_tiers():
+    assert _batch([True, False, True, False]) == _batch([False] * 4)
+
+
+def test_the_precompiled_marker_names_these_sources(monkeypatch, tmp_path):
+    """precompile's marker is per cache, source text and numba: another cache or a changed
+    source is not precompiled."""
+    monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path / 'a'))
+    assert not jit.precompiled()
+    jit.mark_precompiled()
+    assert jit.precompiled()
+    monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path / 'b'))
+    assert not jit.precompiled()
+    monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path / 'a'))
+    monkeypatch.setattr(jit, 'source_stamp', lambda: 'an edited source')
+    assert not jit.precompiled()
+
+
+def test_a_failed_background_compile_says_why_in_one_line(monkeypatch):
+    """The node's fallback: a child that fails (here: an interpreter that exits 1 at once) is
+    reported, not taken for a compiled cache."""
+    monkeypatch.setattr(precompile.sys, 'executable', '/bin/false')
+    child = precompile.Background()
+    try:
+        for _ in range(6000):
+            why = child.poll()
+            if why is not None:
+                break
+            time.sleep(0.01)
+        assert why == 'the compiling process exited with 1'
+    finally:
+        child.stop()
