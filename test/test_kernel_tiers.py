@@ -7,7 +7,6 @@ the process meanwhile."""
 import ast
 from pathlib import Path
 import sys
-import time
 
 from kernel_fingerprint import _batch_reads, _digest, _sim_digest, mixed_inertias
 from numba.core import event
@@ -137,21 +136,31 @@ def test_the_precompiled_marker_names_these_sources(monkeypatch, tmp_path):
     monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path / 'b'))
     assert not jit.precompiled()
     monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path / 'a'))
-    monkeypatch.setattr(jit, 'source_stamp', lambda: 'an edited source')
+    jit.process_stamp()
+    monkeypatch.setattr(jit, '_stamp', 'an edited source')
     assert not jit.precompiled()
 
 
-def test_a_failed_background_compile_says_why_in_one_line(monkeypatch):
-    """The node's fallback: a child that fails (here: an interpreter that exits 1 at once) is
-    reported, not taken for a compiled cache."""
+def test_a_background_compile_is_done_only_with_the_marker(monkeypatch, tmp_path):
+    """The node's child: done when it exits 0 and the cache is marked; else one line why
+    (here the child is /bin/false or /bin/true, which compile nothing)."""
+    monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path))
     monkeypatch.setattr(precompile.sys, 'executable', '/bin/false')
     child = precompile.Background()
-    try:
-        for _ in range(6000):
-            why = child.poll()
-            if why is not None:
-                break
-            time.sleep(0.01)
-        assert why == 'the compiling process exited with 1'
-    finally:
-        child.stop()
+    assert child.wait() == 'the compiling process exited with 1'
+    child.stop()
+    monkeypatch.setattr(precompile.sys, 'executable', '/bin/true')
+    child = precompile.Background()
+    assert child.wait() == f'the compiling process left no marker in {tmp_path}/rb_sim_ros'
+    child.stop()
+    jit.mark_precompiled()
+    child = precompile.Background()
+    assert child.wait() == ''
+    child.stop()
+
+
+def test_precompile_refuses_a_parent_that_is_not_its_own(capsys):
+    with pytest.raises(SystemExit) as e:
+        precompile.main(['--parent', '1'])
+    assert e.value.code == 2
+    assert '--parent: process 1 is not the parent of this one' in capsys.readouterr().err

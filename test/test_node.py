@@ -365,6 +365,8 @@ def test_diagnostics_report_cost_ticks_and_rejections(start_sim, probe):
     assert steps > 0 and steps % (PERIOD_NS // DT_NS) == 0
     assert 0 < int(kv['ticks']) and int(kv['late_ticks_total']) <= int(kv['ticks'])
     assert float(kv['real_time_factor_requested']) == 1.0
+    # The install's kernels are compiled and marked (setup.py): no interpreted first start.
+    assert all(_diagnostic_values(d)['kernels'] == 'compiled' for d in diags)
 
 
 STALL_S = 0.5

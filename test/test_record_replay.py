@@ -459,6 +459,7 @@ def test_a_first_start_steps_while_compiling_and_records_the_compiled_bits(
     assert sim.stop() == 0
     log = sim.output()
     assert 'stepping in the interpreter' in log and 'stepping compiled from step' in log, log
+    assert 'compiling in this process instead' not in log, log  # the child compiled them
     result = _replay(installed, env, '--verify', str(f))
     assert result.returncode == 0, result.stdout + result.stderr
     assert 'identical: every output message re-simulated bit for bit' in result.stdout

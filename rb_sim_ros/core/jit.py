@@ -59,11 +59,15 @@ _interpreted = False
 
 
 def _made(compiled):
+    """Register a new kernel; in a module imported while interpreted, its Python function (which
+    ``run_compiled`` rebinds as it does the others)."""
     py_func = getattr(compiled, 'py_func', None)
-    if py_func is not None:  # (None with NUMBA_DISABLE_JIT=1: the function itself)
+    if py_func is None:  # NUMBA_DISABLE_JIT=1: the function itself
+        return compiled
+    with _tier:
         _PY_FUNCS[id(compiled)] = (compiled, py_func)
         _KERNELS[id(py_func)] = (py_func, compiled)
-    return compiled
+        return py_func if _interpreted else compiled
 
 
 def kernel(function):
@@ -146,6 +150,18 @@ def source_stamp() -> str:
     return digest.hexdigest()[:20]
 
 
+_stamp: str | None = None
+
+
+def process_stamp() -> str:
+    """``source_stamp`` as this process first read it: what numba's cache keys this process's
+    kernels on (an edit while it runs is the next process's)."""
+    global _stamp
+    if _stamp is None:
+        _stamp = source_stamp()
+    return _stamp
+
+
 def cache_directories() -> list[Path]:
     """Where the cache may live, in order of preference: ``$NUMBA_CACHE_DIR/rb_sim_ros`` when
     that is set (numba's own variable), else the package's, else the user's cache."""
@@ -170,13 +186,14 @@ def cache_directory() -> Path | None:
 
 def _marker() -> Path | None:
     """The file ``precompile`` leaves once every kernel is in the cache: named after what
-    keys numba's cache (this source, numba's version, this machine's CPU)."""
+    keys numba's cache (this source, numba's and Python's versions, this machine's CPU)."""
     where = cache_directory()
     if where is None:
         return None
     # (numba's target context: its magic tuple is the triple, CPU name and features)
     machine = repr(cpu_target.target_context.codegen().magic_tuple())
-    key = hashlib.sha256(f'{source_stamp()} {numba.__version__} {machine}'.encode())
+    key = hashlib.sha256(f'{process_stamp()} {numba.__version__} {sys.implementation.cache_tag} '
+                         f'{machine}'.encode())
     return where / f'precompiled-{key.hexdigest()[:20]}'
 
 
@@ -197,8 +214,6 @@ def mark_precompiled() -> None:
 class _SourceHashLocator(caching._CacheLocator):
     """numba's cache locator for rb_sim_ros kernels (see the module's docstring)."""
 
-    _stamp = None
-
     def __init__(self, py_func, path: Path) -> None:
         self._lineno = py_func.__code__.co_firstlineno
         self._path = path
@@ -207,9 +222,7 @@ class _SourceHashLocator(caching._CacheLocator):
         return str(self._path)
 
     def get_source_stamp(self):
-        if _SourceHashLocator._stamp is None:
-            _SourceHashLocator._stamp = source_stamp()
-        return _SourceHashLocator._stamp
+        return process_stamp()
 
     def get_disambiguator(self) -> str:
         return str(self._lineno)

@@ -24,6 +24,7 @@ class Diagnostics:
         self.recording_error = ''  # why the recording stopped; stays
         self.contacts = None  # collision_world.StepStats of the last step, when bodies collide
         self.compiling = ''  # which process compiles the kernels while they run interpreted
+        self._dropped_interpreted = 0  # periods dropped until then (expected: not a warning)
         self.ticks = 0
         self.late_ticks = 0
         self._lateness_ns: list[float] = []
@@ -48,6 +49,11 @@ class Diagnostics:
         self._steps += steps
         self._step_ns += cost_ns
         self._sim_ns = sim_ns
+
+    def compiled(self) -> None:
+        """The kernels run compiled from now on (they ran interpreted while compiling)."""
+        self.compiling = ''
+        self._dropped_interpreted = self.dropped_periods
 
     def maybe_publish(self, node, real_time_factor: float) -> None:
         now = time.monotonic_ns()
@@ -82,7 +88,10 @@ class Diagnostics:
         error = '; '.join(e for e in (self.error, self.recording_error) if e)
         if error:
             status.level, status.message = DiagnosticStatus.ERROR, error
-        elif self.dropped_periods:
+        elif self.compiling:
+            status.level = DiagnosticStatus.OK
+            status.message = 'running in the interpreter while the kernels compile'
+        elif self.dropped_periods > self._dropped_interpreted:
             status.level, status.message = DiagnosticStatus.WARN, 'falling behind real time'
         else:
             status.level, status.message = DiagnosticStatus.OK, 'running'

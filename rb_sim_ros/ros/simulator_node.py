@@ -120,8 +120,11 @@ class SimulatorNode(Node):
         self.config = config_from(values, self._scene)
         self.diagnostics = Diagnostics()
         self._compiling = None
-        first = values['compile_in_background'] and jit.compiling() and not jit.precompiled()
-        if first:  # a first start: a child compiles while this process steps interpreted
+        # A first start (the kernels not in a writable cache yet): a child compiles them
+        # while this process steps in the interpreter.
+        first = (values['compile_in_background'] and jit.compiling() and
+                 jit.cache_directory() is not None and not jit.precompiled())
+        if first:
             jit.run_interpreted()
         self.sim = Simulation(self.config)
         if first:
@@ -131,7 +134,9 @@ class SimulatorNode(Node):
                 'the kernels are not compiled yet: stepping in the interpreter (the same bits, '
                 f'slower) while process {self._compiling.pid} compiles them (a minute or two, '
                 'once)')
-        self.sim.warm_up()  # compiles on a clean install: before the clock, not in a period
+        # Compiles (or loads) the kernels: before the clock, not in a period. Interpreted:
+        # nothing to do.
+        self.sim.warm_up()
         self._v = values
         self._pending: collections.deque = collections.deque()
         self._lock = threading.Lock()  # the step loop against service and parameter callbacks
@@ -451,20 +456,23 @@ class SimulatorNode(Node):
         """Once the child compiling the kernels is done, go on with them (loaded from the
         cache), between two periods: the run's bits do not change."""
         why = self._compiling.poll()
-        if why is None:
+        if why is None or self._stop.is_set():
             return
         child, self._compiling = self._compiling, None
-        with self._lock:
-            jit.run_compiled()
-            if why:
-                self.get_logger().warning(f'{why}; compiling in this process instead (the '
-                                          'step loop waits for it)')
-            self.sim.warm_up()
-            self.diagnostics.compiling = ''
-            self.get_logger().info(
-                f'kernels compiled ({time.monotonic() - child.started:.0f} s): stepping '
-                f'compiled from step {self.sim.step_count}')
-        child.stop()
+        try:
+            with self._lock:
+                jit.run_compiled()
+                if why:
+                    self.get_logger().warning(f'{why}; compiling in this process instead (the '
+                                              'step loop waits for it)')
+                self.sim.warm_up()
+                self.diagnostics.compiled()
+                self._anchor()  # real time goes on from here: no catching up the wait
+                self.get_logger().info(
+                    f'kernels compiled ({time.monotonic() - child.started:.0f} s): stepping '
+                    f'compiled from step {self.sim.step_count}')
+        finally:
+            child.stop()
 
     def _periods_now(self, count: int, as_fast_as_possible: bool) -> None:
         """Up to ``count`` periods, the lock taken for each (a service waits one at most);
@@ -659,6 +667,9 @@ class SimulatorNode(Node):
         """Stop and join the step loop, then finish the recording (idempotent; safe on a
         node that did not finish starting)."""
         self._stop.set()
+        child, self._compiling = getattr(self, '_compiling', None), None
+        if child is not None:  # first: the step loop may be about to switch to it
+            child.stop()
         wake = getattr(self, '_wake', None)
         if wake is not None:
             wake.set()
@@ -669,9 +680,6 @@ class SimulatorNode(Node):
         recorder, self._recorder = self._recorder, None
         if recorder is not None:
             recorder.close()
-        child, self._compiling = getattr(self, '_compiling', None), None
-        if child is not None:
-            child.stop()
 
 
 def _timeout_steps(v: dict, config: Config) -> int:

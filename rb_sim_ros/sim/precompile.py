@@ -24,6 +24,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 from rb_sim_ros.core import jit
@@ -48,12 +49,15 @@ class Background:
     def __init__(self) -> None:
         self.started = time.monotonic()
         self._out = tempfile.TemporaryFile()
-        # this very package first on its path, whatever the path of the parent was made of
-        path = os.pathsep.join([str(jit.PACKAGE.parent)] + (
-            [os.environ['PYTHONPATH']] if os.environ.get('PYTHONPATH') else []))
+        # This very package: run from the directory holding it (python -m puts the working
+        # directory first on the path), and first on PYTHONPATH too.
+        here = str(jit.PACKAGE.parent)
+        path = os.pathsep.join([here] + ([os.environ['PYTHONPATH']]
+                                         if os.environ.get('PYTHONPATH') else []))
         self._child = subprocess.Popen(
-            [sys.executable, '-m', 'rb_sim_ros.sim.precompile'], stdin=subprocess.DEVNULL,
-            stdout=self._out, stderr=subprocess.STDOUT, env=dict(os.environ, PYTHONPATH=path))
+            [sys.executable, '-m', 'rb_sim_ros.sim.precompile', '--parent', str(os.getpid())],
+            cwd=here, stdin=subprocess.DEVNULL, stdout=self._out, stderr=subprocess.STDOUT,
+            env=dict(os.environ, PYTHONPATH=path))
         self.pid = self._child.pid
 
     def poll(self) -> str | None:
@@ -64,10 +68,17 @@ class Background:
             return None
         if code == 0 and jit.precompiled():
             return ''
+        if code == 0:
+            return f'the compiling process left no marker in {jit.cache_directory()}'
         self._out.seek(0)
         lines = [x for x in self._out.read().decode(errors='replace').splitlines() if x.strip()]
         return (f'the compiling process exited with {code}' +
                 (f': {lines[-1].strip()}' if lines else ''))
+
+    def wait(self) -> str:
+        """Wait for the child: ``poll``'s answer."""
+        self._child.wait()
+        return self.poll()
 
     def stop(self) -> None:
         """End the child if it still runs (what it cached so far stays valid)."""
@@ -81,12 +92,27 @@ class Background:
         self._out.close()
 
 
+def _exit_with(parent: int) -> None:
+    """End this process when ``parent`` is no longer its parent (killed, say): a node's
+    compiling child does not outlive it. What it cached so far stays valid."""
+    while os.getppid() == parent:
+        time.sleep(1.0)
+    os._exit(1)
+
+
 def main(argv: list[str] | None = None) -> int:
-    argparse.ArgumentParser(
+    parser = argparse.ArgumentParser(
         prog='python -m rb_sim_ros.sim.precompile',
         description="Compile the simulator's kernels into the compilation cache, so that "
-                    'the first start of a node loads them instead of compiling them.'
-    ).parse_args(sys.argv[1:] if argv is None else argv)
+                    'the first start of a node loads them instead of compiling them.')
+    parser.add_argument('--parent', type=int, default=0, metavar='PID',
+                        help='exit when the process PID is gone (a node compiling in the '
+                             'background)')
+    args = parser.parse_args(sys.argv[1:] if argv is None else argv)
+    if args.parent and args.parent != os.getppid():
+        parser.error(f'--parent: process {args.parent} is not the parent of this one')
+    if args.parent:
+        threading.Thread(target=_exit_with, args=(args.parent,), daemon=True).start()
     where = jit.cache_directories()
     seconds = precompile()
     print(f'rb_sim_ros: kernels compiled or loaded in {seconds:.1f} s (cache: the first '
