@@ -11,9 +11,10 @@ receives, and the node's peak memory (VmHWM). First, the collision demo's start 
 compilation cache, twice: with compile_in_background:=false (every kernel compiles before the
 first step), and as by default (the node steps in the interpreter while a child process
 compiles: the first poses of a step, the time until compiled, the interpreted speed); then with
-the cache that wrote (every later start: the median of 3); then the package installed as colcon
-build installs it (setup.py install, which compiles the kernels into the installed tree: its
-time) and the first start from there. Stop: `--runs` times, a node at real_time_factor 0
+the cache that wrote (every later start), then the package installed as colcon build installs
+it (setup.py install, which compiles the kernels into the installed tree: its time) and starts
+from there: each the median of 3, with the time the node's log says it is stepping (what a
+subscriber waits beyond that is DDS discovery). Stop: `--runs` times, a node at real_time_factor 0
 recording, `send_wrench` run against it, then SIGINT or SIGTERM (alternating); each must exit 0
 without a traceback or FATAL, within 2 s of the signal, and its recording must pass `replay
 --verify`. Prints the figures and writes them to docs/bench/node_lifecycle.json (a full run);
@@ -28,10 +29,12 @@ import argparse
 import os
 from pathlib import Path
 import random
+import re
 import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -75,9 +78,15 @@ def install(prefix: Path) -> float:
     return time.monotonic() - t0
 
 
+# The node's log line at the end of its start (ROS's default console format: wall time).
+READY = re.compile(r'\[INFO\] \[(\d+\.\d+)\] \[rb_sim\]: simulating')
+
+
 def startup(n: int, tmp: Path, scene: Path | None = None, cache: Path | None = None,
-            installed: Path | None = None) -> tuple[float, float]:
-    """Seconds to the first poses and peak memory (MB) of a node on ``n`` free bodies, or on
+            installed: Path | None = None) -> tuple[float, float, float]:
+    """Seconds to the first poses at a subscriber, peak memory (MB), and seconds to the end of
+    the node's start (its log says so; it steps from there, and a subscriber's wait beyond it
+    is DDS discovery) of a node on ``n`` free bodies, or on
     ``scene`` (n: its body count); ``cache``: the kernels' compilation cache to use, or
     ``installed``: the prefix of an install (``install``) to run the node from, with its own
     cache; with either, the poses waited for are the first of a step taken (sim time > 0: the
@@ -91,7 +100,7 @@ def startup(n: int, tmp: Path, scene: Path | None = None, cache: Path | None = N
     probe = Probe(domain)
     got: list = []
     probe.node.create_subscription(PoseArray, 'poses', got.append, 10)
-    t0 = time.monotonic()
+    t0, wall0 = time.monotonic(), time.time()
     env = _env(domain)
     if cache:
         env['NUMBA_CACHE_DIR'] = str(cache)
@@ -101,7 +110,13 @@ def startup(n: int, tmp: Path, scene: Path | None = None, cache: Path | None = N
             [str(installed / SITE)] + [p for p in [env.get('PYTHONPATH')] if p])
     proc = subprocess.Popen([sys.executable, '-m', 'rb_sim_ros.ros.simulator_node', '--ros-args',
                              '-p', f'scene_file:={scene}'], env=env, cwd=tmp,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    log: list = []
+    reader = threading.Thread(target=lambda: log.extend(proc.stderr), daemon=True)
+    reader.start()
+
+    def ready():
+        return next((m for m in map(READY.search, list(log)) if m), None)
     try:
         def stepped(m):
             return (cache is None and installed is None) or m.header.stamp.sec > 0 \
@@ -112,11 +127,24 @@ def startup(n: int, tmp: Path, scene: Path | None = None, cache: Path | None = N
         seconds = time.monotonic() - t0
         memory = _vm_hwm_mb(proc.pid)
         assert len(got[0].poses) == n
+        # (its log line may come after the first poses: the step loop starts just before it)
+        probe.spin_until(lambda: ready() or proc.poll() is not None, 60.0)
     finally:
         proc.send_signal(signal.SIGINT)
         proc.wait(60)
+        reader.join(10)
         probe.close()
-    return seconds, memory
+    line = ready()
+    if line is None:
+        raise RuntimeError(f'{n} bodies: the node never said it was simulating')
+    return seconds, memory, float(line.group(1)) - wall0
+
+
+def _median_of_3(*args, **kwargs) -> dict:
+    """``startup`` three times: the medians and every run."""
+    runs = [startup(*args, **kwargs) for _ in range(3)]
+    poses, ready = sorted(r[0] for r in runs), sorted(r[2] for r in runs)
+    return {'first_poses_s': poses[1], 'ready_s': ready[1], 'runs': runs}
 
 
 EARLY_S = 5.0
@@ -251,27 +279,29 @@ def main() -> int:
                   f'{tiers["interpreted_early_sim_over_wall"]:.2f}x real time in its first '
                   f'{EARLY_S:.0f} s ({tiers["interpreted_sim_over_wall"]:.2f}x until compiled); '
                   f'compiled after {tiers["compiled_s"]:.1f} s', flush=True)
-            warm = sorted(startup(8, tmp, demo, tmp / 'numba-cache')[0] for _ in range(3))
-            compiling['warm'], compiling['warm_all'] = warm[1], warm
-            print(f'start-up, collision demo, the cache that start wrote: first poses of a '
-                  f'step after {warm[1]:.1f} s (median of 3: '
-                  f'{", ".join(f"{w:.1f}" for w in warm)})', flush=True)
+            warm = _median_of_3(8, tmp, demo, tmp / 'numba-cache')
+            compiling['warm'], compiling['warm_runs'] = warm['first_poses_s'], warm
+            print(f'start-up, collision demo, the cache that start wrote (median of 3): first '
+                  f'poses of a step at a subscriber after {warm["first_poses_s"]:.1f} s; the node '
+                  f'stepping after {warm["ready_s"]:.1f} s', flush=True)
         # A colcon-style install compiles the kernels into its tree: the install's time, and
         # the first start of the node from it.
         if not args.quick:
             install_s = install(tmp / 'install')
             print(f'install as colcon build does (kernels compiled): {install_s:.1f} s',
                   flush=True)
-            compiling['installed'], _ = startup(8, tmp, demo, installed=tmp / 'install')
+            after = _median_of_3(8, tmp, demo, installed=tmp / 'install')
+            compiling['installed'], compiling['installed_runs'] = after['first_poses_s'], after
             compiling['install_s'] = install_s
-            print(f'start-up, collision demo, first start after that install: first poses after '
-                  f'{compiling["installed"]:.1f} s', flush=True)
+            print(f'start-up, collision demo, starts after that install (median of 3): first '
+                  f'poses of a step at a subscriber after {after["first_poses_s"]:.1f} s; the '
+                  f'node stepping after {after["ready_s"]:.1f} s', flush=True)
         # The cache the other starts and the stops use (the source tree's): compiled now
         # (what a first start from it does in the background), so that they load it.
         subprocess.run([sys.executable, '-m', 'rb_sim_ros.sim.precompile'], check=True,
                        stdout=subprocess.DEVNULL)
         for n in args.bodies:
-            seconds, memory = startup(n, tmp)
+            seconds, memory, _ = startup(n, tmp)
             starts.append({'bodies': n, 'first_poses_s': seconds, 'peak_memory_mb': memory})
             print(f'start-up, {n} bodies: first poses after {seconds:.2f} s, peak memory '
                   f'{memory:.0f} MB', flush=True)
