@@ -312,10 +312,16 @@ def test_a_collision_recording_replays_bit_for_bit(start_sim, probe, installed, 
                      '  - {name: wall, static: true, position: [1.6, 0, 0.5], '
                      'colliders: [{type: box, size: [0.1, 2, 1]}]}\n')
     f = tmp_path / 'run.mcap'
-    sim = start_sim('-p', f'scene_file:={scene}', '-p', f'record:={f}')
+    # Paused until the probe is on the graph: the bounces are over in about a second, which
+    # DDS discovery between two new processes can take.
+    sim = start_sim('-p', f'scene_file:={scene}', '-p', f'record:={f}',
+                    '-p', 'start_paused:=true')
     ball = probe.collect(PoseStamped, 'ball/pose')
     crate = probe.collect(PoseStamped, 'crate/pose')
     applied = probe.collect(WrenchStamped, 'crate/applied_wrench', APPLIED_QOS)
+    probe.wait_for(lambda: probe.node.count_publishers('/ball/pose') >= 1
+                   and probe.node.count_publishers('/crate/pose') >= 1, what='the node')
+    assert probe.call(SetBool, 'pause', SetBool.Request(data=False)).success
 
     def bounced():
         z = [p.pose.position.z for p in ball]
