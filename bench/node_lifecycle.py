@@ -155,8 +155,7 @@ def first_start(tmp: Path, scene: Path, cache: Path, background: bool) -> dict:
     ``background`` (compile_in_background): the seconds to the first poses of a step taken
     (sim time > 0), stepped in the interpreter, and to the kernels compiled (its /diagnostics
     says so), and the sim time over wall time in between (and in the first EARLY_S s of
-    it); without, the seconds to the first
-    poses of a step (compiled before it)."""
+    it); without, the seconds to the first poses of a step (compiled before it)."""
     domain = random.randint(1, 100)
     probe = Probe(domain)
     arrivals: list = []
@@ -170,7 +169,8 @@ def first_start(tmp: Path, scene: Path, cache: Path, background: bool) -> dict:
     proc = subprocess.Popen([sys.executable, '-m', 'rb_sim_ros.ros.simulator_node', '--ros-args',
                              '-p', f'scene_file:={scene}',
                              '-p', f'compile_in_background:={str(background).lower()}'],
-                            env=env, cwd=tmp, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+                            env=env, cwd=tmp, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
 
     def moving():
         return [a for a in arrivals if a[0] == 'pose' and a[2] > 0]
