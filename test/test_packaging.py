@@ -10,6 +10,7 @@ import os
 from pathlib import Path
 import subprocess
 import sys
+import types
 
 from geometry_msgs.msg import PoseStamped
 import pytest
@@ -153,3 +154,52 @@ def test_a_module_needing_a_missing_pypi_package_is_skipped_with_why_and_fails_i
     else:
         assert result.returncode == 0, result.stdout + result.stderr
         assert 'SKIPPED' in result.stdout and 'needs no_such_package_xyz' in result.stdout
+
+
+def _fake_launch_modules() -> dict:
+    """Stand-ins for launch and launch_ros (not on PyPI) that keep what the file builds."""
+    class Recorded:
+        def __init__(self, *args, **kwargs):
+            self.args, self.kwargs = args, kwargs
+
+    class LaunchConfiguration(Recorded):
+        def perform(self, context):
+            return context.launch_configurations[self.args[0]]
+
+    names = {'launch': {'LaunchDescription': Recorded},
+             'launch.actions': {'DeclareLaunchArgument': Recorded, 'OpaqueFunction': Recorded},
+             'launch.conditions': {'IfCondition': Recorded},
+             'launch.substitutions': {'LaunchConfiguration': LaunchConfiguration},
+             'launch_ros': {}, 'launch_ros.actions': {'Node': Recorded},
+             'ament_index_python': {},
+             'ament_index_python.packages': {'get_package_share_directory': lambda p: '/share'}}
+    modules = {}
+    for name, attrs in names.items():
+        modules[name] = types.ModuleType(name)
+        for k, v in attrs.items():
+            setattr(modules[name], k, v)
+    return modules
+
+
+@pytest.mark.parametrize('given', [{}, {'scene_file': 's.yaml'}, {'record': 'r.mcap'},
+                                   {'scene_file': 's.yaml', 'record': 'r.mcap'}])
+def test_the_launch_file_passes_scene_file_and_record_only_when_given(monkeypatch, given):
+    for name, module in _fake_launch_modules().items():
+        monkeypatch.setitem(sys.modules, name, module)
+    spec = importlib.util.spec_from_file_location('sim_launch_fake',
+                                                  ROOT / 'launch' / 'sim.launch.py')
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    description = module.generate_launch_description()
+    opaque = [e for e in description.args[0] if 'function' in e.kwargs]
+    assert len(opaque) == 1
+    context = types.SimpleNamespace(launch_configurations={
+        'params_file': 'p.yaml', 'rviz': 'false', 'scene_file': '', 'record': '', **given})
+    (node,) = opaque[0].kwargs['function'](context)
+    assert node.kwargs['executable'] == 'simulator'
+    params = node.kwargs['parameters']
+    # The params file first; then only the arguments given, so that the file's own scene_file
+    # and record stand when the command line leaves them out.
+    assert params[0].args == ('params_file',)
+    overrides = {k: v for p in params[1:] for k, v in p.items()}
+    assert overrides == given
