@@ -9,6 +9,7 @@ import pytest
 
 from rb_sim_ros.ros import node_params
 from rb_sim_ros.ros.simulator_node import config_from as _config
+from rb_sim_ros.sim.imu import ImuNoise, ImuSensor, MAX_SIGMA
 
 DEFAULTS = {p.name: p.default for p in node_params.PARAMS}
 
@@ -88,3 +89,29 @@ def test_every_parameter_has_a_description_and_accepts_its_default():
         assert p.description
         node_params.check(p.name, p.default)
     _config(DEFAULTS)
+
+
+SIGMAS = ('imu_gyro_noise', 'imu_accel_noise', 'imu_gyro_bias_walk', 'imu_accel_bias_walk')
+
+
+@pytest.mark.parametrize('name', SIGMAS)
+@pytest.mark.parametrize('value', [1.3e154, 1.5e308, 1e6 * (1 + 1e-15)])
+def test_imu_deviations_whose_derived_values_overflow_are_refused(name, value):
+    with pytest.raises(ValueError, match=name):
+        node_params.check(name, value)
+
+
+def test_the_largest_imu_deviations_keep_covariances_and_samples_finite():
+    """At the bound, what the node derives from the deviations stays finite: the variances it
+    publishes and a bias walked for 10^5 samples a day apart (as the node samples it)."""
+    for name in SIGMAS:
+        node_params.check(name, MAX_SIGMA)
+    noise = node_params.imu_noise(dict(DEFAULTS, **{n: MAX_SIGMA for n in SIGMAS}))
+    assert math.isfinite(noise.gyro_noise ** 2) and math.isfinite(noise.accel_noise ** 2)
+    sensor = ImuSensor(noise, 0)
+    day = 86_400 * 10**9
+    for k in range(100_000):
+        gyro, accel = sensor.sample(k * day)
+    assert all(math.isfinite(v) for v in gyro + accel)
+    with pytest.raises(ValueError, match='gyro_bias_walk'):
+        ImuNoise(gyro_bias_walk=1.5e308)

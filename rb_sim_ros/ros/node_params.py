@@ -16,7 +16,7 @@ from typing import Any, Callable
 
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import Frame
-from rb_sim_ros.sim.imu import ImuNoise
+from rb_sim_ros.sim.imu import ImuNoise, MAX_SIGMA
 
 
 # The work of one publish period is bounded: at most this many physics steps (a period of
@@ -118,6 +118,12 @@ def _non_negative(name: str, v: Any) -> None:
         raise ValueError(f'{name} must be a finite number >= 0, got {v!r}')
 
 
+def _sigma(name: str, v: Any) -> None:
+    """An IMU standard deviation: from 0 to imu.MAX_SIGMA, so that its square stays finite."""
+    if not 0.0 <= _number(name, v) <= MAX_SIGMA:
+        raise ValueError(f'{name} must be a number from 0 to {MAX_SIGMA:g}, got {v!r}')
+
+
 def _prefix(name: str, v: Any) -> None:
     if not isinstance(v, str) or v.startswith('/') or len(v) > 256 or \
             any(c.isspace() for c in v):
@@ -206,14 +212,14 @@ PARAMS = (
           'tf2_ros broadcasters do.', True, _bool),
     Param('imu_gyro_noise', 0.0, "Gyroscope white noise of '<body>/imu': standard deviation "
           'per sample and axis (rad/s); its variance fills angular_velocity_covariance.', True,
-          _non_negative),
+          _sigma),
     Param('imu_accel_noise', 0.0, 'Accelerometer white noise: standard deviation per sample '
           'and axis (m/s^2); its variance fills linear_acceleration_covariance.', True,
-          _non_negative),
+          _sigma),
     Param('imu_gyro_bias_walk', 0.0, 'Gyroscope bias random walk per axis (rad/s/sqrt(s)); '
-          'the bias starts at zero.', True, _non_negative),
+          'the bias starts at zero.', True, _sigma),
     Param('imu_accel_bias_walk', 0.0, 'Accelerometer bias random walk per axis '
-          '(m/s^2/sqrt(s)); the bias starts at zero.', True, _non_negative),
+          '(m/s^2/sqrt(s)); the bias starts at zero.', True, _sigma),
     Param('imu_seed', 0, 'Seed of the IMU noise (0 to 2^63 - 1); each body draws its own '
           'stream from it, so a run and its replay get the same noise.', True,
           _integer(0, 2 ** 63 - 1)),

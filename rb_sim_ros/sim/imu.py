@@ -25,6 +25,12 @@ import math
 import numpy as np
 
 
+# The largest standard deviation taken (rad/s, m/s^2, per sample or per sqrt(s)): far above any
+# sensor, and small enough that what is derived from it stays finite (its square, the covariance
+# published; a bias walked for years; a sample plus its noise).
+MAX_SIGMA = 1.0e6
+
+
 @dataclass(frozen=True)
 class ImuNoise:
     """Standard deviations of the white noise and of the bias walks, and the seed."""
@@ -39,8 +45,9 @@ class ImuNoise:
         for name in ('gyro_noise', 'accel_noise', 'gyro_bias_walk', 'accel_bias_walk'):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or \
-                    not math.isfinite(v) or v < 0.0:
-                raise ValueError(f'imu {name} must be a finite number >= 0, got {v!r}')
+                    not math.isfinite(v) or not 0.0 <= v <= MAX_SIGMA:
+                raise ValueError(f'imu {name} must be a number from 0 to {MAX_SIGMA:g}, got '
+                                 f'{v!r}')
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or \
                 not 0 <= self.seed < 2 ** 63:
             raise ValueError(f'imu seed must be an integer from 0 to 2^63 - 1, got '
