@@ -31,6 +31,9 @@ EVENT_STYLE = {'wrench': ('tab:orange', ':'), 'teleport': ('tab:red', '--'),
                'delete': ('tab:gray', '--')}
 # More wrench changes than this (a controller commanding every period) are not marked.
 MAX_WRENCH_MARKS = 40
+# Values beyond this magnitude (and non-finite ones) are left out of a panel, which says so: an
+# axis cannot span them (matplotlib fails on ticks or transforms near the float range).
+MAX_VALUE = 1e100
 
 
 @dataclass
@@ -188,8 +191,31 @@ def _legend_for_events(fig, marks) -> None:
                     for k in kinds], kinds, loc='upper right', title='events', fontsize=8)
 
 
+def drawable(values: np.ndarray) -> tuple[np.ndarray, int]:
+    """``values`` with those non-finite or beyond MAX_VALUE as NaN (not drawn), and how many
+    were."""
+    values = np.array(values, dtype=float)
+    with np.errstate(invalid='ignore'):
+        bad = ~(np.abs(values) <= MAX_VALUE)
+    values[bad] = np.nan
+    return values, int(bad.sum())
+
+
+def _left_out(count: int) -> str:
+    return f'; {count} values not finite or beyond {MAX_VALUE:g}: not drawn' if count else ''
+
+
 def plot(rec, out_dir: str, bodies=None, progress=None) -> list[str]:
-    """Write the PNGs of ``rec`` (a replay.Recording) into ``out_dir``; their paths."""
+    """Write the PNGs of ``rec`` (a replay.Recording) into ``out_dir``; their paths.
+    ValueError, one line naming the body, if one cannot be drawn."""
+    try:
+        with np.errstate(all='ignore'):
+            return _plot(rec, out_dir, bodies, progress)
+    except (OverflowError, FloatingPointError) as e:
+        raise ValueError(f'the plots cannot be drawn: {e}') from None
+
+
+def _plot(rec, out_dir: str, bodies=None, progress=None) -> list[str]:
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -205,53 +231,11 @@ def plot(rec, out_dir: str, bodies=None, progress=None) -> list[str]:
     written = []
     t_end = max((s.t[-1] for s in series.values() if len(s.t)), default=0.0)
     for name, s in series.items():
-        marks = [m for m in all_marks if m[2] == name]
-        wrenches = sum(1 for m in marks if m[1] == 'wrench')
-        if wrenches > MAX_WRENCH_MARKS:  # a controller's stream: the wrench panel shows it
-            marks = [m for m in marks if m[1] != 'wrench']
-        fig, axes = plt.subplots(4, 2, figsize=(13, 12), sharex=True)
-        fig.suptitle(f'{name}  ({os.path.basename(rec.path)})')
-        panels = [
-            (axes[0, 0], 'position (m, world)', s.position, ('x', 'y', 'z')),
-            (axes[0, 1], 'roll, pitch, yaw (rad)', roll_pitch_yaw(s.quaternion),
-             ('roll', 'pitch', 'yaw')),
-            (axes[1, 0], 'quaternion', s.quaternion, ('x', 'y', 'z', 'w')),
-            (axes[1, 1], 'linear velocity (m/s, world)', s.linear, ('x', 'y', 'z')),
-            (axes[2, 0], 'angular velocity (rad/s, world)', s.angular, ('x', 'y', 'z')),
-            (axes[2, 1], 'angular momentum (kg m^2/s, world, about the CoM)', s.momentum,
-             ('x', 'y', 'z')),
-        ]
-        for ax, title, values, labels in panels:
-            for k, label in enumerate(labels):
-                ax.plot(s.t, values[:, k], label=label, linewidth=1.0)
-            ax.set_title(title, fontsize=10)
-            ax.legend(fontsize=8, loc='best')
-            ax.grid(True, alpha=0.3)
-        ax = axes[3, 0]
-        ax.plot(s.t, s.energy, color='k', linewidth=1.0)
-        ax.set_title('kinetic energy (J)', fontsize=10)
-        ax.grid(True, alpha=0.3)
-        times, forces, torques, _ = wrench_steps(rec, name, t_end)
-        ax = axes[3, 1]
-        for k, label in enumerate('xyz'):
-            ax.step(times, forces[:, k], where='post', label=f'F{label} (N)', linewidth=1.0)
-            ax.step(times, torques[:, k], where='post', label=f'T{label} (N m)',
-                    linestyle='--', linewidth=1.0)
-        ax.set_title('applied wrench (as sent: world or body frame)' + (
-            f'; {wrenches} changes, not marked' if wrenches > MAX_WRENCH_MARKS else ''),
-            fontsize=10)
-        ax.legend(fontsize=7, ncol=2, loc='best')
-        ax.grid(True, alpha=0.3)
-        for ax in axes.flat:
-            _mark(ax, marks)
-        for ax in axes[-1]:
-            ax.set_xlabel('sim time (s)')
-        _legend_for_events(fig, marks)
-        fig.tight_layout(rect=(0, 0, 0.93, 0.97))
-        path = os.path.join(out_dir, f'{name}.png')
-        fig.savefig(path, dpi=80)
-        plt.close(fig)
-        written.append(path)
+        try:
+            written.append(_plot_body(rec, out_dir, plt, name, s, all_marks, t_end))
+        except (ValueError, OverflowError, FloatingPointError) as e:
+            plt.close('all')
+            raise ValueError(f'body {name!r}: its plots cannot be drawn: {e}') from None
     counts = contact_counts(rec, progress)
     if counts is not None:
         fig, ax = plt.subplots(figsize=(10, 3.5))
@@ -270,3 +254,59 @@ def plot(rec, out_dir: str, bodies=None, progress=None) -> list[str]:
         plt.close(fig)
         written.append(path)
     return written
+
+
+def _plot_body(rec, out_dir, plt, name, s, all_marks, t_end) -> str:
+    """The PNG of one body's series ``s``; its path."""
+    marks = [m for m in all_marks if m[2] == name]
+    wrenches = sum(1 for m in marks if m[1] == 'wrench')
+    if wrenches > MAX_WRENCH_MARKS:  # a controller's stream: the wrench panel shows it
+        marks = [m for m in marks if m[1] != 'wrench']
+    fig, axes = plt.subplots(4, 2, figsize=(13, 12), sharex=True)
+    fig.suptitle(f'{name}  ({os.path.basename(rec.path)})')
+    panels = [
+        (axes[0, 0], 'position (m, world)', s.position, ('x', 'y', 'z')),
+        (axes[0, 1], 'roll, pitch, yaw (rad)', roll_pitch_yaw(s.quaternion),
+         ('roll', 'pitch', 'yaw')),
+        (axes[1, 0], 'quaternion', s.quaternion, ('x', 'y', 'z', 'w')),
+        (axes[1, 1], 'linear velocity (m/s, world)', s.linear, ('x', 'y', 'z')),
+        (axes[2, 0], 'angular velocity (rad/s, world)', s.angular, ('x', 'y', 'z')),
+        (axes[2, 1], 'angular momentum (kg m^2/s, world, about the CoM)', s.momentum,
+         ('x', 'y', 'z')),
+    ]
+    for ax, title, values, labels in panels:
+        values, hidden = drawable(values)
+        title += _left_out(hidden)
+        for k, label in enumerate(labels):
+            ax.plot(s.t, values[:, k], label=label, linewidth=1.0)
+        ax.set_title(title, fontsize=10)
+        ax.legend(fontsize=8, loc='best')
+        ax.grid(True, alpha=0.3)
+    ax = axes[3, 0]
+    energy, hidden = drawable(s.energy)
+    ax.plot(s.t, energy, color='k', linewidth=1.0)
+    ax.set_title('kinetic energy (J)' + _left_out(hidden), fontsize=10)
+    ax.grid(True, alpha=0.3)
+    times, forces, torques, _ = wrench_steps(rec, name, t_end)
+    (forces, hidden), (torques, more) = drawable(forces), drawable(torques)
+    ax = axes[3, 1]
+    for k, label in enumerate('xyz'):
+        ax.step(times, forces[:, k], where='post', label=f'F{label} (N)', linewidth=1.0)
+        ax.step(times, torques[:, k], where='post', label=f'T{label} (N m)',
+                linestyle='--', linewidth=1.0)
+    ax.set_title('applied wrench (as sent: world or body frame)' + (
+        f'; {wrenches} changes, not marked' if wrenches > MAX_WRENCH_MARKS else '')
+        + _left_out(hidden + more),
+        fontsize=10)
+    ax.legend(fontsize=7, ncol=2, loc='best')
+    ax.grid(True, alpha=0.3)
+    for ax in axes.flat:
+        _mark(ax, marks)
+    for ax in axes[-1]:
+        ax.set_xlabel('sim time (s)')
+    _legend_for_events(fig, marks)
+    fig.tight_layout(rect=(0, 0, 0.93, 0.97))
+    path = os.path.join(out_dir, f'{name}.png')
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+    return path

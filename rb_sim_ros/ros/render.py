@@ -6,7 +6,9 @@ Every body is drawn with its colliders from the recording's config (a body witho
 its inertia box: the uniform box with the same mass and principal moments, along its
 principal axes), at the recorded poses, in an orthographic view (``iso``, ``top`` or
 ``side``), with a ground grid and the sim time. Frames come at the recording's publish rate,
-or at ``fps`` (each shows the last publish at or before its time). The camera frames the whole
+or at ``fps`` (each shows the last publish at or before its time); a GIF takes every k-th of
+them, so that each is shown a whole number of centiseconds, at least 20 ms (what viewers play
+as written), and it plays in real time. The camera frames the whole
 run, or follows one body. Faces are shaded by a fixed light and drawn far to near.
 
 GIF needs only Pillow (which matplotlib brings); MP4 needs imageio and imageio-ffmpeg, whose
@@ -18,6 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import math
+import sys
 
 import numpy as np
 
@@ -35,6 +38,14 @@ GRID_COLOUR = (215, 215, 215)
 LIGHT = np.array([0.4, -0.5, 0.77])
 MAX_FPS = 1000.0
 MAX_FRAMES = 100_000
+# A GIF's delays are whole centiseconds, and viewers play a delay under 20 ms slower: every
+# frame of a GIF is shown a whole number of centiseconds, at least MIN_GIF_DELAY_CS.
+MIN_GIF_DELAY_CS = 2
+# A GIF's frames are all held until it is written (Pillow cannot append to one): at most this
+# many pixels of them (one byte each); more frames are thinned out to fit.
+MAX_GIF_PIXELS = 1 << 29
+# Bodies further from the origin than this (m), and parts larger, are not drawn.
+MAX_EXTENT = 1e6
 
 
 def camera(view: str) -> np.ndarray:
@@ -64,8 +75,9 @@ class Part:
     rotation: np.ndarray
 
 
-def inertia_box(spec) -> Part:
-    """The uniform box with the body's mass and principal moments, on its principal axes."""
+def inertia_box(spec) -> Part | None:
+    """The uniform box with the body's mass and principal moments, on its principal axes;
+    None if it is not finite or larger than MAX_EXTENT."""
     inertia = np.array(spec.inertia, dtype=float)
     inertia = np.diag(inertia) if inertia.size == 3 else inertia.reshape(3, 3)
     moments, axes = np.linalg.eigh(inertia)
@@ -73,8 +85,11 @@ def inertia_box(spec) -> Part:
         axes[:, 2] = -axes[:, 2]
     a, b, c = moments
     m = spec.mass
-    half = tuple(0.5 * math.sqrt(max(6.0 * (s - 2.0 * own) / m, 1e-12))
-                 for own, s in ((a, a + b + c), (b, a + b + c), (c, a + b + c)))
+    with np.errstate(all='ignore'):
+        half = tuple(0.5 * math.sqrt(max(6.0 * (s - 2.0 * own) / m, 1e-12))
+                     for own, s in ((a, a + b + c), (b, a + b + c), (c, a + b + c)))
+    if not all(math.isfinite(h) and h <= MAX_EXTENT for h in half):
+        return None
     return Part('box', half, np.zeros(3), axes)
 
 
@@ -94,7 +109,12 @@ def parts_of(spec) -> list[Part]:
         elif c.kind == 'capsule':
             out.append(Part('capsule', (c.radius, c.half_length), at, r))
     if not spec.colliders:
-        out.append(inertia_box(spec))
+        box = inertia_box(spec)
+        if box is None:
+            _note(f'body {spec.name!r}: its inertia box (mass {spec.mass:.3g} kg) is larger '
+                  f'than {MAX_EXTENT:g} m or not finite: not drawn')
+        else:
+            out.append(box)
     return out
 
 
@@ -152,9 +172,13 @@ class Timeline:
         self.tracks = {}
         for name, rows in poses.items():
             a = np.array(rows, dtype=float)
-            ok = np.all(np.isfinite(a), axis=1)
+            ok = np.all(np.isfinite(a), axis=1) & np.all(np.abs(a[:, 1:4]) <= MAX_EXTENT, axis=1)
+            if not ok.all():
+                _note(f'body {name!r}: {int((~ok).sum())} of its {len(ok)} recorded positions '
+                      f'are not finite or further than {MAX_EXTENT:g} m: not drawn there')
             a = a[ok]
-            self.tracks[name] = (a[:, 0], a[:, 1:4], rotation_matrices(a[:, 4:8]))
+            with np.errstate(all='ignore'):
+                self.tracks[name] = (a[:, 0], a[:, 1:4], rotation_matrices(a[:, 4:8]))
         self.parts = {name: [p for _, _, parts in lives for p in parts]  # (for the extent)
                       for name, lives in self.lives.items()}
         self.ground = ground_height(self.specs.values())
@@ -243,6 +267,7 @@ class Renderer:
                     c.kind != 'plane' for c in spec.colliders):
                 points.append(np.array([spec.initial_position]))
                 reach = max(reach, _reach(tl.parts[name]))
+        points = [x for x in points if len(x)]
         pts = np.concatenate(points) if points else np.zeros((1, 3))
         screen = pts @ self.cam[:2].T
         lo, hi = screen.min(axis=0) - reach, screen.max(axis=0) + reach
@@ -352,6 +377,41 @@ class Renderer:
         return out
 
 
+def _note(message: str) -> None:
+    """One line on stderr: what the animation leaves out, or how it had to thin its frames."""
+    print(f'render: {message}', file=sys.stderr)
+
+
+def gif_frames(times: np.ndarray, width: int, height: int):
+    """The frames of a GIF of ``times`` (s, increasing): (frame times, delays in ms). Every
+    k-th time, with k the least that makes every delay at least MIN_GIF_DELAY_CS centiseconds
+    and the frames' pixels at most MAX_GIF_PIXELS; each delay is whole centiseconds, rounded
+    so that a frame starts at its time's whole centisecond, and the last is shown one stride:
+    the GIF plays in real time, its length the run's within one frame."""
+    times = np.asarray(times, dtype=float)
+    if len(times) < 2:
+        return times, [10 * MIN_GIF_DELAY_CS] * len(times)
+    span = float(times[-1] - times[0])
+    period = span / (len(times) - 1)  # (the times are the publishes or an fps's: even)
+    stride = max(1, math.ceil(MIN_GIF_DELAY_CS / 100.0 / period - 1e-9)) if period > 0 else 1
+    most = max(1, MAX_GIF_PIXELS // (width * height))
+    if math.ceil(len(times) / stride) > most:
+        thin = math.ceil(len(times) / most)
+        _note(f'{len(times)} frames of {width}x{height} are more than a GIF can hold here '
+              f'({MAX_GIF_PIXELS >> 20} Mpixels): every {thin}th drawn (lower --fps or --size, '
+              f'or write an .mp4)')
+        stride = max(stride, thin)
+    chosen = times[::stride]
+    starts = [int(round(100.0 * (t - times[0]))) for t in chosen]
+    starts.append(starts[-1] + max(MIN_GIF_DELAY_CS, int(round(100.0 * stride * period))))
+    delays, at = [], starts[0]
+    for k in range(len(chosen)):
+        end = max(starts[k + 1], at + MIN_GIF_DELAY_CS)
+        delays.append(10 * (end - at))
+        at = end
+    return chosen, delays
+
+
 def _shade(colour, k: float):
     return tuple(int(min(255, c * k)) for c in colour)
 
@@ -369,6 +429,10 @@ def render(rec, out_path: str, view: str = 'iso', fps: float | None = None,
         raise ValueError(f'{rec.path}: no recorded poses to draw')
     rate = fps if fps is not None else (
         1.0 / (rec.config.dt * rec.config.steps_per_publish))
+    if lower.endswith('.gif') and fps is not None and rate > 100.0 / MIN_GIF_DELAY_CS:
+        _note(f'{rate:g} frames a second: a GIF shows each frame at least '
+              f'{10 * MIN_GIF_DELAY_CS} ms, so it gets at most {100 / MIN_GIF_DELAY_CS:g} (an '
+              '.mp4 gets them all)')
     if lower.endswith('.mp4'):
         try:
             import imageio.v2 as imageio
@@ -381,17 +445,27 @@ def render(rec, out_path: str, view: str = 'iso', fps: float | None = None,
                                     macro_block_size=8)
         try:
             for k, t in enumerate(times):
-                writer.append_data(np.asarray(renderer.frame(float(t))))
+                writer.append_data(np.asarray(_drawn(renderer, t)))
                 if progress is not None:
                     progress(k + 1, len(times))
         finally:
             writer.close()
         return len(times)
+    times, delays = gif_frames(times, renderer.width, renderer.height)
     frames = []
     for k, t in enumerate(times):
-        frames.append(renderer.frame(float(t)).quantize(colors=64))
+        frames.append(_drawn(renderer, t).quantize(colors=64))
         if progress is not None:
             progress(k + 1, len(times))
-    frames[0].save(out_path, save_all=True, append_images=frames[1:],
-                   duration=max(20, int(round(1000.0 / rate))), loop=0)
+    frames[0].save(out_path, save_all=True, append_images=frames[1:], duration=delays,
+                   loop=0)
     return len(times)
+
+
+def _drawn(renderer: Renderer, t: float):
+    """The frame at ``t``; ValueError, one line, if it cannot be drawn."""
+    try:
+        with np.errstate(all='ignore'):
+            return renderer.frame(float(t))
+    except (OverflowError, FloatingPointError, ValueError) as e:
+        raise ValueError(f'the frame at t = {t:.3f} s cannot be drawn: {e}') from None
