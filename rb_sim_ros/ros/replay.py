@@ -27,6 +27,7 @@ import time
 
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.recording import ReaderError, RecordingReader, recover, WriterError
+from rb_sim_ros.recording.qos import POLICIES
 from rb_sim_ros.recording.schemas import type_name_of
 from rb_sim_ros.ros import node_params, node_recorder, plots, render, ros_arguments
 from rb_sim_ros.ros.ros_messages import (fill_tf, OutputMessages, TF, tf_message, tf_qos,
@@ -43,6 +44,12 @@ MAX_REBUILT_BODIES = 5_000_000  # bodies of all the worlds spawns and deletes bu
 GAP_ALLOWANCE = 2  # a damaged chunk may hide outputs: allow twice the steps the outputs imply
 MIN_RATE, MAX_RATE = 1e-6, 1e9  # --rate: sim time per wall time (0: as fast as possible)
 MAX_WAIT_S = 1e6
+# A full topic name as rmw_validate_full_topic_name accepts it: absolute, tokens of letters,
+# digits and '_' not starting with a digit, no empty token or trailing '/', at most 247 chars.
+TOPIC_NAME = re.compile(r'(?:/[A-Za-z_][A-Za-z0-9_]*)+')
+MAX_TOPIC_NAME = 247  # RMW_TOPIC_MAX_NAME_LENGTH
+MAX_QOS_TEXT = 100_000  # offered_qos_profiles of one channel (a profile is ~400 characters)
+DEFAULT_DEPTH = 10  # the QoS of a republished topic whose recording keeps none (as before)
 INPUT_TYPES = {kind: type_name_of(cls) for kind, cls in node_recorder.INPUTS.items()}
 OUTPUT_TYPES = {kind: type_name_of(cls) for kind, cls in node_recorder.OUTPUTS.items()}
 # Parameters replay itself uses, with their defaults (a recording holds all of them).
@@ -88,6 +95,7 @@ class Recording:
     truncated: bool
     path: str = ''
     recorded_per_topic: dict = field(default_factory=dict)  # output topic -> messages in file
+    qos: dict = field(default_factory=dict)  # output topic -> recorded_qos(...) of its channel
 
     def frames(self, body: str, spawned: bool = False) -> tuple[str, str]:
         """(world frame, body frame) the node stamped ``body``'s outputs with (a spawned body
@@ -266,8 +274,53 @@ def _output_topics(data, config: Config, parameters: dict, path: str) -> dict:
                     or topic.startswith(node_recorder.INPUT_PREFIX) or topic in seen):
                 raise _bad(path, f'output_topics.{body}.{kind} {topic!r} is not a topic name '
                            'of its own (absolute, not an input, not used twice)')
+            problem = topic_name_problem(topic)
+            if problem:
+                raise _bad(path, f'output_topics.{body}.{kind} {topic[:300]!r} {problem}')
             seen.add(topic)
     return data
+
+
+def topic_name_problem(topic: str) -> str:
+    """Why ``topic`` is not a valid full ROS topic name (rclpy would refuse to publish on it),
+    or ''."""
+    if len(topic) > MAX_TOPIC_NAME:
+        return f'is not a valid ROS topic name (longer than {MAX_TOPIC_NAME} characters)'
+    if not TOPIC_NAME.fullmatch(topic):
+        return ('is not a valid ROS topic name (absolute; letters, digits and _ between single '
+                "'/'; no part starting with a digit)")
+    return ''
+
+
+def recorded_qos(text: str) -> dict | None:
+    """The QoS to republish a topic with, from its channel's ``offered_qos_profiles`` (YAML, as
+    rosbag2 and qos.py write it), as ``ros2 bag play`` adapts the recorded offers: reliable
+    if every offer is, transient local if every offer is, the longest history offered.
+    Returns {history, depth, reliability, durability} (qos.py's names), or None if the text
+    holds no profile, or one this cannot read (the file is untrusted: no YAML parser)."""
+    if not text or len(text) > MAX_QOS_TEXT:
+        return None
+    profiles = []
+    for item in re.split(r'^- ', text, flags=re.MULTILINE)[1:]:
+        found = re.findall(r'^ *(history|depth|reliability|durability): *(\w+) *$', item,
+                           re.MULTILINE)
+        p = dict(found)
+        if len(found) != 4 or len(p) != 4 or not p['depth'].isdigit() or any(
+                p[name] not in allowed for name, allowed in POLICIES.items() if name in p):
+            return None
+        profiles.append(p)
+    if not profiles:
+        return None
+    keep_all = any(p['history'] == 'keep_all' for p in profiles)
+    depth = max(int(p['depth']) for p in profiles)
+    if not keep_all and not 1 <= depth < 2 ** 31:
+        return None
+    return {'history': 'keep_all' if keep_all else 'keep_last',
+            'depth': min(depth, 2 ** 31 - 1),
+            'reliability': ('reliable' if all(p['reliability'] == 'reliable' for p in profiles)
+                            else 'best_effort'),
+            'durability': ('transient_local' if all(p['durability'] == 'transient_local'
+                                                    for p in profiles) else 'volatile')}
 
 
 def _tf_topics(meta: dict, path: str) -> list:
@@ -294,6 +347,9 @@ def _spawned_topics(body: str, topics: dict, by_topic: dict, types: dict) -> Non
                 or by_topic.get(topic, (body, kind)) != (body, kind)):
             raise ValueError(f'output topic {topic[:100]!r} is not one of its own (absolute, '
                              'not an input, not another output)')
+        problem = topic_name_problem(topic)
+        if problem:
+            raise ValueError(f'output topic {topic[:300]!r} {problem}')
         by_topic[topic] = (body, kind)
         types[topic] = OUTPUT_TYPES[kind]
 
@@ -397,7 +453,9 @@ def load(path: str) -> Recording:
                 f'but {published} outputs every {config.steps_per_publish} steps imply at most '
                 f'{implied}: log times and metadata disagree; refusing to simulate that long')
     recorded = {t: read.get(t, 0) for t in by_topic}
-    return Recording(config, parameters, inputs, outputs, reader.truncated, path, recorded)
+    qos = {t: recorded_qos(reader.topics[t].offered_qos_profiles)
+           for t in by_topic if t in reader.topics}
+    return Recording(config, parameters, inputs, outputs, reader.truncated, path, recorded, qos)
 
 
 def _xyz(v) -> tuple:
@@ -576,18 +634,28 @@ def play(path: str, rate: float, clock: bool = True, wait: float = 0.0) -> int:
     (0: as fast as possible); first wait up to ``wait`` seconds for a subscriber on one of
     them. Ctrl-C raises KeyboardInterrupt (rclpy's signal handler is not installed)."""
     import rclpy
-    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
     from rclpy.signals import SignalHandlerOptions
     from rosgraph_msgs.msg import Clock
 
-    outputs = [(o[3], o[4], o[5]) for o in load(path).outputs]  # (topic, msg, log time)
-    outputs.sort(key=lambda o: o[2])
+    recording = load(path)
+    # (topic, msg, log time): a list of tuples sharing the messages of the recording (sorted
+    # by step already; log time is step * dt). The recording itself is not kept while playing.
+    outputs = sorted(((o[3], o[4], o[5]) for o in recording.outputs), key=lambda o: o[2])
+    qos = {}
+    for topic, q in recording.qos.items():
+        if q is not None:
+            qos[topic] = QoSProfile(
+                history=HistoryPolicy[q['history'].upper()], depth=q['depth'],
+                reliability=ReliabilityPolicy[q['reliability'].upper()],
+                durability=DurabilityPolicy[q['durability'].upper()])
+    del recording
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = rclpy.create_node('rb_sim_replay')  # on the ROS graph of the environment
         try:
             _publish(rclpy, node, outputs, rate, wait, Clock if clock else None,
-                     QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
+                     QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT), qos)
         finally:
             node.destroy_node()
     finally:
@@ -604,10 +672,19 @@ def _sleep_until(deadline: float) -> None:
         time.sleep(min(left, 1.0))
 
 
-def _publish(rclpy, node, outputs, rate: float, wait: float, clock_type, clock_qos) -> None:
-    pubs = {topic: node.create_publisher(type(msg), topic,
-                                         tf_qos(topic) if topic in (TF, TF_STATIC) else 10)
-            for topic, msg, _ in outputs}
+def _publish(rclpy, node, outputs, rate: float, wait: float, clock_type, clock_qos,
+             qos=None) -> None:
+    """Publish ``outputs`` ((topic, msg, log time), in log-time order) on one publisher per
+    topic, created first: /tf and /tf_static with tf_qos, the others with ``qos[topic]`` (the
+    recorded QoS) or, without it, depth 10."""
+    qos = qos or {}
+    types = {}
+    for topic, msg, _ in outputs:
+        types.setdefault(topic, type(msg))
+    pubs = {topic: node.create_publisher(
+        msg_type, topic,
+        tf_qos(topic) if topic in (TF, TF_STATIC) else qos.get(topic, DEFAULT_DEPTH))
+        for topic, msg_type in types.items()}
     clock_pub = (node.create_publisher(clock_type, '/clock', clock_qos)
                  if clock_type is not None else None)
     if not outputs:
