@@ -268,8 +268,10 @@ def test_construction_refusals(kwargs, match):
     (lambda b: b.set_wrench([True]), r'indices as a mask must have shape \(2,\)'),
     (lambda b: b.set_state([0], positions=[[0, 0, math.inf]]), 'positions must be finite'),
     (lambda b: b.set_state([1], rotations=2 * np.eye(3)), 'rotations must be rotation'),
-    (lambda b: b.step(-1), 'n must be an int >= 0'),
+    (lambda b: b.step(-1), 'n must be an int from 0'),
     (lambda b: b.step(2.0), 'n must be an int'),
+    (lambda b: b.step(10 ** 400), 'n must be an int from 0 to 2\\^62'),
+    (lambda b: b.step(2 ** 62 + 1), 'n must be an int from 0 to 2\\^62'),
     (lambda b: b.restart_history([5]), 'indices'),
 ])
 def test_refusals_change_nothing(call, match):

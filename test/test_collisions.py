@@ -509,6 +509,8 @@ def test_world_refuses_bad_arguments_naming_them():
     world = CollisionWorld([ball()], 1e-3, planes=GROUND)
     with pytest.raises(ValueError, match='n must be'):
         world.step(-1)
+    with pytest.raises(ValueError, match=r'n must be an int from 0 to 2\^62, got an int of 1329'):
+        world.step(10 ** 400)
     with pytest.raises(ValueError, match="no moving body named 'x'"):
         world.set_state('x', State())
 

@@ -113,6 +113,9 @@ def _snapshot(s):
 @pytest.mark.parametrize('call, field', [
     (lambda s: s.step(-1), 'n'),
     (lambda s: s.step(1.5), 'n'),
+    (lambda s: s.step(10 ** 400), r'n must be an int from 0 to 2\^62'),
+    (lambda s: s.step(2 ** 62 + 1), r'n must be an int from 0 to 2\^62'),
+    (lambda s: s.rest(10 ** 400), r'n must be an int from 0 to 2\^62'),
     (lambda s: s.set_wrench((1, 2, 3)), 'wrench'),
     (lambda s: s.set_state('home'), 'state'),
     (lambda s: s.set_state(State(), previous=3), 'previous'),

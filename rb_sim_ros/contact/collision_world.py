@@ -64,6 +64,7 @@ from rb_sim_ros.contact import world_step as ws
 from rb_sim_ros.contact.bodies import BodySpec, make_steppers
 from rb_sim_ros.contact.collision_shapes import Plane, Shape
 from rb_sim_ros.core.rigid_body import finite_floats, non_negative, State
+from rb_sim_ros.core.step_count import check_steps
 from rb_sim_ros.core.stepper import carry_over, IntegrationError, step_all
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
@@ -408,8 +409,7 @@ class CollisionWorld:
     def step(self, n: int = 1) -> None:
         """Advance ``n`` >= 0 steps. If a body's state becomes non-finite the others still
         advance that step and its IntegrationError is raised after it."""
-        if not isinstance(n, int) or isinstance(n, bool) or n < 0:
-            raise ValueError(f'n must be an int >= 0, got {n!r}')
+        check_steps(n)
         if not self.enabled:
             try:
                 step_all(self._all_steppers, n)

@@ -34,6 +34,7 @@ from rb_sim_ros.core import euler_dynamics, multistep, so3
 from rb_sim_ros.core import step_kernel as K
 from rb_sim_ros.core.rigid_body import (finite_floats, Frame, RigidBody, ROTATION_TOLERANCE, short,
                                         State, SYMMETRY_TOLERANCE, TRIANGLE_TOLERANCE)
+from rb_sim_ros.core.step_count import check_steps
 from rb_sim_ros.core.stepper import (check_dt, coefficients, FixedStep, IntegrationError,
                                      set_body_params, set_wrench_params, Stepper)
 
@@ -501,8 +502,7 @@ class BatchStepper(FixedStep):
         step is not taken, so every body is left at its state before it (the steps before
         stand).
         """
-        if not isinstance(n, int) or isinstance(n, bool) or n < 0:
-            raise ValueError(f'n must be an int >= 0, got {n!r}')
+        check_steps(n)
         if n == 0:
             return
         self._advance(self._all, n, False)

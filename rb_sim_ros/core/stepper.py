@@ -36,6 +36,7 @@ from rb_sim_ros.core import euler_dynamics, multistep, so3
 from rb_sim_ros.core import step_kernel as K
 from rb_sim_ros.core.rigid_body import (finite_floats, Frame, rate, RigidBody, State, Wrench,
                                         ZERO_WRENCH)
+from rb_sim_ros.core.step_count import check_steps
 
 
 class IntegrationError(RuntimeError):
@@ -62,8 +63,7 @@ def step_all(steppers, n: int) -> None:
     """Step every stepper n steps; if one goes non-finite the others still advance, and the
     first IntegrationError (in the order given) is raised after (that stepper stays at its
     last finite state). Steppers that share a ``BodyStore`` take their steps in one call."""
-    if not isinstance(n, int) or isinstance(n, bool) or n < 0:
-        raise ValueError(f'n must be an int >= 0, got {n!r}')
+    check_steps(n)
     if n == 0:
         return
     stores: dict[int, tuple[BodyStore, list]] = {}
@@ -398,8 +398,7 @@ class Stepper(FixedStep):
     def rest(self, n: int) -> None:
         """Count ``n`` >= 0 steps spent asleep (the collision world's): the clock advances,
         the state, at rest, does not."""
-        if not isinstance(n, int) or isinstance(n, bool) or n < 0:
-            raise ValueError(f'n must be an int >= 0, got {n!r}')
+        check_steps(n)
         self._store.clock[self._row] += n
 
     def restart_history(self) -> None:
@@ -438,8 +437,7 @@ class Stepper(FixedStep):
         the same steps are taken again from the unchanged start, checked one by one, to find
         the first bad one (the arithmetic repeats the first pass exactly).
         """
-        if not isinstance(n, int) or isinstance(n, bool) or n < 0:
-            raise ValueError(f'n must be an int >= 0, got {n!r}')
+        check_steps(n)
         if n == 0:
             return
         if self._store.advance(self._rows, n):
