@@ -6,6 +6,7 @@ starts; a good run's final zero wrench arrives and is reported as such."""
 import contextlib
 from fractions import Fraction
 import io
+import signal
 
 from geometry_msgs.msg import Wrench, WrenchStamped
 from hypothesis import given, settings, strategies as st
@@ -124,3 +125,33 @@ def test_the_final_zero_arrives_without_a_warning(start_sim, probe):
     assert 'not acknowledged' not in sender.output()
     probe.wait_for(lambda: applied and applied[-1].wrench == Wrench(), what='the final zero')
     assert [a.wrench.force.z for a in applied] == [3.0, 0.0]
+
+
+def test_a_profile_mixing_framed_and_unframed_rows_ends_with_zero(start_sim, probe, tmp_path):
+    # Each row goes on its own topic (wrench_stamped with a frame, wrench without); with
+    # command_timeout:=0 nothing but send_wrench's final zero can unforce the body.
+    start_sim('-p', 'command_timeout:=0.0')
+    applied = probe.collect(WrenchStamped, 'applied_wrench', APPLIED_QOS)
+    profile = tmp_path / 'mixed.csv'
+    profile.write_text('t,fx,fy,fz,tx,ty,tz,frame\n'
+                       '0,0,0,1,0,0,0,world\n'
+                       '0.3,0,0,2,0,0,0,\n')
+    sender = start_sim(exe='send_wrench', args=('--csv', str(profile), '--duration', '0.3'))
+    probe.wait_for(lambda: sender.proc.poll() is not None, timeout=60,
+                   what='send_wrench to finish')
+    assert sender.proc.returncode == 0, sender.output()
+    assert 'Traceback' not in sender.output()
+    probe.wait_for(lambda: applied and applied[-1].wrench == Wrench(), what='the final zero')
+    forces = [a.wrench.force.z for a in applied]
+    assert 1.0 in forces and 2.0 in forces and forces[-1] == 0.0, forces
+
+
+def test_sigterm_still_sends_the_final_zero(start_sim, probe):
+    start_sim('-p', 'command_timeout:=0.0')
+    applied = probe.collect(WrenchStamped, 'applied_wrench', APPLIED_QOS)
+    sender = start_sim(exe='send_wrench', args=('--force', '0', '0', '4', '--duration', '1e6'))
+    probe.wait_for(lambda: any(a.wrench.force.z == 4.0 for a in applied), timeout=60,
+                   what='the wrench to be applied')
+    assert sender.stop(signal.SIGTERM, timeout=30) == 0, sender.output()
+    probe.wait_for(lambda: applied[-1].wrench == Wrench(), what='the final zero')
+    assert 'Traceback' not in sender.output()

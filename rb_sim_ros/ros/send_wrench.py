@@ -8,9 +8,11 @@
 
 A CSV profile has a header and rows ``t,fx,fy,fz,tx,ty,tz`` with an optional ``frame`` column
 (world or body): each row's wrench (N, N m) is held from its time t (s, from the start) until the
-next row's; the last row is held for --duration more seconds (default 0). The wrench is
+next row's; the last row is held for --duration more seconds (default 0). A row with a frame goes
+on wrench_stamped, one without on wrench (in the simulator's wrench_frame). The wrench is
 republished at --rate Hz so that the simulator's command_timeout does not zero it, and a zero
-wrench is sent at the end (or on Ctrl-C) to leave the body unforced; it counts as arrived when
+wrench is sent on every way out (the end, an error, Ctrl-C, SIGTERM or SIGHUP) on each topic used,
+to leave the body unforced; it counts as arrived when
 the simulator reports it on applied_wrench (beside the wrench topic) or DDS acknowledges it.
 Every force and torque must be finite with a norm of at most --max-wrench (the simulator's
 max_wrench parameter, default 1e6): a bad argument or row is one line on stderr, exit status 2.
@@ -21,6 +23,7 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import signal
 import sys
 import time
 
@@ -180,22 +183,32 @@ def main(args=None) -> int:
         print(f'send_wrench: {e}', file=sys.stderr)
         return 2
     duration = opts.duration if opts.duration is not None else (0.0 if opts.csv else 1.0)
-    stamped = any(frame is not None for _, _, frame in profile)
     # No rclpy signal handler: Ctrl-C raises KeyboardInterrupt with the context still up,
-    # so the zero wrench below still goes out.
+    # so the zero wrench below still goes out; SIGTERM and SIGHUP do the same.
     rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+    previous = {s: signal.signal(s, _interrupt) for s in (signal.SIGTERM, signal.SIGHUP)}
     node = rclpy.create_node('send_wrench')
-    pub = (node.create_publisher(WrenchStamped, 'wrench_stamped', 10) if stamped
-           else node.create_publisher(Wrench, 'wrench', 10))
+    # A row with a frame goes on wrench_stamped, one without on wrench: one publisher for each
+    # kind the profile uses (a profile may mix them).
+    pubs = {}
+    for stamped in sorted({frame is not None for _, _, frame in profile}):
+        pubs[stamped] = (node.create_publisher(WrenchStamped, 'wrench_stamped', 10) if stamped
+                         else node.create_publisher(Wrench, 'wrench', 10))
     zero_reported = []  # set when the simulator reports a zero wrench after ours was sent
-    node.create_subscription(WrenchStamped, _applied_topic(pub.topic_name),
-                             lambda m: _on_applied(m, zero_reported), QoSProfile(depth=10))
-    zero = (profile[-1][0], (0.0,) * 6, profile[-1][2])
+    applied_topics = {_applied_topic(p.topic_name) for p in pubs.values()}
+    for topic in sorted(applied_topics):
+        node.create_subscription(WrenchStamped, topic,
+                                 lambda m: _on_applied(m, zero_reported), QoSProfile(depth=10))
+    zeros = {stamped: (0.0,) * 6 for stamped in pubs}
+    last_frame = {True: next((f for _, _, f in reversed(profile) if f is not None), None),
+                  False: None}
+    topics = ' and '.join(p.topic_name for p in pubs.values())
+    status = 0
     try:
         end = time.monotonic() + opts.wait
-        while pub.get_subscription_count() == 0:
+        while any(p.get_subscription_count() == 0 for p in pubs.values()):
             if time.monotonic() > end:
-                print(f'send_wrench: no subscriber on {pub.topic_name} after {opts.wait} s',
+                print(f'send_wrench: no subscriber on {topics} after {opts.wait} s',
                       file=sys.stderr)
                 return 1
             rclpy.spin_once(node, timeout_sec=0.05)
@@ -209,47 +222,67 @@ def main(args=None) -> int:
             while i + 1 < len(profile) and profile[i + 1][0] <= now:
                 i += 1
             t, values, frame = profile[i]
-            pub.publish(_message(values, frame, opts.world_frame, opts.body_frame))
+            pubs[frame is not None].publish(
+                _message(values, frame, opts.world_frame, opts.body_frame))
             rclpy.spin_once(node, timeout_sec=0.0)
             time.sleep(max(0.0, 1.0 / opts.rate - (time.monotonic() - start - now)))
-        print(f'send_wrench: sent {len(profile)} wrench(es) for {stop_at:.3f} s on '
-              f'{pub.topic_name}')
+        print(f'send_wrench: sent {len(profile)} wrench(es) for {stop_at:.3f} s on {topics}')
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception as e:  # noqa: B902 - one line, and the zero below still goes out
+        print(f'send_wrench: stopped by {type(e).__name__}: {e}', file=sys.stderr)
+        status = 1
     finally:
-        if rclpy.ok():
-            zero_reported.clear()
-            zero_reported.append(False)  # only reports from now on count
-            pub.publish(_message(zero[1], zero[2], opts.world_frame, opts.body_frame))
-            # Destroying the writer at once can drop the zero before the simulator has it,
-            # leaving the last wrench held: wait until the simulator reports the zero on
-            # applied_wrench (at once) or DDS acknowledges it (Fast DDS acknowledges at its
-            # next heartbeat, up to 3 s later: needed when the wrench held was already zero).
-            try:
-                arrived = _wait_for_zero(node, pub, zero_reported)
-            except KeyboardInterrupt:  # a second Ctrl-C: stop waiting, still shut down
-                arrived = False
-            if not arrived:
-                print(f'send_wrench: the final zero wrench was not acknowledged within '
-                      f'{ZERO_TIMEOUT_S:g} s', file=sys.stderr)
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+        try:
+            if rclpy.ok():
+                zero_reported.clear()
+                zero_reported.append(0)  # only reports from now on count
+                for stamped, pub in pubs.items():
+                    pub.publish(_message(zeros[stamped], last_frame[stamped], opts.world_frame,
+                                         opts.body_frame))
+                # Destroying the writer at once can drop the zero before the simulator has
+                # it, leaving the last wrench held: wait until the simulator reports the zero
+                # on applied_wrench (at once) or DDS acknowledges it (Fast DDS acknowledges at
+                # its next heartbeat, up to 3 s later: needed when the wrench held was
+                # already zero).
+                try:
+                    arrived = _wait_for_zero(node, list(pubs.values()), zero_reported,
+                                             len(applied_topics))
+                except KeyboardInterrupt:  # a second signal: stop waiting, still shut down
+                    arrived = False
+                if not arrived:
+                    print(f'send_wrench: the final zero wrench was not acknowledged within '
+                          f'{ZERO_TIMEOUT_S:g} s', file=sys.stderr)
+        finally:
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+            node.destroy_node()
+            rclpy.try_shutdown()
+    return status
+
+
+def _interrupt(signum, frame):
+    """SIGTERM and SIGHUP stop send_wrench as Ctrl-C does: the final zero still goes out."""
+    raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
 def _on_applied(msg: WrenchStamped, zero_reported: list) -> None:
     f, t = msg.wrench.force, msg.wrench.torque
     if zero_reported and (f.x, f.y, f.z, t.x, t.y, t.z) == (0.0,) * 6:
-        zero_reported[0] = True
+        zero_reported[0] += 1
 
 
-def _wait_for_zero(node, pub, zero_reported: list) -> bool:
+def _wait_for_zero(node, pubs: list, zero_reported: list, reports: int) -> bool:
+    """True once the simulator reported ``reports`` zeros, or DDS acknowledged every zero."""
+    def arrived() -> bool:
+        return (zero_reported[0] >= reports
+                or all(p.wait_for_all_acked(Duration(seconds=0)) for p in pubs))
     end = time.monotonic() + ZERO_TIMEOUT_S
     while time.monotonic() < end:
-        if zero_reported[0] or pub.wait_for_all_acked(Duration(seconds=0)):
+        if arrived():
             return True
         rclpy.spin_once(node, timeout_sec=0.02)
-    return zero_reported[0] or pub.wait_for_all_acked(Duration(seconds=0))
+    return arrived()
 
 
 if __name__ == '__main__':
