@@ -710,12 +710,7 @@ def _publish(rclpy, node, outputs, rate: float, wait: float, clock_type, clock_q
     print(f'\rreplay: t = {end * 1e-9:10.3f} s  100.0%', file=sys.stderr)
 
 
-class _Parser(argparse.ArgumentParser):
-    """An ArgumentParser whose errors are one line on stderr and exit status 2."""
-
-    def error(self, message: str):
-        print(f'{self.prog}: {message}', file=sys.stderr)
-        sys.exit(2)
+_Parser = ros_arguments.OneLineParser
 
 
 def _check_options(opts) -> str:

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 from rclpy.utilities import remove_ros_args
@@ -19,4 +20,13 @@ def non_ros_args(argv: list[str], prog: str) -> list[str]:
         return remove_ros_args(argv)[1:]
     except Exception as e:  # rclpy raises RCLInvalidROSArgsError, a pybind11 type
         print(f'{prog}: invalid ROS arguments: {e}', file=sys.stderr)
+        sys.exit(2)
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line on stderr ('prog: what') and exit status 2,
+    the one parser of every command line tool of the package."""
+
+    def error(self, message: str):
+        print(f'{self.prog}: {message}', file=sys.stderr)
         sys.exit(2)

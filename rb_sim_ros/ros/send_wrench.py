@@ -102,12 +102,7 @@ def _short(row: dict) -> str:
     return text if len(text) <= 200 else text[:200] + '...'
 
 
-class _Parser(argparse.ArgumentParser):
-    """An ArgumentParser whose errors are one line on stderr and exit status 2."""
-
-    def error(self, message: str):
-        print(f'{self.prog}: {message}', file=sys.stderr)
-        sys.exit(2)
+_Parser = ros_arguments.OneLineParser
 
 
 def _check_options(opts) -> str:

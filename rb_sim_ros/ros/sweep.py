@@ -660,10 +660,7 @@ def verify_many(paths: list, engine=None, progress: bool = True) -> list:
 
 
 # -- command line ------------------------------------------------------------------------------
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str):
-        print(f'{self.prog}: {message}', file=sys.stderr)
-        sys.exit(2)
+_Parser = ros_arguments.OneLineParser
 
 
 def main(args=None) -> int:
