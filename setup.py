@@ -13,9 +13,9 @@ package_name = 'rb_sim_ros'
 class InstallAndPrecompile(install):
     """install, then compile the kernels into the installed package's compilation cache
     (python -m rb_sim_ros.sim.precompile, run from the installed tree), so that the first start
-    of the node loads them instead of compiling them (about 2 min on 2 cores). colcon build runs this; a
-    wheel or staged install (--root) and RB_SIM_ROS_PRECOMPILE=0 skip it, and a failure only
-    warns: the node then compiles at its first start."""
+    of the node loads them instead of compiling them (about 2 min on 2 cores). colcon build
+    runs this; a wheel or staged install (--root) and RB_SIM_ROS_PRECOMPILE=0 skip it, and a
+    failure only warns: the node then compiles at its first start."""
 
     def run(self):
         super().run()
