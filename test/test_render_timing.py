@@ -10,6 +10,7 @@ as far as it can be, or refused in one line: never a traceback."""
 import contextlib
 import io
 
+import numpy as np
 import pytest
 
 from rb_sim_ros.ros import node_params, plots, render, replay
@@ -113,3 +114,10 @@ def test_extreme_bodies_are_drawn_and_plotted_or_refused_in_one_line(tmp_path, s
                        for line in err.splitlines() if line), err
     files = plots.plot(rec, str(tmp_path / 'q'), ['near'])
     assert files
+
+
+def test_a_gif_delay_longer_than_a_gif_holds_is_capped():
+    """A GIF stores a delay in 16 bits of centiseconds: a frame a day long is shown 655.35 s,
+    not an OverflowError from the writer."""
+    times, delays = render.gif_frames(np.array([0.0, 86_400.0, 172_800.0]), 8, 8)
+    assert len(times) == 3 and max(delays) == 655_350 and min(delays) >= 20

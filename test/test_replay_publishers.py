@@ -143,7 +143,9 @@ def test_recorded_qos_adapts_offers_as_ros2_bag_play_and_ignores_what_it_cannot_
     assert replay.recorded_qos(TRANSIENT_LOCAL + '\n' + best_effort)['reliability'] == \
         'best_effort'
     for text in ('', 'nonsense', TRANSIENT_LOCAL.replace('depth: 3', 'depth: -3'),
-                 TRANSIENT_LOCAL.replace('reliable', 'very'), '- ' * 100_000):
+                 TRANSIENT_LOCAL.replace('reliable', 'very'), '- ' * 100_000, '- \n' * 30_000,
+                 TRANSIENT_LOCAL.replace('depth: 3', 'depth: \u00b2'),
+                 TRANSIENT_LOCAL.replace('depth: 3', 'depth: ' + '9' * 5000)):
         assert replay.recorded_qos(text) is None
 
 

@@ -40,6 +40,7 @@ MAX_FPS = 1000.0
 MAX_FRAMES = 100_000
 # A GIF's delays are whole centiseconds, and viewers play a delay under 20 ms slower: every
 # frame of a GIF is shown a whole number of centiseconds, at least MIN_GIF_DELAY_CS.
+MAX_GIF_DELAY_CS = 65535
 MIN_GIF_DELAY_CS = 2
 # A GIF's frames are all held until it is written (Pillow cannot append to one): at most this
 # many pixels of them (one byte each); more frames are thinned out to fit.
@@ -407,7 +408,8 @@ def gif_frames(times: np.ndarray, width: int, height: int):
     delays, at = [], starts[0]
     for k in range(len(chosen)):
         end = max(starts[k + 1], at + MIN_GIF_DELAY_CS)
-        delays.append(10 * (end - at))
+        # A GIF holds a delay in 16 bits of centiseconds: longer frames are shown for 655.35 s.
+        delays.append(10 * min(end - at, MAX_GIF_DELAY_CS))
         at = end
     return chosen, delays
 

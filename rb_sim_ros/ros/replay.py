@@ -305,7 +305,7 @@ def recorded_qos(text: str) -> dict | None:
         found = re.findall(r'^ *(history|depth|reliability|durability): *(\w+) *$', item,
                            re.MULTILINE)
         p = dict(found)
-        if len(found) != 4 or len(p) != 4 or not p['depth'].isdigit() or any(
+        if len(found) != 4 or len(p) != 4 or not re.fullmatch(r'[0-9]{1,10}', p['depth']) or any(
                 p[name] not in allowed for name, allowed in POLICIES.items() if name in p):
             return None
         profiles.append(p)
@@ -782,7 +782,7 @@ def main(args=None) -> int:
         if opts.render:
             return _render(opts)
         return play(opts.file, opts.rate, clock=not opts.no_clock, wait=opts.wait)
-    except (ReaderError, WriterError, OSError, ValueError) as e:
+    except (ReaderError, WriterError, OSError, ValueError, OverflowError) as e:
         print(f'replay: {e}', file=sys.stderr)
         return 2
     except KeyboardInterrupt:
