@@ -115,3 +115,21 @@ def test_the_largest_imu_deviations_keep_covariances_and_samples_finite():
     assert all(math.isfinite(v) for v in gyro + accel)
     with pytest.raises(ValueError, match='gyro_bias_walk'):
         ImuNoise(gyro_bias_walk=1.5e308)
+
+
+@pytest.mark.parametrize('overrides', [
+    {'body_frame': 'world'}, {'world_frame': 'base_link'},
+    {'frame_prefix': 'wor', 'body_frame': 'ld'},
+    {'frame_prefix': 'a/', 'world_frame': 'a/base_link'},
+])
+def test_a_body_frame_equal_to_world_frame_is_refused(overrides):
+    with pytest.raises(ValueError, match="body 'body': its frame .* is world_frame"):
+        _config(dict(DEFAULTS, **overrides))
+    _config({**DEFAULTS, **overrides, 'world_frame': 'map'})  # another world frame is fine
+
+
+def test_a_scene_body_named_like_world_frame_is_refused():
+    with pytest.raises(ValueError, match="body 'world': its frame 'world' is world_frame"):
+        node_params.body_frame(DEFAULTS, 'world', False)
+    assert node_params.body_frame(dict(DEFAULTS, frame_prefix='sim1/'), 'world', False) == \
+        'sim1/world'

@@ -92,6 +92,10 @@ def test_resimulation_is_deterministic(start_sim, probe, tmp_path):
     sim = start_sim('-p', f'record:={f}')
     _drive(probe, n_wrenches=3)
     sim.stop()
+    # The node says that it records, and where the file is once it is finished.
+    out = sim.output()
+    assert f"recording to '{f}'" in out and f"recording finished: '{f}'" in out, out
+    assert 'body (1 kg)' in out, out
     # resimulate() refills one message per kind: keep copies.
     runs = [[(*r[:4], copy.deepcopy(r[4])) for r in replay.resimulate(replay.load(str(f)))]
             for _ in range(3)]

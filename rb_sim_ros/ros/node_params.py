@@ -140,8 +140,13 @@ def imu_noise(values: dict):
 
 def body_frame(values: dict, name: str, single: bool) -> str:
     """The frame id of body ``name`` under the parameters ``values``: frame_prefix +
-    body_frame for the single body, frame_prefix + its name for a scene's."""
-    return values.get('frame_prefix', '') + (values['body_frame'] if single else name)
+    body_frame for the single body, frame_prefix + its name for a scene's. ValueError if it
+    is world_frame (/tf would say world_frame -> world_frame)."""
+    frame = values.get('frame_prefix', '') + (values['body_frame'] if single else name)
+    if frame == values.get('world_frame'):
+        raise ValueError(f"body '{name}': its frame '{frame}' is world_frame: rename the body "
+                         'or change frame_prefix, body_frame or world_frame')
+    return frame
 
 
 def _orientation(name: str, v: Any) -> None:

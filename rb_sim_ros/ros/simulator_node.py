@@ -26,6 +26,7 @@ import argparse
 import collections
 from dataclasses import replace
 import math
+import os
 import signal
 import sys
 import threading
@@ -192,7 +193,7 @@ class SimulatorNode(Node):
         self._publish()
         self._thread = threading.Thread(target=self._loop, name='rb_sim_step_loop', daemon=True)
         self._thread.start()
-        bodies = ', '.join(f'{b.name} ({b.mass:g} kg{", static" if b.static else ""})'
+        bodies = ', '.join(f'{b.name} (static)' if b.static else f'{b.name} ({b.mass:g} kg)'
                            for b in self.config.bodies[:10])
         if len(self.config.bodies) > 10:
             bodies += (f' and {len(self.config.bodies) - 10} more ({len(self.ports)} with '
@@ -201,6 +202,8 @@ class SimulatorNode(Node):
             f'simulating {bodies}; dt {self.config.dt} s, publishing every '
             f'{self.config.steps_per_publish} steps, real_time_factor '
             f'{values["real_time_factor"]}')
+        if self._recorder is not None:
+            self.get_logger().info(f"recording to '{os.path.abspath(values['record'])}'")
 
     def _add_ports(self, spec: BodySpec, prefix: str, single: bool, stream: int,
                    moving: bool | None = None) -> None:
@@ -680,6 +683,9 @@ class SimulatorNode(Node):
         recorder, self._recorder = self._recorder, None
         if recorder is not None:
             recorder.close()
+            # Said on stderr: after a signal the logger's context may be gone already.
+            print(f"[rb_sim] recording finished: '{os.path.abspath(self._v['record'])}'",
+                  file=sys.stderr)
 
 
 def _timeout_steps(v: dict, config: Config) -> int:
@@ -731,6 +737,8 @@ def config_from(v: dict, scene=None) -> Config:
                                float(c) for c in v['initial_linear_velocity']),
                            initial_angular_velocity=tuple(
                                float(c) for c in v['initial_angular_velocity'])),)
+    for b in bodies:  # ValueError if a body's frame is world_frame
+        node_params.body_frame(v, b.name, scene is None)
     return Config(dt=float(v['dt']), steps_per_publish=int(round(steps)),
                   integrator=integrator, gravity=gravity, bodies=bodies, contact=contact)
 
