@@ -181,7 +181,6 @@ def main(args=None) -> int:
     # No rclpy signal handler: Ctrl-C raises KeyboardInterrupt with the context still up,
     # so the zero wrench below still goes out; SIGTERM and SIGHUP do the same.
     rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
-    previous = {s: signal.signal(s, _interrupt) for s in (signal.SIGTERM, signal.SIGHUP)}
     node = rclpy.create_node('send_wrench')
     # A row with a frame goes on wrench_stamped, one without on wrench: one publisher for each
     # kind the profile uses (a profile may mix them).
@@ -199,7 +198,10 @@ def main(args=None) -> int:
                   False: None}
     topics = ' and '.join(p.topic_name for p in pubs.values())
     status = 0
+    previous = {}
     try:
+        for s in (signal.SIGTERM, signal.SIGHUP):
+            previous[s] = signal.signal(s, _interrupt)
         end = time.monotonic() + opts.wait
         while any(p.get_subscription_count() == 0 for p in pubs.values()):
             if time.monotonic() > end:
@@ -228,7 +230,7 @@ def main(args=None) -> int:
         print(f'send_wrench: stopped by {type(e).__name__}: {e}', file=sys.stderr)
         status = 1
     finally:
-        try:
+        try:  # a second signal here stops the wait (the zero is out), still shuts down
             if rclpy.ok():
                 zero_reported.clear()
                 zero_reported.append(0)  # only reports from now on count
@@ -240,14 +242,14 @@ def main(args=None) -> int:
                 # on applied_wrench (at once) or DDS acknowledges it (Fast DDS acknowledges at
                 # its next heartbeat, up to 3 s later: needed when the wrench held was
                 # already zero).
-                try:
-                    arrived = _wait_for_zero(node, list(pubs.values()), zero_reported,
-                                             len(applied_topics))
-                except KeyboardInterrupt:  # a second signal: stop waiting, still shut down
-                    arrived = False
+                arrived = _wait_for_zero(node, list(pubs.values()), zero_reported,
+                                         len(applied_topics))
                 if not arrived:
                     print(f'send_wrench: the final zero wrench was not acknowledged within '
                           f'{ZERO_TIMEOUT_S:g} s', file=sys.stderr)
+        except KeyboardInterrupt:
+            print('send_wrench: interrupted again while sending the final zero wrench',
+                  file=sys.stderr)
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
