@@ -12,50 +12,14 @@ import pytest
 
 from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.core.rigid_body import Wrench
-from rb_sim_ros.ros import node_params, plots, render, replay
-from rb_sim_ros.ros.node_recorder import NodeRecorder
-from rb_sim_ros.ros.ros_messages import OutputMessages
+from rb_sim_ros.ros import plots, render, replay
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Delete, SetPose,
-                                       SetWrench, Simulation, Spawn)
+                                       SetWrench, Spawn)
+from recordings import record_offline
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURE = ROOT / 'test' / 'fixtures' / 'regression.mcap'
-
-
-def record_offline(path, config, periods, events=None):
-    """Record a run as the node does (scene mode: topics /<name>/pose, ...): publish at step
-    0, then each period its inputs (``events``: period -> [event]), its steps, a publish."""
-    params = {p.name: p.default for p in node_params.PARAMS}
-    params.update(dt=config.dt, publish_rate=1.0 / (config.dt * config.steps_per_publish),
-                  scene_file='scene.yaml')
-    moving = [b.name for b in config.bodies if not b.static]
-    topics = {n: {k: f'/{n}/{k}' for k in ('pose', 'twist', 'odom')} for n in moving}
-    rec = NodeRecorder(str(path), config, params, topics)
-    sim = Simulation(config)
-    outs = {n: OutputMessages(params['world_frame'], n, params['twist_frame']) for n in moving}
-    for period in range(periods + 1):
-        for event in (events or {}).get(period, []):
-            sim.apply(event)
-            if isinstance(event, Spawn):  # as the node: topics of its own from now on
-                n = event.spec.name
-                moving.append(n)
-                outs[n] = OutputMessages(params['world_frame'], n, params['twist_frame'])
-                rec.spawned(sim.step_count, sim.time_ns, event,
-                            {k: f'/{n}/{k}' for k in ('pose', 'twist', 'odom')})
-            elif isinstance(event, Delete):
-                moving.remove(event.body)
-                rec.deleted(sim.step_count, sim.time_ns, event.body)
-            else:
-                rec.event(sim.step_count, sim.time_ns, event)
-        if period:
-            sim.run(config.steps_per_publish)
-        for n in moving:
-            outs[n].fill(sim.time_ns, *sim.pose_twist(n))
-            rec.output(n, sim.step_count, sim.time_ns, outs[n])
-    rec.close()
-    assert rec.failed is None
-    return replay.load(str(path))
 
 
 @pytest.fixture(scope='module')

@@ -13,31 +13,9 @@ import io
 import numpy as np
 import pytest
 
-from rb_sim_ros.ros import node_params, plots, render, replay
-from rb_sim_ros.ros.node_recorder import NodeRecorder
-from rb_sim_ros.ros.ros_messages import OutputMessages
-from rb_sim_ros.sim.simulation import BodySpec, Config, Simulation
-
-
-def record(path, config, periods):
-    """Record a run as the node does (scene mode): a publish at step 0, then one a period."""
-    params = {p.name: p.default for p in node_params.PARAMS}
-    params.update(dt=config.dt, publish_rate=1.0 / (config.dt * config.steps_per_publish),
-                  scene_file='scene.yaml')
-    moving = [b.name for b in config.bodies if not b.static]
-    rec = NodeRecorder(str(path), config, params,
-                       {n: {k: f'/{n}/{k}' for k in ('pose', 'twist', 'odom')} for n in moving})
-    sim = Simulation(config)
-    outs = {n: OutputMessages(params['world_frame'], n, params['twist_frame']) for n in moving}
-    for period in range(periods + 1):
-        if period:
-            sim.run(config.steps_per_publish)
-        for n in moving:
-            outs[n].fill(sim.time_ns, *sim.pose_twist(n))
-            rec.output(n, sim.step_count, sim.time_ns, outs[n])
-    rec.close()
-    assert rec.failed is None
-    return replay.load(str(path))
+from rb_sim_ros.ros import plots, render, replay
+from rb_sim_ros.sim.simulation import BodySpec, Config
+from recordings import record_offline
 
 
 def spinning(dt=1e-3, steps_per_publish=10):
@@ -56,7 +34,7 @@ def delays(path):
     (1e-3, 10, None), (1e-3, 15, None), (1e-3, 7, None), (1e-3, 1, None), (1e-3, 30, None),
     (1e-3, 10, 30.0), (1e-3, 10, 100.0), (1e-3, 10, 25.0)])
 def test_a_gif_plays_in_real_time_in_whole_centiseconds(tmp_path, dt, steps, fps):
-    rec = record(tmp_path / 'r.mcap', spinning(dt, steps), round(1.5 / (dt * steps)))
+    rec = record_offline(tmp_path / 'r.mcap', spinning(dt, steps), round(1.5 / (dt * steps)))
     length = 1000.0 * dt * steps * round(1.5 / (dt * steps))  # ms
     gif = tmp_path / 'r.gif'
     n = render.render(rec, str(gif), 'top', fps=fps, size=(64, 64))
@@ -70,7 +48,7 @@ def test_a_gif_plays_in_real_time_in_whole_centiseconds(tmp_path, dt, steps, fps
 
 
 def test_a_gif_too_large_to_hold_is_thinned_in_one_line(tmp_path, monkeypatch, capsys):
-    rec = record(tmp_path / 'r.mcap', spinning(), 150)
+    rec = record_offline(tmp_path / 'r.mcap', spinning(), 150)
     monkeypatch.setattr(render, 'MAX_GIF_PIXELS', 64 * 64 * 10)
     gif = tmp_path / 'r.gif'
     n = render.render(rec, str(gif), 'top', size=(64, 64))
@@ -100,7 +78,7 @@ def _main(*args):
 ], ids=['x', 'xyz', 'falling', 'tiny_mass'])
 def test_extreme_bodies_are_drawn_and_plotted_or_refused_in_one_line(tmp_path, spec):
     near = BodySpec('near', 1.0, (0.1,) * 3)
-    rec = record(tmp_path / 'r.mcap', Config(bodies=(spec, near)), 5)
+    rec = record_offline(tmp_path / 'r.mcap', Config(bodies=(spec, near)), 5)
     for args in (('--render', rec.path, str(tmp_path / 'r.gif'), '--size', '64x64'),
                  ('--render', rec.path, str(tmp_path / 'f.gif'), '--follow', 'b', '--size',
                   '64x64'),

@@ -11,12 +11,12 @@ or its offered QoS changed.
 import json
 from pathlib import Path
 
-from mcap.reader import make_reader
 from mcap.writer import Writer
 import pytest
 
 from rb_sim_ros.recording import ReaderError
 from rb_sim_ros.ros import replay
+from recordings import mcap_parts
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
 TRANSIENT_LOCAL = ('- history: keep_last\n  depth: 3\n  reliability: reliable\n'
@@ -90,21 +90,11 @@ def test_publishers_get_the_qos_given_per_topic_and_depth_10_without():
 
 
 # -- recordings rewritten -------------------------------------------------------------------
-def _fixture_parts():
-    """(header, schemas, channels, messages, metadata) of the fixture, read by mcap itself."""
-    with open(FIXTURE, 'rb') as f:
-        reader = make_reader(f)
-        header, summary = reader.get_header(), reader.get_summary()
-        messages = [m for _s, _c, m in reader.iter_messages(log_time_order=False)]
-        metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
-    return header, summary.schemas, summary.channels, messages, metadata
-
-
 def _rewrite(path, rename=None, channel_metadata=None):
     """The fixture with topics renamed (``rename``: old -> new, in the channels and in the
     metadata's output_topics) and channel metadata replaced (topic -> dict)."""
     rename, channel_metadata = rename or {}, channel_metadata or {}
-    header, schemas, channels, messages, metadata = _fixture_parts()
+    header, schemas, channels, messages, metadata = mcap_parts(FIXTURE)
     meta = dict(metadata['rb_sim_ros'])
     meta['output_topics'] = json.dumps({
         body: {kind: rename.get(topic, topic) for kind, topic in topics.items()}

@@ -28,6 +28,7 @@ from rb_sim_ros.ros.node_recorder import NodeRecorder, OUTPUTS
 from rb_sim_ros.ros.ros_messages import OutputMessages
 from rb_sim_ros.sim.simulation import (BodySpec, Config, Delete, SetWrench, Simulation,
                                        Spawn)
+from recordings import mcap_parts
 from test_recording import disk_full_after
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
@@ -35,17 +36,7 @@ OUTPUT_KINDS = ('pose', 'twist', 'odom')  # what the runs recorded offline here 
 RECORDED_KINDS = tuple(OUTPUTS)  # what the node records of a body (the fixture)
 
 
-def _fixture_parts():
-    """(header, schemas, channels, messages, metadata) of the fixture, read by mcap itself."""
-    with open(FIXTURE, 'rb') as f:
-        reader = make_reader(f)
-        header, summary = reader.get_header(), reader.get_summary()
-        messages = [m for _s, _c, m in reader.iter_messages(log_time_order=False)]
-        metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
-    return header, summary.schemas, summary.channels, messages, metadata
-
-
-PARTS = _fixture_parts()
+PARTS = mcap_parts(FIXTURE)
 META = PARTS[4]['rb_sim_ros']
 
 
