@@ -189,11 +189,9 @@ def main(args=None) -> int:
         pubs[stamped] = (node.create_publisher(WrenchStamped, 'wrench_stamped', 10) if stamped
                          else node.create_publisher(Wrench, 'wrench', 10))
     zero_reported = []  # set when the simulator reports a zero wrench after ours was sent
-    applied_topics = {_applied_topic(p.topic_name) for p in pubs.values()}
-    for topic in sorted(applied_topics):
-        node.create_subscription(WrenchStamped, topic,
-                                 lambda m: _on_applied(m, zero_reported), QoSProfile(depth=10))
-    zeros = {stamped: (0.0,) * 6 for stamped in pubs}
+    # wrench and wrench_stamped are siblings: one applied_wrench beside both.
+    node.create_subscription(WrenchStamped, _applied_topic(next(iter(pubs.values())).topic_name),
+                             lambda m: _on_applied(m, zero_reported), QoSProfile(depth=10))
     last_frame = {True: next((f for _, _, f in reversed(profile) if f is not None), None),
                   False: None}
     topics = ' and '.join(p.topic_name for p in pubs.values())
@@ -233,17 +231,16 @@ def main(args=None) -> int:
         try:  # a second signal here stops the wait (the zero is out), still shuts down
             if rclpy.ok():
                 zero_reported.clear()
-                zero_reported.append(0)  # only reports from now on count
+                zero_reported.append(False)  # only reports from now on count
                 for stamped, pub in pubs.items():
-                    pub.publish(_message(zeros[stamped], last_frame[stamped], opts.world_frame,
+                    pub.publish(_message((0.0,) * 6, last_frame[stamped], opts.world_frame,
                                          opts.body_frame))
                 # Destroying the writer at once can drop the zero before the simulator has
                 # it, leaving the last wrench held: wait until the simulator reports the zero
                 # on applied_wrench (at once) or DDS acknowledges it (Fast DDS acknowledges at
                 # its next heartbeat, up to 3 s later: needed when the wrench held was
                 # already zero).
-                arrived = _wait_for_zero(node, list(pubs.values()), zero_reported,
-                                         len(applied_topics))
+                arrived = _wait_for_zero(node, list(pubs.values()), zero_reported)
                 if not arrived:
                     print(f'send_wrench: the final zero wrench was not acknowledged within '
                           f'{ZERO_TIMEOUT_S:g} s', file=sys.stderr)
@@ -266,14 +263,13 @@ def _interrupt(signum, frame):
 def _on_applied(msg: WrenchStamped, zero_reported: list) -> None:
     f, t = msg.wrench.force, msg.wrench.torque
     if zero_reported and (f.x, f.y, f.z, t.x, t.y, t.z) == (0.0,) * 6:
-        zero_reported[0] += 1
+        zero_reported[0] = True
 
 
-def _wait_for_zero(node, pubs: list, zero_reported: list, reports: int) -> bool:
-    """True once the simulator reported ``reports`` zeros, or DDS acknowledged every zero."""
+def _wait_for_zero(node, pubs: list, zero_reported: list) -> bool:
+    """True once the simulator reported a zero, or DDS acknowledged every zero sent."""
     def arrived() -> bool:
-        return (zero_reported[0] >= reports
-                or all(p.wait_for_all_acked(Duration(seconds=0)) for p in pubs))
+        return zero_reported[0] or all(p.wait_for_all_acked(Duration(seconds=0)) for p in pubs)
     end = time.monotonic() + ZERO_TIMEOUT_S
     while time.monotonic() < end:
         if arrived():
