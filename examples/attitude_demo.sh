@@ -8,7 +8,9 @@
 # stops both (the recording is finalised), then replay --verify and --plot the recording.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
-. "$root/tools/venv.sh" requirements-test.txt
+# The node, the controller, replay and its plots: the runtime and the picture packages,
+# not the test suite's peers (MuJoCo, Drake, Ray).
+. "$root/tools/venv.sh" requirements-viz.txt
 out=${1:-attitude_demo}
 mkdir -p "$out"
 export ROS_DOMAIN_ID=${ROS_DOMAIN_ID:-$((100 + RANDOM % 100))}

@@ -6,17 +6,21 @@ msgs_stamp="$venv/.rb_sim_ros-msgs.stamp"
 msgs_want=$(cd "$root" && cat requirements-msgs.txt $(find tools/msgs -type f | sort) \
   | sha256sum | cut -c1-16)
 if [ "$(cat "$msgs_stamp" 2>/dev/null || true)" != "$msgs_want" ]; then
-  echo "[rb_sim_ros] building tools/msgs into $venv (about 2 min the first time)" >&2
   msgs_log="$venv/.rb_sim_ros-msgs.log"
+  echo "[rb_sim_ros] building the message packages of tools/msgs into $venv, once" \
+    "(about 2-5 min; log: $msgs_log)" >&2
   msgs_ok=yes
   # Each step ends the build on failure: errexit does not hold in a subshell tested by ||.
+  # Its output goes to the log; fd 3 is the terminal, for one line per step.
   (
+    echo "[rb_sim_ros]   installing the rosidl generator wheels (about 30 s)" >&3
     "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
       -r "$root/requirements-msgs.txt" || exit 1
     command -v cmake >/dev/null || "$venv/bin/python" -m pip install --quiet \
       --disable-pip-version-check cmake || exit 1
     for pkg in "$root"/tools/msgs/*/; do
       name=$(basename "$pkg")
+      echo "[rb_sim_ros]   generating and compiling $name (about 1-2 min)" >&3
       build="$venv/.rb_sim_ros-build/$name"
       rm -rf "$build"
       PATH="$venv/bin:$PATH" AMENT_PREFIX_PATH="$venv" CMAKE_PREFIX_PATH="$venv" \
@@ -25,9 +29,10 @@ if [ "$(cat "$msgs_stamp" 2>/dev/null || true)" != "$msgs_want" ]; then
       PATH="$venv/bin:$PATH" cmake --build "$build" -j 2 || exit 1
       PATH="$venv/bin:$PATH" cmake --install "$build" || exit 1
     done
-  ) >"$msgs_log" 2>&1 || msgs_ok=no
+  ) 3>&2 >"$msgs_log" 2>&1 || msgs_ok=no
   if [ "$msgs_ok" = yes ]; then
     echo "$msgs_want" > "$msgs_stamp"
+    echo "[rb_sim_ros] message packages built (log: $msgs_log)" >&2
   else
     echo "[rb_sim_ros] WARNING: building tools/msgs failed (see $msgs_log); the simulator" \
       "runs without /tf" >&2

@@ -13,21 +13,34 @@ stamp="$venv/.rb_sim_ros-$(basename "$req").stamp"
 want=$(cat "$root"/requirements*.txt "$root/setup.py" "$root/setup.cfg" | sha256sum | cut -c1-16)
 # A file whose requirements include $req (test > bench > runtime) satisfies it too.
 case "$(basename "$req")" in
-  requirements.txt) covers="requirements.txt requirements-bench.txt requirements-test.txt" ;;
+  requirements.txt) covers="requirements.txt requirements-bench.txt requirements-viz.txt
+    requirements-test.txt" ;;
+  requirements-viz.txt) covers="requirements-viz.txt requirements-test.txt" ;;
   requirements-bench.txt) covers="requirements-bench.txt requirements-test.txt" ;;
   *) covers="$(basename "$req")" ;;
 esac
-current=no
-for c in $covers; do
-  [ "$(cat "$venv/.rb_sim_ros-$c.stamp" 2>/dev/null || true)" = "$want" ] && current=yes
-done
-if [ "$current" = no ]; then
-  echo "[rb_sim_ros] installing $req into $venv (about 30 s the first time)" >&2
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$root/$req"
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps -e "$root"
+rb_sim_current() {
+  local c
+  for c in $covers; do
+    [ "$(cat "$venv/.rb_sim_ros-$c.stamp" 2>/dev/null || true)" = "$want" ] && return 0
+  done
+  return 1
+}
+# Two set-up commands started at once (a test run beside the simulator) install one at a time:
+# the second waits on the lock, then finds the stamp current.
+exec {rb_sim_lock}>"$venv/.rb_sim_ros.lock"
+flock "$rb_sim_lock"
+if ! rb_sim_current; then
+  echo "[rb_sim_ros] installing $req into $venv (about 1 min the first time;" \
+    "pip's log: $venv/.rb_sim_ros-pip.log)" >&2
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
+    --log "$venv/.rb_sim_ros-pip.log" -r "$root/$req"
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
+    --log "$venv/.rb_sim_ros-pip.log" --no-deps -e "$root"
   echo "$want" > "$stamp"
 fi
 . "$root/tools/build_msgs.sh"
+exec {rb_sim_lock}>&-
 # Keep ROS traffic on this machine unless the user chose otherwise.
 export ROS_AUTOMATIC_DISCOVERY_RANGE=${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}
 export PATH="$venv/bin:$PATH"
