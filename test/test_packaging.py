@@ -8,6 +8,7 @@ import importlib.util
 import json
 import os
 from pathlib import Path
+import re
 import subprocess
 import sys
 import types
@@ -66,6 +67,35 @@ def test_rviz_and_foxglove_layouts_show_the_world_frame_tf_and_markers():
     fox = json.loads((ROOT / 'foxglove' / 'rb_sim_layout.json').read_text())
     assert fox['configById']['3D!rbsim']['followTf'] == 'world'
     assert set(fox['configById']) >= {'3D!rbsim'}
+
+
+def _layout_topics(value):
+    """Every topic a Foxglove layout names: topic keys, and the topic of each message path."""
+    if isinstance(value, dict):
+        for key, item in value.items():
+            if key.startswith('/'):
+                yield key
+            if key in ('value', 'topicToRender') and isinstance(item, str):
+                yield re.match(r'/[^.\[]*', item).group(0)
+            yield from _layout_topics(item)
+    elif isinstance(value, list):
+        for item in value:
+            yield from _layout_topics(item)
+
+
+def test_the_foxglove_layout_watches_topics_every_scene_has_and_titles_current_foxglove_shows():
+    """The layout works for any scene: it names only the node's scene-wide topics (not a body's
+    ``pose`` or ``imu``, which exist under those names only for the one-body default), and its
+    panel titles use the key Foxglove reads (``foxglovePanelTitle``; ``title`` is ignored)."""
+    fox = json.loads((ROOT / 'foxglove' / 'rb_sim_layout.json').read_text())
+    topics = set(_layout_topics(fox['configById']))
+    assert {'/poses', '/collision_markers'} <= topics
+    assert topics <= {'/poses', '/collision_markers', '/diagnostics', '/tf', '/tf_static',
+                      '/clock'}, topics
+    for panel, config in fox['configById'].items():
+        assert 'title' not in config, panel
+        if panel.startswith('Plot!'):
+            assert config.get('foxglovePanelTitle'), panel
 
 
 def test_share_files_are_installed(installed):
@@ -203,3 +233,37 @@ def test_the_launch_file_passes_scene_file_and_record_only_when_given(monkeypatc
     assert params[0].args == ('params_file',)
     overrides = {k: v for p in params[1:] for k, v in p.items()}
     assert overrides == given
+
+
+# The rosdep key of each third-party Python module the package imports, where it differs from
+# the module's name (ROS packages are keyed by their own name); PyPI-only modules have none,
+# and the README says how to install them on a ROS machine.
+ROSDEP_KEY = {'numpy': 'python3-numpy', 'yaml': 'python3-yaml', 'numba': 'python3-numba',
+              'regex': 'python3-regex', 'matplotlib': 'python3-matplotlib', 'PIL': 'python3-pil',
+              'imageio': 'python3-imageio'}
+PYPI_ONLY = {'mcap', 'ray', 'imageio_ffmpeg'}
+
+
+def test_every_module_the_package_imports_has_a_rosdep_key_in_package_xml():
+    """rosdep installs what package.xml names: a new import without its key works here (pip)
+    and fails on a ROS install."""
+    import xml.etree.ElementTree as ET
+    xml = ET.parse(ROOT / 'package.xml').getroot()
+    keys = {e.text for e in xml if e.tag.endswith('depend')}
+    missing = set()
+    for path in (ROOT / 'rb_sim_ros').rglob('*.py'):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            else:
+                continue
+            for name in names:
+                top = name.split('.')[0]
+                if top in sys.stdlib_module_names or top in ('rb_sim_ros', '__future__') \
+                        or top in PYPI_ONLY:
+                    continue
+                if ROSDEP_KEY.get(top, top) not in keys:
+                    missing.add(f'{top} ({path.relative_to(ROOT)})')
+    assert not missing, sorted(missing)
