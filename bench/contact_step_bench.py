@@ -16,10 +16,12 @@ The scenes a controller test meets, each moving the whole time it is timed (no s
 
 Checks first (exit 1 if one fails): each engine's run against the closed form or the outcome
 above (stopping distance within 2%, landed, rolling acceleration within 2%, lying on a face).
-Then the time per step of each engine, the median of blocks of steps from the same start,
-stepped one step per call (as a node calls them) and, for us, also ``step(10)`` (a node's
-publish period). MuJoCo runs its default solver (Newton) and PGS, both with their default
-iteration caps; dt = 1 ms for both. Ratios rb_sim_ros / MuJoCo Newton are printed.
+Then the time per step of each engine, the median over the calls of a run from the same start,
+with the same call pattern on both sides: one step a call (a controller stepping the world),
+ten steps a call (a node's publish period: ``step(10)`` and ``mj_step(m, d, 10)``, whose loop is
+in C as ours is), and the whole run in one call. MuJoCo runs its default solver (Newton) and
+PGS, both with their default iteration caps; dt = 1 ms for both; neither sleeps (ours:
+``sleep_time=0``; MuJoCo's sleeping is off by default). Ratios ours / MuJoCo are printed.
 
 Writes docs/bench/contact_step_bench.json (or ``--json``; ``--quick`` writes none unless
 asked). Sanity (plausibility, exit 1): every time finite and between 0.1 us and 100 ms a step.
@@ -116,7 +118,9 @@ def ours(scene, steps: int, per_call: int = 1) -> tuple[CollisionWorld, list[flo
     return world, times
 
 
-def theirs(scene, steps: int, solver) -> tuple[mujoco.MjData, list[float]]:
+def theirs(scene, steps: int, solver, per_call: int = 1) -> tuple[mujoco.MjData, list[float]]:
+    """MuJoCo on the same scene, ``per_call`` steps in each ``mj_step`` call (its ``nstep``: the
+    loop over steps in C, as ours is for ``step(n)``)."""
     model = mujoco.MjModel.from_xml_string(scene[4])
     model.opt.solver = solver
     data = mujoco.MjData(model)
@@ -124,10 +128,10 @@ def theirs(scene, steps: int, solver) -> tuple[mujoco.MjData, list[float]]:
         getattr(data, key)[:] = value
     mujoco.mj_forward(model, data)
     times = []
-    for _ in range(steps):
+    for _ in range(steps // per_call):
         t = time.perf_counter()
-        mujoco.mj_step(model, data)
-        times.append(time.perf_counter() - t)
+        mujoco.mj_step(model, data, per_call)
+        times.append((time.perf_counter() - t) / per_call)
     return data, times
 
 
@@ -181,24 +185,30 @@ def main() -> int:
         problems += check(name, world, data)
         best = {}
         for _ in range(repeats):
-            cells = {'rb_sim_ros step(1)': ours(scene, steps)[1],
-                     'rb_sim_ros step(10)': ours(scene, steps, 10)[1],
-                     'MuJoCo Newton': theirs(scene, steps, mujoco.mjtSolver.mjSOL_NEWTON)[1],
-                     'MuJoCo PGS': theirs(scene, steps, mujoco.mjtSolver.mjSOL_PGS)[1]}
+            newton, pgs = mujoco.mjtSolver.mjSOL_NEWTON, mujoco.mjtSolver.mjSOL_PGS
+            cells = {}
+            for calls, n in (('1', 1), ('10', 10), ('run', steps)):
+                cells[f'rb_sim_ros, {calls}'] = ours(scene, steps, n)[1]
+                cells[f'MuJoCo Newton, {calls}'] = theirs(scene, steps, newton, n)[1]
+                cells[f'MuJoCo PGS, {calls}'] = theirs(scene, steps, pgs, n)[1]
             for k, t in cells.items():
                 best[k] = min(best.get(k, math.inf), float(np.median(t)))
         rows[name] = best
     if problems:
         print('checks failed: ' + '; '.join(problems), file=sys.stderr)
         return 1
-    cols = ['rb_sim_ros step(1)', 'rb_sim_ros step(10)', 'MuJoCo Newton', 'MuJoCo PGS']
-    print('\n| scene (dt = 1 ms, moving) | ' + ' | '.join(f'{c}, us per step' for c in cols)
-          + ' | step(1) / Newton | step(10) / Newton |')
-    print('| --- | ' + ' | '.join('---:' for _ in cols) + ' | ---: | ---: |')
+    print('\nus per step, dt = 1 ms, the body moving throughout; both engines called alike: one'
+          '\nstep a call, ten steps a call (step(10), mj_step(m, d, 10)), the whole run'
+          ' in one call')
+    print('| scene | steps a call | rb_sim_ros | MuJoCo Newton | MuJoCo PGS | ours / Newton |'
+          ' ours / PGS |')
+    print('| --- | --- | ---: | ---: | ---: | ---: | ---: |')
     for name, r in rows.items():
-        print(f'| {name} | ' + ' | '.join(f'{r[c] * 1e6:.1f}' for c in cols)
-              + f' | {r[cols[0]] / r["MuJoCo Newton"]:.1f}x'
-              f' | {r[cols[1]] / r["MuJoCo Newton"]:.1f}x |')
+        for calls in ('1', '10', 'run'):
+            ours_t, newton_t, pgs_t = (r[f'{who}, {calls}'] for who in
+                                       ('rb_sim_ros', 'MuJoCo Newton', 'MuJoCo PGS'))
+            print(f'| {name} | {calls} | {ours_t * 1e6:.2f} | {newton_t * 1e6:.2f} | '
+                  f'{pgs_t * 1e6:.2f} | {ours_t / newton_t:.2f}x | {ours_t / pgs_t:.2f}x |')
     sane = figures.Sanity()
     for name, r in rows.items():
         for c, value in r.items():
