@@ -20,6 +20,7 @@ from recordings import record_offline
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURE = ROOT / 'test' / 'fixtures' / 'regression.mcap'
+COLLISIONS = ROOT / 'test' / 'fixtures' / 'collision_demo.mcap'
 
 
 @pytest.fixture(scope='module')
@@ -71,6 +72,69 @@ def test_a_static_wall_stays_put_in_every_view(demo):
             boxes.append((xs.min(), xs.max(), ys.min(), ys.max()) if len(xs) else None)
         full = [b for b, c in zip(boxes, counts) if c >= 0.98 * max(counts)]
         assert len(full) > 5 and all(b == full[0] for b in full), view
+
+
+def _coloured(image):
+    """Where the moving bodies are drawn: pixels of a colour (static bodies, the grid, the
+    background and the time's text are grey)."""
+    rgb = np.asarray(image.convert('RGB')).astype(int)
+    mask = np.ptp(rgb, axis=2) > 20
+    mask[:20] = False  # the time's text
+    return mask
+
+
+def _spans(mask):
+    """(width, height) fractions of the image that ``mask``'s pixels span."""
+    rows, cols = np.nonzero(mask)
+    return np.ptp(cols) / mask.shape[1], np.ptp(rows) / mask.shape[0]
+
+
+@pytest.mark.parametrize('view', render.VIEWS)
+def test_the_collision_scene_fills_the_picture(view):
+    """The view holds the moving bodies with their own colliders and the static wall beside
+    them, not the wall's reach around every body: in every frame the moving bodies span more
+    than 30% of the width or height, and over the run more than half (issue 28: they were
+    drawn in a tenth of the image)."""
+    rec = replay.load(str(COLLISIONS))
+    r = render.Renderer(rec, view, (320, 240))
+    union = np.zeros((240, 320), bool)
+    for t in r.timeline.times[::10]:
+        mask = _coloured(r.frame(float(t)))
+        assert max(_spans(mask)) > 0.3, (view, t, _spans(mask))
+        union |= mask
+    assert max(_spans(union)) > 0.5, (view, _spans(union))
+
+
+@pytest.mark.parametrize('far', [
+    BodySpec('far', static=True, initial_position=(1e300, 0.0, 0.0), colliders=(Box((1,) * 3),)),
+    BodySpec('far', static=True, initial_position=(0.0, 3.0, 0.0),
+             colliders=(Box((1e200, 1.0, 1.0)),)),
+    BodySpec('far', static=True, initial_position=(0.0, 3.0, 0.0),
+             colliders=(Sphere(0.5, position=(0.0, 0.0, 1e300)),)),
+    BodySpec('far', 1.0, (0.1,) * 3, initial_position=(0.0, 0.6, 1.0),
+             colliders=(Sphere(0.1), Sphere(0.1, position=(1e300, 0.0, 0.0)))),
+    BodySpec('far', static=True, initial_position=(0.0, 0.0, 0.0),
+             colliders=(Plane(offset=-1e300),)),
+    BodySpec('far', static=True, initial_position=(0.0, 80.0, 0.0), colliders=(Box((1,) * 3),)),
+], ids=['static_far', 'collider_huge', 'collider_far', 'moving_collider_far', 'plane_far',
+        'static_beyond'])
+def test_huge_or_far_colliders_leave_the_view_to_the_bodies(tmp_path, far, capsys):
+    """A static body 1e300 m away, a collider 1e200 m long or 1e300 m from its body's centre,
+    a ground 1e300 m down (render.MAX_EXTENT applies to them as to the recorded positions), or a
+    wall 80 m away: each is left out, in one line naming it when it cannot be drawn, and the
+    ball still fills the view."""
+    ball = BodySpec('ball', 1.0, (0.004,) * 3, initial_position=(0.0, 0.0, 1.0),
+                    colliders=(Sphere(0.25),))
+    rec = record_offline(tmp_path / 'r.mcap', Config(bodies=(ball, far)), 3)
+    capsys.readouterr()
+    # (4 publishes 10 ms apart: every other one, 20 ms a frame)
+    assert render.render(rec, str(tmp_path / 'r.gif'), 'iso', size=(200, 200)) == 2
+    err = capsys.readouterr().err
+    assert 'Traceback' not in err
+    assert all(line.startswith("render: body 'far'") for line in err.splitlines()), err
+    r = render.Renderer(rec, 'iso', (200, 200))
+    ball_pixels = _mask(r.frame(0.0), r.timeline.colour['ball'])
+    assert max(_spans(ball_pixels)) > 0.3, _spans(ball_pixels)
 
 
 def test_the_regression_fixture_moves_on_screen_as_recorded():

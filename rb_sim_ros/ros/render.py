@@ -8,8 +8,9 @@ principal axes), at the recorded poses, in an orthographic view (``iso``, ``top`
 ``side``), with a ground grid and the sim time. Frames come at the recording's publish rate,
 or at ``fps`` (each shows the last publish at or before its time); a GIF takes every k-th of
 them, so that each is shown a whole number of centiseconds, at least 20 ms (what viewers play
-as written), and it plays in real time. The camera frames the whole
-run, or follows one body. Faces are shaded by a fixed light and drawn far to near.
+as written), and it plays in real time; it is written a frame at a time (memory: one frame,
+whatever the length). The camera frames the whole run (its bodies and the static colliders
+near them), or follows one body. Faces are shaded by a fixed light and drawn far to near.
 
 GIF needs only Pillow (which matplotlib brings); MP4 needs imageio and imageio-ffmpeg, whose
 wheel carries its own ffmpeg (no system ffmpeg). Everything is computed from the recording:
@@ -18,8 +19,10 @@ no ROS graph, no re-simulation.
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 import math
+import os
 import sys
 
 import numpy as np
@@ -42,9 +45,11 @@ MAX_FRAMES = 100_000
 # frame of a GIF is shown a whole number of centiseconds, at least MIN_GIF_DELAY_CS.
 MAX_GIF_DELAY_CS = 65535
 MIN_GIF_DELAY_CS = 2
-# A GIF's frames are all held until it is written (Pillow cannot append to one): at most this
-# many pixels of them (one byte each); more frames are thinned out to fit.
-MAX_GIF_PIXELS = 1 << 29
+# A GIF is written a frame at a time (memory: one frame, whatever the number); its frames hold
+# at most this many pixels in all (a bound on the file and on the time to draw it, about
+# 110,000 frames of 640x480); more frames are thinned out to fit.
+MAX_GIF_PIXELS = 1 << 35
+GIF_COLOURS = 64
 # Bodies further from the origin than this (m), and parts larger, are not drawn.
 MAX_EXTENT = 1e6
 
@@ -96,19 +101,29 @@ def inertia_box(spec) -> Part | None:
 
 def parts_of(spec) -> list[Part]:
     """What to draw of a body: its colliders (planes are the ground grid's), or its inertia
-    box when it has none."""
-    out = []
+    box when it has none. A collider further from the body's centre than MAX_EXTENT, or
+    larger, or not finite, is left out (its pixels would overflow), in one line."""
+    out, far = [], 0
     for c in spec.colliders:
         if c.kind == 'plane':
             continue
         r = np.array(rotation_from_quaternion(c.orientation_xyzw)).reshape(3, 3)
         at = np.array(c.position, dtype=float)
         if c.kind == 'sphere':
-            out.append(Part('sphere', (c.radius,), at, r))
+            part = Part('sphere', (c.radius,), at, r)
         elif c.kind == 'box':
-            out.append(Part('box', tuple(0.5 * s for s in c.size), at, r))
+            part = Part('box', tuple(0.5 * s for s in c.size), at, r)
         elif c.kind == 'capsule':
-            out.append(Part('capsule', (c.radius, c.half_length), at, r))
+            part = Part('capsule', (c.radius, c.half_length), at, r)
+        else:
+            continue
+        if _drawable_part(part):
+            out.append(part)
+        else:
+            far += 1
+    if far:
+        _note(f'body {spec.name!r}: {far} of its colliders are larger than {MAX_EXTENT:g} m, '
+              'further from its centre, or not finite: not drawn')
     if not spec.colliders:
         box = inertia_box(spec)
         if box is None:
@@ -117,6 +132,20 @@ def parts_of(spec) -> list[Part]:
         else:
             out.append(box)
     return out
+
+
+def _drawable_part(part: Part) -> bool:
+    values = np.concatenate([np.asarray(part.size, dtype=float), part.position,
+                             part.rotation.ravel()])
+    return bool(np.all(np.isfinite(values)) and np.all(np.abs(values) <= MAX_EXTENT)
+                and _extent(part) <= MAX_EXTENT)
+
+
+def _placed(spec) -> bool:
+    """Whether a static body's pose can be drawn: finite, within MAX_EXTENT of the origin."""
+    values = np.array([*spec.initial_position, *spec.initial_orientation_xyzw], dtype=float)
+    return bool(np.all(np.isfinite(values)) and np.all(np.abs(values[:3]) <= MAX_EXTENT)
+                and np.linalg.norm(values[3:]) > 0.0)
 
 
 def ground_height(specs) -> float:
@@ -131,17 +160,35 @@ def ground_height(specs) -> float:
             normal = r @ np.array(c.normal)
             if normal[2] > 0.999:  # the half-space normal . p <= offset, body frame
                 point = np.array(spec.initial_position) + r @ (np.array(c.normal) * c.offset)
-                return float(point[2])
+                if abs(point[2]) <= MAX_EXTENT:  # (else the grid is drawn at 0)
+                    return float(point[2])
     return 0.0
 
 
+def _extent(p: Part) -> float:
+    """How far a part reaches from its own centre (m)."""
+    if p.kind == 'capsule':
+        return p.size[0] + p.size[1]
+    return max(p.size) * (math.sqrt(3.0) if p.kind == 'box' else 1.0)
+
+
 def _reach(parts) -> float:
-    """How far a body's parts reach from its centre (m)."""
-    def extent(p: Part) -> float:
-        if p.kind == 'capsule':
-            return p.size[0] + p.size[1]
-        return max(p.size) * (math.sqrt(3.0) if p.kind == 'box' else 1.0)
-    return max((float(np.linalg.norm(p.position)) + extent(p) for p in parts), default=0.1)
+    """How far a body's parts reach from its centre (m), whatever its turn."""
+    return max((float(np.linalg.norm(p.position)) + _extent(p) for p in parts), default=0.1)
+
+
+def _part_points(part: Part, x, r) -> tuple[np.ndarray, float]:
+    """(points, padding): the part at pose (x, r) lies within ``padding`` of the points'
+    convex hull (a box's 8 corners, a capsule's two ends, a sphere's centre)."""
+    rot = r @ part.rotation
+    at = x + r @ part.position
+    if part.kind == 'sphere':
+        return at[None, :], part.size[0]
+    if part.kind == 'capsule':
+        radius, half = part.size
+        return np.array([at - rot[:, 2] * half, at + rot[:, 2] * half]), radius
+    signs = np.array([[a, b, c] for a in (-1, 1) for b in (-1, 1) for c in (-1, 1)], float)
+    return at + (signs * np.array(part.size)) @ rot.T, 0.0
 
 
 class Timeline:
@@ -182,6 +229,10 @@ class Timeline:
                 self.tracks[name] = (a[:, 0], a[:, 1:4], rotation_matrices(a[:, 4:8]))
         self.parts = {name: [p for _, _, parts in lives for p in parts]  # (for the extent)
                       for name, lives in self.lives.items()}
+        for name, lives in self.lives.items():
+            if any(spec.static and not _placed(spec) for _, spec, _ in lives):
+                _note(f'body {name!r}: its position is further than {MAX_EXTENT:g} m or its '
+                      'pose not finite: not drawn')
         self.ground = ground_height(self.specs.values())
         self.colour = {}
         for i, name in enumerate(self.order):
@@ -211,7 +262,7 @@ class Timeline:
         if it was not there then (not yet spawned, deleted, or not finite)."""
         spec = self.life(name, t)[0]
         if spec.static:
-            if not self._present(name, t):
+            if not self._present(name, t) or not _placed(spec):
                 return None
             return (np.array(spec.initial_position), np.array(
                 rotation_from_quaternion(spec.initial_orientation_xyzw)).reshape(3, 3))
@@ -258,29 +309,50 @@ class Renderer:
             raise ValueError(f'--follow {follow!r}: no recorded moving body of that name (have '
                              f'{sorted(tl.tracks)})')
         self.follow = follow
-        # The view's extent: every recorded centre and static body, with reach.
-        points, reach = [], 0.1
-        for name, (times, x, _r) in tl.tracks.items():
-            points.append(x)
-            reach = max(reach, _reach(tl.parts[name]))
-        for name, spec in tl.specs.items():
-            if spec.static and tl.parts[name] and spec.colliders and any(
-                    c.kind != 'plane' for c in spec.colliders):
-                points.append(np.array([spec.initial_position]))
-                reach = max(reach, _reach(tl.parts[name]))
-        points = [x for x in points if len(x)]
-        pts = np.concatenate(points) if points else np.zeros((1, 3))
-        screen = pts @ self.cam[:2].T
-        lo, hi = screen.min(axis=0) - reach, screen.max(axis=0) + reach
-        if follow is not None:
-            half = max(4.0 * _reach(tl.parts[follow]), 1.0)
+        self.centre, self.scale, self.grid_box = self._framing()
+
+    def _framing(self):
+        """(centre (m, screen), scale (pixels a metre), grid's world box): the view holds
+        every moving body's recorded positions with its own reach, and the static colliders
+        near them (within half their span beyond it: a long wall or a large slab is cut
+        there, a far one is left out); with no moving body, the static ones."""
+        tl = self.timeline
+        moving_uv, moving_xyz = [], []  # (lo, hi) boxes, screen and world
+        for name, (_times, x, _r) in tl.tracks.items():
+            if not len(x):
+                continue
+            reach = _reach(tl.parts[name])
+            uv = x @ self.cam[:2].T
+            moving_uv.append((uv.min(axis=0) - reach, uv.max(axis=0) + reach))
+            moving_xyz.append((x.min(axis=0) - reach, x.max(axis=0) + reach))
+        static_uv, static_xyz = [], []
+        for name, lives in tl.lives.items():
+            for _, spec, parts in lives:
+                if not (spec.static and parts and _placed(spec)):
+                    continue
+                x = np.array(spec.initial_position, dtype=float)
+                r = np.array(rotation_from_quaternion(spec.initial_orientation_xyzw)
+                             ).reshape(3, 3)
+                for part in parts:
+                    points, pad = _part_points(part, x, r)
+                    uv = points @ self.cam[:2].T
+                    static_uv.append((uv.min(axis=0) - pad, uv.max(axis=0) + pad))
+                    static_xyz.append((points.min(axis=0) - pad, points.max(axis=0) + pad))
+        if moving_uv:
+            uv_box = _near(_union(moving_uv), static_uv)
+            xyz_box = _near(_union(moving_xyz), static_xyz)
+        elif static_uv:
+            uv_box, xyz_box = _union(static_uv), _union(static_xyz)
+        else:
+            uv_box = (np.full(2, -0.1), np.full(2, 0.1))
+            xyz_box = (np.full(3, -0.1), np.full(3, 0.1))
+        lo, hi = uv_box
+        if self.follow is not None:
+            half = max(4.0 * _reach(tl.parts[self.follow]), 1.0)
             lo, hi = -np.array([half, half]), np.array([half, half])
         span = np.maximum(hi - lo, 1e-6)
-        self.scale = 0.9 * min(self.width / span[0], self.height / span[1])
-        self.centre = 0.5 * (lo + hi)
-        world_lo = pts.min(axis=0) - reach
-        world_hi = pts.max(axis=0) + reach
-        self.grid_box = (world_lo, world_hi)
+        scale = 0.9 * min(self.width / span[0], self.height / span[1])
+        return 0.5 * (lo + hi), scale, xyz_box
 
     def _to_pixels(self, uv: np.ndarray, centre) -> np.ndarray:
         """Screen coordinates (m) to pixels (x right, y down)."""
@@ -378,6 +450,24 @@ class Renderer:
         return out
 
 
+def _union(boxes):
+    """The (lo, hi) box around (lo, hi) boxes."""
+    return (np.min([lo for lo, _ in boxes], axis=0), np.max([hi for _, hi in boxes], axis=0))
+
+
+def _near(box, others):
+    """``box`` grown to hold what of ``others`` lies within half its span (at least 0.5 m)
+    beyond it."""
+    lo, hi = box
+    margin = max(0.5 * float(np.max(hi - lo)), 0.5)
+    reach_lo, reach_hi = lo - margin, hi + margin
+    for other_lo, other_hi in others:
+        if np.all(other_hi >= reach_lo) and np.all(other_lo <= reach_hi):
+            lo = np.minimum(lo, np.maximum(other_lo, reach_lo))
+            hi = np.maximum(hi, np.minimum(other_hi, reach_hi))
+    return lo, hi
+
+
 def _note(message: str) -> None:
     """One line on stderr: what the animation leaves out, or how it had to thin its frames."""
     print(f'render: {message}', file=sys.stderr)
@@ -454,14 +544,65 @@ def render(rec, out_path: str, view: str = 'iso', fps: float | None = None,
             writer.close()
         return len(times)
     times, delays = gif_frames(times, renderer.width, renderer.height)
-    frames = []
-    for k, t in enumerate(times):
-        frames.append(_drawn(renderer, t).quantize(colors=64))
-        if progress is not None:
-            progress(k + 1, len(times))
-    frames[0].save(out_path, save_all=True, append_images=frames[1:], duration=delays,
-                   loop=0)
+    _write_gif(out_path, renderer, times, delays, progress)
     return len(times)
+
+
+class GifWriter:
+    """A looping GIF written frame by frame, so that only the last frame is held: the header
+    and global colour table from the first frame (Pillow's ``GifImagePlugin.getheader``),
+    then each frame as the rectangle that changed since the one before, with its own colour
+    table and its delay in a Graphic Control Extension (``GifImagePlugin.getdata``), then the
+    trailer. Frames are RGB images of one size; delays in ms, whole centiseconds."""
+
+    def __init__(self, file) -> None:
+        self.file = file
+        self.previous = None
+        self.count = 0
+
+    def add(self, image, delay_ms: int) -> None:
+        from PIL import GifImagePlugin, ImageChops
+        if self.previous is None:
+            part = image.quantize(colors=GIF_COLOURS)
+            header, _ = GifImagePlugin.getheader(part, None, {'loop': 0, 'duration': delay_ms})
+            self._write(header)
+            self._write(GifImagePlugin.getdata(part, (0, 0), duration=delay_ms))
+        else:
+            box = ImageChops.difference(image, self.previous).getbbox() or (0, 0, 1, 1)
+            part = image.crop(box).quantize(colors=GIF_COLOURS)
+            self._write(GifImagePlugin.getdata(part, box[:2], duration=delay_ms,
+                                               include_color_table=True))
+        self.previous = image
+        self.count += 1
+
+    def close(self) -> None:
+        self.file.write(b';')  # the trailer
+
+    def _write(self, blocks) -> None:
+        for block in blocks:
+            self.file.write(bytes(block))
+
+
+def _write_gif(out_path: str, renderer: Renderer, times, delays, progress) -> None:
+    """Draw and write the GIF's frames one at a time, into a file beside ``out_path`` that
+    replaces it once the last is written (a frame that cannot be drawn leaves no half
+    GIF)."""
+    import tempfile
+    folder = os.path.dirname(os.path.abspath(out_path))
+    fd, part_path = tempfile.mkstemp(prefix='.render-', suffix='.gif', dir=folder)
+    try:
+        with os.fdopen(fd, 'wb') as f:
+            writer = GifWriter(f)
+            for k, (t, delay) in enumerate(zip(times, delays)):
+                writer.add(_drawn(renderer, t), delay)
+                if progress is not None:
+                    progress(k + 1, len(times))
+            writer.close()
+        os.replace(part_path, out_path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.remove(part_path)
+        raise
 
 
 def _drawn(renderer: Renderer, t: float):
