@@ -290,3 +290,65 @@ def test_a_name_spawned_again_is_plotted_and_drawn_as_the_body_it_names_then(tmp
     assert [p.kind for p in r.timeline.life('b', 0.05)[1]] == ['sphere']
     assert [p.kind for p in r.timeline.life('b', 0.25)[1]] == ['box']
     assert r.timeline.state('b', 0.15) is None  # deleted then
+
+
+def _figures(monkeypatch, rec, out):
+    """plots.plot(rec, out), and the figures it saved, by file name: each figure as it was
+    written (its axes, lines and labels)."""
+    from matplotlib.figure import Figure
+    saved = {}
+    save = Figure.savefig
+
+    def keep(self, path, *args, **kwargs):
+        saved[Path(path).name] = self
+        return save(self, path, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, 'savefig', keep)
+    plots.plot(rec, str(out))
+    return saved
+
+
+def _axes(fig, words):
+    return [ax for ax in fig.axes if words in ax.get_title()]
+
+
+def test_the_quaternion_is_plotted_without_hemisphere_jumps(tmp_path, monkeypatch):
+    """A body turning about z at 1 turn/s for 1.5 s: each plotted quaternion sample is within
+    the chord a publish's turn allows of the one before (q and -q are one rotation: the
+    recorded w >= 0 jumps by 2 where it crosses 180 degrees), and each is the recorded
+    rotation."""
+    omega = 2.0 * np.pi
+    spec = BodySpec('b', 1.0, (0.1,) * 3, initial_angular_velocity=(0.0, 0.0, omega))
+    config = Config(dt=1e-3, steps_per_publish=10, bodies=(spec,))
+    rec = record_offline(tmp_path / 'spin.mcap', config, 150)
+    fig = _figures(monkeypatch, rec, tmp_path / 'p')['b.png']
+    [ax] = _axes(fig, 'quaternion')
+    q = np.array([line.get_ydata() for line in ax.get_lines()
+                  if line.get_label() in 'xyzw']).T
+    assert q.shape == (151, 4)
+    chord = 2.0 * np.sin(omega * 0.01 / 4.0)  # a turn by theta: q moves theta / 2 on S^3
+    assert np.linalg.norm(np.diff(q, axis=0), axis=1).max() < chord * (1 + 1e-6)
+    recorded = plots.body_series(rec)['b'].quaternion
+    assert np.abs(np.abs(np.sum(q * recorded, axis=1)) - 1.0).max() < 1e-12  # +-, the same
+    # the continuous quaternion of the turn: w = cos(omega t / 2) from 1 through -1 (one turn,
+    # t = 1 s: -q0), z = sin(omega t / 2)
+    t = np.arange(151) * 0.01
+    assert q[:, 3] == pytest.approx(np.cos(omega * t / 2.0), abs=1e-9)
+    assert q[:, 2] == pytest.approx(np.sin(omega * t / 2.0), abs=1e-9)
+
+
+def test_the_wrench_is_plotted_as_force_in_n_and_torque_in_n_m(tmp_path, monkeypatch):
+    spec = BodySpec('b', 2.0, (0.1, 0.2, 0.3))
+    config = Config(dt=1e-3, steps_per_publish=10, bodies=(spec,))
+    rec = record_offline(tmp_path / 'w.mcap', config, 30, events={
+        10: [SetWrench(Wrench((4.0, 0.0, 0.0), (0.0, 0.0, 0.5)), 'b')]})
+    fig = _figures(monkeypatch, rec, tmp_path / 'p')['b.png']
+    [force], [torque] = _axes(fig, 'force'), _axes(fig, 'torque')
+    assert force is not torque
+    assert '(N,' in force.get_title() and force.get_ylabel() == 'N'
+    assert '(N m,' in torque.get_title() and torque.get_ylabel() == 'N m'
+    assert 'N m' not in force.get_title()
+    # each holds its own quantity: Fx 4 N, Tz 0.5 N m, from the step it took effect
+    highs = {ax: max(float(np.max(line.get_ydata())) for line in ax.get_lines()
+                     if line.get_label() in 'xyz') for ax in (force, torque)}
+    assert highs == {force: 4.0, torque: 0.5}

@@ -4,9 +4,11 @@
 
 One PNG per body: position; orientation as roll, pitch, yaw (REP-103: about the fixed x, y, z
 axes, z-y-x order) and as the quaternion; linear and angular velocity (world frame); kinetic
-energy and angular momentum about the centre of mass (world frame); the applied wrench as the
-steps it was held. Events are marked on every time axis: teleports (set_pose, set_twist),
-resets, wrench changes, spawns and deletes. With colliders, one more PNG: the contacts of the
+energy and angular momentum about the centre of mass (world frame); the applied force (N) and
+torque (N m), each in its own panel, as the steps they were held. The quaternion is drawn
+sign-continuous (q and -q are one rotation: each sample on the hemisphere of the one before).
+Events are marked on every time axis: teleports (set_pose, set_twist), resets, wrench
+changes, spawns and deletes. With colliders, one more PNG: the contacts of the
 last step of every publish, from a re-simulation of the run (the recording holds states, not
 contacts; the re-simulation is the run, bit for bit, as ``--verify`` shows).
 
@@ -258,23 +260,52 @@ def _plot(rec, out_dir: str, bodies=None, progress=None) -> list[str]:
 
 def _plot_body(rec, out_dir, plt, name, s, all_marks, t_end) -> str:
     """The PNG of one body's series ``s``; its path."""
+    fig = body_figure(rec, plt, name, s, all_marks, t_end)
+    path = os.path.join(out_dir, f'{name}.png')
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+    return path
+
+
+def continuous_quaternions(q: np.ndarray) -> np.ndarray:
+    """(n, 4) quaternions with each sample's sign chosen so that it is on the hemisphere of
+    the one before (q and -q are one rotation): the series has no jump where the recorded one
+    crosses w = 0. A sample that is not finite leaves the sign as it was."""
+    q = np.array(q, dtype=float)
+    if len(q) < 2:
+        return q
+    with np.errstate(invalid='ignore'):
+        flip = np.sum(q[1:] * q[:-1], axis=1) < 0.0  # against the recorded one before
+    sign = np.concatenate([[1.0], np.cumprod(np.where(flip, -1.0, 1.0))])
+    return q * sign[:, None]
+
+
+# The panels of a body's figure, rows of two: their keys.
+BODY_PANELS = [['position', 'rpy'], ['quaternion', 'linear'], ['angular', 'momentum'],
+               ['energy', 'energy'], ['force', 'torque']]
+
+
+def body_figure(rec, plt, name, s, all_marks, t_end):
+    """The matplotlib figure of one body's series ``s``: a panel a quantity, with its unit."""
     marks = [m for m in all_marks if m[2] == name]
     wrenches = sum(1 for m in marks if m[1] == 'wrench')
-    if wrenches > MAX_WRENCH_MARKS:  # a controller's stream: the wrench panel shows it
+    if wrenches > MAX_WRENCH_MARKS:  # a controller's stream: the wrench panels show it
         marks = [m for m in marks if m[1] != 'wrench']
-    fig, axes = plt.subplots(4, 2, figsize=(13, 12), sharex=True)
+    fig, axes = plt.subplot_mosaic(BODY_PANELS, figsize=(13, 14), sharex=True)
     fig.suptitle(f'{name}  ({os.path.basename(rec.path)})')
     panels = [
-        (axes[0, 0], 'position (m, world)', s.position, ('x', 'y', 'z')),
-        (axes[0, 1], 'roll, pitch, yaw (rad)', roll_pitch_yaw(s.quaternion),
+        ('position', 'position (m, world)', s.position, ('x', 'y', 'z')),
+        ('rpy', 'roll, pitch, yaw (rad)', roll_pitch_yaw(s.quaternion),
          ('roll', 'pitch', 'yaw')),
-        (axes[1, 0], 'quaternion', s.quaternion, ('x', 'y', 'z', 'w')),
-        (axes[1, 1], 'linear velocity (m/s, world)', s.linear, ('x', 'y', 'z')),
-        (axes[2, 0], 'angular velocity (rad/s, world)', s.angular, ('x', 'y', 'z')),
-        (axes[2, 1], 'angular momentum (kg m^2/s, world, about the CoM)', s.momentum,
+        ('quaternion', 'quaternion (sign continuous: q and -q are one rotation)',
+         continuous_quaternions(s.quaternion), ('x', 'y', 'z', 'w')),
+        ('linear', 'linear velocity (m/s, world)', s.linear, ('x', 'y', 'z')),
+        ('angular', 'angular velocity (rad/s, world)', s.angular, ('x', 'y', 'z')),
+        ('momentum', 'angular momentum (kg m^2/s, world, about the CoM)', s.momentum,
          ('x', 'y', 'z')),
     ]
-    for ax, title, values, labels in panels:
+    for key, title, values, labels in panels:
+        ax = axes[key]
         values, hidden = drawable(values)
         title += _left_out(hidden)
         for k, label in enumerate(labels):
@@ -282,31 +313,29 @@ def _plot_body(rec, out_dir, plt, name, s, all_marks, t_end) -> str:
         ax.set_title(title, fontsize=10)
         ax.legend(fontsize=8, loc='best')
         ax.grid(True, alpha=0.3)
-    ax = axes[3, 0]
+    ax = axes['energy']
     energy, hidden = drawable(s.energy)
     ax.plot(s.t, energy, color='k', linewidth=1.0)
     ax.set_title('kinetic energy (J)' + _left_out(hidden), fontsize=10)
+    ax.set_ylabel('J')
     ax.grid(True, alpha=0.3)
     times, forces, torques, _ = wrench_steps(rec, name, t_end)
-    (forces, hidden), (torques, more) = drawable(forces), drawable(torques)
-    ax = axes[3, 1]
-    for k, label in enumerate('xyz'):
-        ax.step(times, forces[:, k], where='post', label=f'F{label} (N)', linewidth=1.0)
-        ax.step(times, torques[:, k], where='post', label=f'T{label} (N m)',
-                linestyle='--', linewidth=1.0)
-    ax.set_title('applied wrench (as sent: world or body frame)' + (
-        f'; {wrenches} changes, not marked' if wrenches > MAX_WRENCH_MARKS else '')
-        + _left_out(hidden + more),
-        fontsize=10)
-    ax.legend(fontsize=7, ncol=2, loc='best')
-    ax.grid(True, alpha=0.3)
-    for ax in axes.flat:
+    changes = f'; {wrenches} changes, not marked' if wrenches > MAX_WRENCH_MARKS else ''
+    for key, what, unit, values in (('force', 'force', 'N', forces),
+                                    ('torque', 'torque', 'N m', torques)):
+        ax = axes[key]
+        values, hidden = drawable(values)
+        for k, label in enumerate('xyz'):
+            ax.step(times, values[:, k], where='post', label=label, linewidth=1.0)
+        ax.set_title(f'applied {what} ({unit}, as sent: world or body frame){changes}'
+                     + _left_out(hidden), fontsize=10)
+        ax.set_ylabel(unit)
+        ax.legend(fontsize=8, loc='best')
+        ax.grid(True, alpha=0.3)
+    for ax in axes.values():
         _mark(ax, marks)
-    for ax in axes[-1]:
-        ax.set_xlabel('sim time (s)')
+    for key in BODY_PANELS[-1]:
+        axes[key].set_xlabel('sim time (s)')
     _legend_for_events(fig, marks)
     fig.tight_layout(rect=(0, 0, 0.93, 0.97))
-    path = os.path.join(out_dir, f'{name}.png')
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
-    return path
+    return fig
