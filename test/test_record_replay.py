@@ -21,6 +21,7 @@ from std_srvs.srv import Empty, SetBool, Trigger
 from rb_sim_ros.core import multistep
 from rb_sim_ros.recording import RecordingReader
 from rb_sim_ros.ros import replay
+from rb_sim_ros.ros.node_recorder import RUN_DEFINITION
 from rb_sim_ros.ros.simulator_node import APPLIED_QOS
 import ros_harness
 from ros_harness import stamp_ns
@@ -118,7 +119,7 @@ def _scripted_run(start_sim, probe, path):
             assert probe.call(Trigger, 'step', Trigger.Request()).success
     sim.stop()
     return [(t.rsplit('/', 1)[-1], m) for t, m, *_ in RecordingReader(str(path)).messages()
-            if not t.startswith('/rb_sim/input/')]
+            if not t.startswith('/rb_sim/input/') and t != RUN_DEFINITION]
 
 
 def test_two_runs_with_inputs_at_the_same_steps_record_identical_outputs(start_sim, probe,

@@ -13,22 +13,25 @@ import io
 import json
 import math
 from pathlib import Path
+import tracemalloc
 from unittest import mock
 
 from hypothesis import given, HealthCheck, settings, strategies as st
 from mcap.reader import make_reader
 from mcap.writer import Writer
 import pytest
+from rclpy.serialization import serialize_message
 from rosbags.highlevel import AnyReader
+from std_msgs.msg import String
 
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.ros import node_params, replay
-from rb_sim_ros.ros.node_recorder import NodeRecorder, OUTPUTS
-from rb_sim_ros.ros.ros_messages import OutputMessages
+from rb_sim_ros.ros.node_recorder import NodeRecorder, OUTPUTS, RUN_DEFINITION
+from rb_sim_ros.ros.ros_messages import fill_tf, OutputMessages, tf_message
 from rb_sim_ros.sim.simulation import (BodySpec, Config, Delete, SetWrench, Simulation,
                                        Spawn)
-from recordings import mcap_parts
+from recordings import mcap_parts, record_offline
 from test_recording import disk_full_after
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
@@ -328,7 +331,10 @@ def _write(path, schemas, channels, messages, meta):
         cids = {c.topic: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id],
                                             dict(c.metadata)) for c in channels.values()}
         for topic, m in messages:
-            w.add_message(cids[topic], m.log_time, m.data, m.publish_time, m.sequence)
+            data = m.data
+            if topic == RUN_DEFINITION:  # the definition message says what the metadata says
+                data = serialize_message(String(data=json.dumps(meta, sort_keys=True)))
+            w.add_message(cids[topic], m.log_time, data, m.publish_time, m.sequence)
         w.add_metadata('rb_sim_ros', meta)
         w.finish()
     return path
@@ -549,3 +555,87 @@ def _cdr_string(text):
     """A std_msgs/String as CDR (little endian): header, length with the NUL, bytes, NUL."""
     data = text.encode('latin-1')
     return b'\x00\x01\x00\x00' + (len(data) + 1).to_bytes(4, 'little') + data + b'\x00'
+
+
+# -- recordings the node writes after every static or every moving body is deleted ------------
+@pytest.mark.parametrize('deleted, tf_counts', [
+    (['ground'], {'/tf': [2] * 13, '/tf_static': [1, 0]}),
+    (['a', 'b'], {'/tf': [2] * 4 + [0] * 9, '/tf_static': [1]})])
+def test_a_recording_after_every_static_or_every_moving_body_is_deleted_verifies(
+        tmp_path, deleted, tf_counts):
+    """Deleting the last static body makes the node send an empty /tf_static, deleting the
+    last moving ones an empty /tf at every publish: a file the node writes verifies."""
+    tf_message_type = pytest.importorskip('tf2_msgs.msg').TFMessage
+    a = BodySpec('a', 1.0, (0.1, 0.2, 0.3), initial_angular_velocity=(0.3, 1.0, -0.2))
+    b = BodySpec('b', 2.0, (0.2, 0.2, 0.4), initial_angular_velocity=(0.0, 0.4, 1.0))
+    ground = BodySpec('ground', static=True)
+    config = Config(dt=0.001, steps_per_publish=10, bodies=(a, b, ground))
+    params = _params(scene_file='scene.yaml')
+    world = params['world_frame']
+    moving, static = ['a', 'b'], ['ground']
+    topics = {n: {k: f'/{n}/{k}' for k in OUTPUT_KINDS} for n in moving}
+    f = tmp_path / 'deleted.mcap'
+    rec = NodeRecorder(str(f), config, params, topics, tf_topics=('/tf', '/tf_static'))
+    sim = Simulation(config)
+    outs = {n: OutputMessages(world, n, params['twist_frame']) for n in moving}
+
+    def tf(names):  # as the node fills /tf and /tf_static (frames: the bodies' names)
+        msg = tf_message(tf_message_type, world, [node_params.body_frame(params, n, False)
+                                                  for n in names])
+        fill_tf(msg, sim.time_ns, [sim.pose_twist(n)[:2] for n in names])
+        return msg
+
+    static_due = True
+    for period in range(13):
+        for name in deleted if period == 4 else []:
+            sim.apply(Delete(name))
+            rec.deleted(sim.step_count, sim.time_ns, name)
+            (static if name in static else moving).remove(name)
+            static_due = static_due or name == 'ground'
+        if period:
+            sim.run(config.steps_per_publish)
+        for n in moving:
+            outs[n].fill(sim.time_ns, *sim.pose_twist(n))
+            rec.output(n, sim.step_count, sim.time_ns, outs[n])
+        rec.tf('/tf', sim.step_count, sim.time_ns, tf(moving))
+        if static_due:
+            rec.tf('/tf_static', sim.step_count, sim.time_ns, tf(static))
+            static_due = False
+    rec.close()
+    assert rec.failed is None
+    # The file holds what the case is about, read by an independent reader.
+    with AnyReader([f]) as reader:
+        counts = {}
+        for c, _t, raw in reader.messages():
+            if c.topic in ('/tf', '/tf_static'):
+                n = len(reader.deserialize(raw, c.msgtype).transforms)
+                counts.setdefault(c.topic, []).append(n)
+    assert counts == tf_counts
+    code, out, err = _verify(f)
+    assert code == 0 and 'identical' in out, out + err
+
+
+# -- verify streams: memory does not grow with the length --------------------------------------
+def _verify_peak(path):
+    """(the verification, the peak of Python's allocations while verifying ``path``)."""
+    tracemalloc.start()
+    try:
+        result = replay.verify(str(path))
+        return result, tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+def test_verify_memory_is_bounded_whatever_the_length(tmp_path):
+    spec = BodySpec(mass=2.0, inertia=(0.2, 0.3, 0.4), initial_angular_velocity=(0.3, 1, -0.2))
+    config = Config(dt=0.001, steps_per_publish=1, bodies=(spec,))
+    short, long = tmp_path / 'short.mcap', tmp_path / 'long.mcap'
+    n = 800
+    record_offline(short, config, n, events={n // 2: [SetWrench(Wrench((1.0, 0, 0)), 'body')]})
+    record_offline(long, config, 4 * n,
+                   events={n // 2: [SetWrench(Wrench((1.0, 0, 0)), 'body')]})
+    replay.verify(str(short))  # once first: what is loaded once (modules, compiled kernels)
+    (r_short, small), (r_long, big) = _verify_peak(short), _verify_peak(long)
+    assert r_short.identical and r_long.identical
+    assert (r_short.outputs, r_long.outputs) == (3 * (n + 1), 3 * (4 * n + 1))
+    assert big < 1.5 * small, (small, big)  # bounded: 4 times the messages, not 4 times this

@@ -6,7 +6,12 @@ One MCAP file (profile ros2, cdr, ros2msg schemas; see ``recording/``):
 
 * metadata ``rb_sim_ros``: ``config`` (JSON of ``simulation.Config``: the bodies, gravity, dt,
   integrator, initial states), ``parameters`` (JSON of every node parameter), ``version``,
-  ``format``;
+  ``format``, ``output_topics``, ``tf_topics`` (the run's definition);
+* the same definition as a message, where bag tools keep it (``rosbags-convert`` and ``ros2
+  bag convert`` drop MCAP metadata records but keep every message): one std_msgs/String on
+  ``/rb_sim/run_definition`` at step 0 (log time 0, the run's first time stamp), holding the
+  metadata record as a JSON object of strings, on a transient local channel (as a latched
+  topic: a late reader of a bag gets it);
 * inputs, each at the step it took effect (MCAP ``sequence`` = step, log time = step * dt), on
   ``/rb_sim/input/<body>/wrench`` (WrenchStamped, frame_id 'world' or 'body', as received),
   ``.../set_pose`` (PoseStamped, world), ``.../set_twist`` (TwistStamped, world) and
@@ -58,6 +63,23 @@ OUTPUTS = {'pose': PoseStamped, 'twist': Twist, 'odom': Odometry, 'imu': Imu,
 REQUIRED_OUTPUTS = ('pose', 'twist', 'odom')
 # tf2's topics and their type (tf2_msgs, built into a PyPI venv by tools/build_msgs.sh).
 TF_TYPE = 'tf2_msgs/msg/TFMessage'
+# The run's definition as a message at step 0 (beside the metadata record, which bag tools
+# drop): latched, as a late subscriber or a bag reader wants it.
+RUN_DEFINITION = '/rb_sim/run_definition'
+RUN_DEFINITION_TYPE = 'std_msgs/msg/String'
+RUN_DEFINITION_QOS = {'history': 'keep_last', 'depth': 1, 'reliability': 'reliable',
+                      'durability': 'transient_local'}
+
+
+def run_definition(config: Config, parameters: dict, output_topics: dict,
+                   tf_topics) -> dict[str, str]:
+    """The run's definition: the ``rb_sim_ros`` metadata record (string keys and values) that
+    replay rebuilds the run from; also recorded, as JSON, on ``RUN_DEFINITION``."""
+    return {'format': str(FORMAT), 'version': __version__,
+            'config': json.dumps(config.to_dict()),
+            'parameters': json.dumps(parameters, sort_keys=True),
+            'output_topics': json.dumps(output_topics, sort_keys=True),
+            'tf_topics': json.dumps(sorted(tf_topics))}
 
 
 def input_topic(body: str, kind: str) -> str:
@@ -211,13 +233,11 @@ class NodeRecorder:
             from tf2_msgs.msg import TFMessage  # only when the node has it: publish_tf
             for topic in tf_topics:
                 self._writer.register_topic(topic, TFMessage, tf_qos(topic))
-        self._writer.write_metadata(METADATA, {
-            'format': str(FORMAT), 'version': __version__,
-            'config': json.dumps(config.to_dict()),
-            'parameters': json.dumps(parameters, sort_keys=True),
-            'output_topics': json.dumps(output_topics, sort_keys=True),
-            'tf_topics': json.dumps(tf_topics),
-        })
+        definition = run_definition(config, parameters, output_topics, tf_topics)
+        self._writer.write_metadata(METADATA, definition)
+        self._writer.register_topic(RUN_DEFINITION, String, RUN_DEFINITION_QOS)
+        self._writer.write(RUN_DEFINITION, String(data=json.dumps(definition, sort_keys=True)),
+                           0, sequence=0)
 
     @property
     def failed(self) -> str | None:

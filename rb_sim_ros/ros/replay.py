@@ -8,16 +8,19 @@
     replay --plot run.mcap [--out plots/] [--bodies a,b]   PNGs: states, energy, wrench, events
     replay --render run.mcap out.gif|out.mp4 [--view iso|top|side] [--follow body] [--fps 25]
 
---verify needs no ROS graph: it rebuilds the run from the recording's metadata (body, dt,
+--verify needs no ROS graph: it rebuilds the run from the recording's definition (body, dt,
 integrator, initial state) and its inputs at the steps they took effect, fills the output
 messages as the node does, and compares them with the recorded ones, field by field and bit
-by bit. Expected: identical.
+by bit, as it reads them (memory does not grow with the length). Expected: identical. The
+definition is the file's 'rb_sim_ros' metadata record, or, in a bag converted by tools that
+drop metadata (rosbags-convert, ros2 bag convert), the same on /rb_sim/run_definition.
 """
 
 from __future__ import annotations
 
 import argparse
 from dataclasses import dataclass, field
+import itertools
 import json
 import math
 import re
@@ -26,7 +29,8 @@ import sys
 import time
 
 from rb_sim_ros.core.stepper import IntegrationError
-from rb_sim_ros.recording import ReaderError, RecordingReader, recover, WriterError
+from rb_sim_ros.recording import (message_class, ReaderError, RecordingReader, recover,
+                                  WriterError)
 from rb_sim_ros.recording.qos import POLICIES
 from rb_sim_ros.recording.schemas import type_name_of
 from rb_sim_ros.ros import node_params, node_recorder, plots, render, ros_arguments
@@ -49,6 +53,8 @@ MAX_WAIT_S = 1e6
 TOPIC_NAME = re.compile(r'(?:/[A-Za-z_][A-Za-z0-9_]*)+')
 MAX_TOPIC_NAME = 247  # RMW_TOPIC_MAX_NAME_LENGTH
 MAX_QOS_TEXT = 100_000  # offered_qos_profiles of one channel (a profile is ~400 characters)
+MAX_DEFINITION_TEXT = 1 << 26  # the run definition message (a config of 5000 bodies: ~5 MB)
+RUN_DEFINITION = node_recorder.RUN_DEFINITION
 DEFAULT_DEPTH = 10  # the QoS of a republished topic whose recording keeps none (as before)
 INPUT_TYPES = {kind: type_name_of(cls) for kind, cls in node_recorder.INPUTS.items()}
 OUTPUT_TYPES = {kind: type_name_of(cls) for kind, cls in node_recorder.OUTPUTS.items()}
@@ -90,12 +96,15 @@ class Recording:
     config: Config
     parameters: dict
     inputs: list  # (step, event, topic), sorted by step
-    outputs: list  # (step, body, kind, topic, msg, log_time_ns), sorted by step; /tf and
-    # /tf_static with body '' and kind 'tf' or 'tf_static'
+    outputs: 'Outputs'  # (step, body, kind, topic, msg, log_time_ns), in step order, read
+    # from the file each time it is iterated; /tf and /tf_static with body '' and kind 'tf'
+    # or 'tf_static'
     truncated: bool
     path: str = ''
     recorded_per_topic: dict = field(default_factory=dict)  # output topic -> messages in file
     qos: dict = field(default_factory=dict)  # output topic -> recorded_qos(...) of its channel
+    types: dict = field(default_factory=dict)  # output topic -> 'pkg/msg/Type'
+    last_output_ns: int = 0  # log time of the last recorded output
 
     def frames(self, body: str, spawned: bool = False) -> tuple[str, str]:
         """(world frame, body frame) the node stamped ``body``'s outputs with (a spawned body
@@ -113,8 +122,40 @@ class Recording:
         return [b.name for b in self.config.bodies[:limit] if b.static == (kind == 'tf_static')]
 
 
+class Outputs:
+    """The recorded outputs of a checked recording, read and deserialised from the file each
+    time they are iterated (never all held): (step, body, kind, topic, msg, log_time_ns) in
+    step order. ``len`` is how many the file holds."""
+
+    def __init__(self, reader: RecordingReader, by_topic: dict, dt_ns: float,
+                 count: int) -> None:
+        self._reader, self._by_topic, self._dt_ns, self._count = reader, by_topic, dt_ns, count
+        self._topics = sorted(t for t in by_topic if t in reader.topics)
+
+    def __len__(self) -> int:
+        return self._count
+
+    def __iter__(self):
+        if not self._topics:
+            return
+        by_topic, dt_ns, n = self._by_topic, self._dt_ns, 0
+        for topic, msg, log_time, _publish_time, _sequence in self._reader.messages(
+                self._topics):
+            n += 1
+            if n > self._count:
+                break
+            yield (round(log_time / dt_ns), *by_topic[topic], topic, msg, log_time)
+        if n != self._count:
+            raise ReaderError(f'{self._reader.path}: changed while being read ({n} output '
+                              f'messages, {self._count} when it was checked)')
+
+
+METADATA_LABEL = f'bad {node_recorder.METADATA!r} metadata'
+DEFINITION_LABEL = f'bad run definition on {RUN_DEFINITION}'
+
+
 def _bad(path: str, what: str) -> ReaderError:
-    return ReaderError(f'{path}: bad {node_recorder.METADATA!r} metadata: {what}')
+    return ReaderError(f'{path}: {METADATA_LABEL}: {what}')
 
 
 def json_depth(text: str) -> int:
@@ -271,9 +312,11 @@ def _output_topics(data, config: Config, parameters: dict, path: str) -> dict:
                        f'{sorted(OUTPUT_TYPES)}')
         for kind, topic in topics.items():
             if (not isinstance(topic, str) or not topic.startswith('/') or len(topic) < 2
-                    or topic.startswith(node_recorder.INPUT_PREFIX) or topic in seen):
+                    or topic.startswith(node_recorder.INPUT_PREFIX) or topic in seen
+                    or topic == RUN_DEFINITION):
                 raise _bad(path, f'output_topics.{body}.{kind} {topic!r} is not a topic name '
-                           'of its own (absolute, not an input, not used twice)')
+                           'of its own (absolute, not an input or the run definition, not '
+                           'used twice)')
             problem = topic_name_problem(topic)
             if problem:
                 raise _bad(path, f'output_topics.{body}.{kind} {topic[:300]!r} {problem}')
@@ -343,10 +386,10 @@ def _spawned_topics(body: str, topics: dict, by_topic: dict, types: dict) -> Non
                          f'{sorted(OUTPUT_TYPES)}')
     for kind, topic in topics.items():
         if (not topic.startswith('/') or len(topic) < 2
-                or topic.startswith(node_recorder.INPUT_PREFIX)
+                or topic.startswith(node_recorder.INPUT_PREFIX) or topic == RUN_DEFINITION
                 or by_topic.get(topic, (body, kind)) != (body, kind)):
             raise ValueError(f'output topic {topic[:100]!r} is not one of its own (absolute, '
-                             'not an input, not another output)')
+                             'not an input or the run definition, not another output)')
         problem = topic_name_problem(topic)
         if problem:
             raise ValueError(f'output topic {topic[:300]!r} {problem}')
@@ -354,25 +397,83 @@ def _spawned_topics(body: str, topics: dict, by_topic: dict, types: dict) -> Non
         types[topic] = OUTPUT_TYPES[kind]
 
 
+def _definition_message(reader: RecordingReader, path: str) -> dict | None:
+    """The run definition recorded as a message (a JSON object of strings, as the metadata
+    record), or None if the file has none; ReaderError if it is not one message at the first
+    time stamp of the file, or not such an object."""
+    info = reader.topics.get(RUN_DEFINITION)
+    if info is None or info.message_count == 0:
+        return None
+    if info.type_name != node_recorder.RUN_DEFINITION_TYPE:
+        raise ReaderError(f'{path}: topic {RUN_DEFINITION} has type {info.type_name}, not '
+                          f'{node_recorder.RUN_DEFINITION_TYPE}')
+    if info.message_count != 1:
+        raise ReaderError(f'{path}: {RUN_DEFINITION} holds {info.message_count} messages; a '
+                          'recording has one, at its first time stamp')
+    _topic, msg, log_time, _publish_time, _sequence = next(reader.messages(RUN_DEFINITION))
+    if log_time != reader.start_time_ns:
+        raise ReaderError(f'{path}: the run definition on {RUN_DEFINITION} is at {log_time} '
+                          f'ns, not at the first time stamp of the file '
+                          f'({reader.start_time_ns} ns)')
+    text = msg.data
+    if len(text) > MAX_DEFINITION_TEXT:
+        raise ReaderError(f'{path}: {DEFINITION_LABEL}: longer than {MAX_DEFINITION_TEXT} '
+                          'characters')
+    what = 'must be a JSON object of strings (as the metadata record)'
+    if json_depth(text) != 1:
+        raise ReaderError(f'{path}: {DEFINITION_LABEL}: {what}')
+    try:
+        data = json.loads(text)
+    except ValueError as e:
+        raise ReaderError(f'{path}: {DEFINITION_LABEL}: not JSON: {e}') from None
+    if not isinstance(data, dict) or not all(
+            isinstance(k, str) and isinstance(v, str) for k, v in data.items()):
+        raise ReaderError(f'{path}: {DEFINITION_LABEL}: {what}')
+    return data
+
+
+def _run_definition(reader: RecordingReader, path: str) -> tuple[dict, bool]:
+    """(the run's definition, whether it is the message): the metadata record, else the
+    message; ReaderError if there is neither, or both and they differ."""
+    meta = reader.metadata.get(node_recorder.METADATA)
+    message = _definition_message(reader, path)
+    if meta is None and message is None:
+        raise ReaderError(f'{path}: no {node_recorder.METADATA!r} metadata and no '
+                          f'{RUN_DEFINITION} message: not a recording of the rb_sim_ros '
+                          'simulator')
+    if meta is not None and message is not None and meta != message:
+        keys = sorted(k for k in set(meta) | set(message) if meta.get(k) != message.get(k))
+        raise ReaderError(f'{path}: the run definition on {RUN_DEFINITION} and the '
+                          f'{node_recorder.METADATA!r} metadata differ (in '
+                          f'{", ".join(k[:40] for k in keys[:5])}): refusing to choose')
+    return (meta, False) if meta is not None else (message, True)
+
+
 def load(path: str) -> Recording:
     """Read a recording of the simulator and check all of it; ReaderError (one line: the file
-    and what is wrong) if it is not a recording this replay can re-simulate."""
+    and what is wrong) if it is not a recording this replay can re-simulate.
+
+    Reads the file once to check it, keeping the inputs and counting the outputs; the
+    outputs (``Recording.outputs``) are read again each time they are iterated."""
     reader = RecordingReader(path)
-    meta = reader.metadata.get(node_recorder.METADATA)
-    if meta is None:
-        raise ReaderError(f'{path}: no {node_recorder.METADATA!r} metadata: not a recording of '
-                          'the rb_sim_ros simulator')
-    if meta.get('format') != str(node_recorder.FORMAT):
-        raise _bad(path, f'format {meta.get("format")!r}; this replay reads format '
-                   f'{node_recorder.FORMAT!r} only')
-    config = _config(_json(meta, 'config', path), path)
-    parameters = _parameters(_json(meta, 'parameters', path), config, path)
-    output_topics = _output_topics(_json(meta, 'output_topics', path), config, parameters,
-                                   path)
+    meta, from_message = _run_definition(reader, path)
+    try:
+        if meta.get('format') != str(node_recorder.FORMAT):
+            raise _bad(path, f'format {meta.get("format")!r}; this replay reads format '
+                       f'{node_recorder.FORMAT!r} only')
+        config = _config(_json(meta, 'config', path), path)
+        parameters = _parameters(_json(meta, 'parameters', path), config, path)
+        output_topics = _output_topics(_json(meta, 'output_topics', path), config,
+                                       parameters, path)
+        tf_topics = _tf_topics(meta, path)
+    except ReaderError as e:
+        if from_message:  # say where the bad definition is
+            raise ReaderError(str(e).replace(METADATA_LABEL, DEFINITION_LABEL, 1)) from None
+        raise
     by_topic = {topic: (body, kind) for body, topics in output_topics.items()
                 for kind, topic in topics.items()}
     types = {topic: OUTPUT_TYPES[kind] for topic, (_, kind) in by_topic.items()}
-    for topic in _tf_topics(meta, path):
+    for topic in tf_topics:
         if topic in by_topic:
             raise _bad(path, f'{topic} is both a body output and a tf topic')
         by_topic[topic] = ('', 'tf' if topic == TF else 'tf_static')
@@ -380,6 +481,8 @@ def load(path: str) -> Recording:
     later = {}  # channels of bodies spawned in the run: known once their spawn is read
     for topic, type_name in reader.channels.items():
         parsed = node_recorder.parse_input_topic(topic)
+        if topic == RUN_DEFINITION:
+            continue  # its type: checked with it
         if parsed is not None:
             want = INPUT_TYPES[parsed[1]]
         elif topic in by_topic:
@@ -389,9 +492,13 @@ def load(path: str) -> Recording:
             continue
         if type_name != want:
             raise ReaderError(f'{path}: topic {topic} has type {type_name}, not {want}')
-    inputs, outputs, messages = [], [], []
+    inputs = []
     dt_ns = config.dt * 1e9
     read = dict.fromkeys(reader.channels, 0)
+    # Sequence numbers hold step mod 2^32, or are all 0: bag tools (rosbag2's SQLite3 storage)
+    # keep none. The first message that has one, and the first without one.
+    sequenced = unsequenced = None
+    outputs, last_step, published, last_output_ns = 0, None, 0, 0
     for topic, msg, log_time, _publish_time, sequence in reader.messages():
         read[topic] += 1
         steps = log_time / dt_ns  # log time is step * dt; sequence holds step mod 2^32
@@ -400,11 +507,25 @@ def load(path: str) -> Recording:
                               f'{config.dt!r} s: too many steps to re-simulate')
         step = round(steps)
         if step % 2 ** 32 != sequence:
-            raise ReaderError(f'{path}: {topic} at {log_time} ns has sequence {sequence}, '
-                              f'not its step {step}')
+            if sequence != 0:
+                raise ReaderError(f'{path}: {topic} at {log_time} ns has sequence {sequence}, '
+                                  f'not its step {step}')
+            unsequenced = unsequenced or (topic, log_time, step)
+        elif sequence:
+            sequenced = True
+        if sequenced and unsequenced:
+            topic0, log_time0, step0 = unsequenced
+            raise ReaderError(f'{path}: {topic0} at {log_time0} ns has sequence 0, not its '
+                              f'step {step0}')
+        if topic == RUN_DEFINITION:
+            continue
         parsed = node_recorder.parse_input_topic(topic)
-        if parsed is None:
-            messages.append((step, topic, msg, log_time))
+        if parsed is None:  # an output: checked and counted now, read again when iterated
+            outputs += 1
+            if step != last_step:
+                published += 1
+                last_step = step
+            last_output_ns = log_time
             continue
         try:
             if parsed[1] == 'spawn':
@@ -423,14 +544,11 @@ def load(path: str) -> Recording:
         if type_name != types[topic]:
             raise ReaderError(f'{path}: topic {topic} has type {type_name}, not '
                               f'{types[topic]}')
-    for step, topic, msg, log_time in messages:
-        outputs.append((step, *by_topic[topic], topic, msg, log_time))
     for topic, n in read.items():
         if n != reader.topics[topic].message_count:
             raise ReaderError(f'{path}: {topic} holds {n} messages, but the file says '
                               f'{reader.topics[topic].message_count}')
     inputs.sort(key=lambda e: e[0])
-    outputs.sort(key=lambda o: o[0])
     # Each spawn or delete rebuilds the world around all its bodies: bound the work a file
     # can ask for that way (as the steps are bounded below).
     bodies, rebuilt, changes = len(config.bodies), 0, 0
@@ -444,18 +562,17 @@ def load(path: str) -> Recording:
                           f'{rebuilt} bodies in all, more than {MAX_REBUILT_BODIES}: refusing '
                           'to re-simulate that')
     if outputs:
-        steps_needed = outputs[-1][0]
-        published = len({o[0] for o in outputs})
         implied = GAP_ALLOWANCE * config.steps_per_publish * published
-        if steps_needed > implied:
+        if last_step > implied:
             raise ReaderError(
-                f'{path}: its last output is at step {steps_needed} of dt = {config.dt!r} s, '
+                f'{path}: its last output is at step {last_step} of dt = {config.dt!r} s, '
                 f'but {published} outputs every {config.steps_per_publish} steps imply at most '
                 f'{implied}: log times and metadata disagree; refusing to simulate that long')
     recorded = {t: read.get(t, 0) for t in by_topic}
     qos = {t: recorded_qos(reader.topics[t].offered_qos_profiles)
            for t in by_topic if t in reader.topics}
-    return Recording(config, parameters, inputs, outputs, reader.truncated, path, recorded, qos)
+    return Recording(config, parameters, inputs, Outputs(reader, by_topic, dt_ns, outputs),
+                     reader.truncated, path, recorded, qos, types, last_output_ns)
 
 
 def _xyz(v) -> tuple:
@@ -509,9 +626,10 @@ def resimulate(rec: Recording, errors: list | None = None):
     log time) for every recorded output, in step order.
 
     As in the node, a run that goes non-finite stays at its last finite state while the step
-    count goes on (the node pauses there and publishes that state); the error's text is
+    count goes on (the node pauses there and publishes that state); the first error's text is
     appended to ``errors``. ReaderError if an input cannot be applied (a file that was not
-    recorded from a run)."""
+    recorded from a run). Reads the outputs as it goes (``rec.outputs``): what it holds does
+    not grow with the length of the run."""
     try:
         sim = Simulation(rec.config)
     except ValueError as e:
@@ -562,7 +680,7 @@ def resimulate(rec: Recording, errors: list | None = None):
             try:
                 sim.run(min(due, step) - before)
             except IntegrationError as e:
-                if errors is not None:
+                if errors is not None and not errors:  # the first says why; not one a step
                     errors.append(str(e))
             if sim.step_count <= before:
                 raise ReaderError(f'{rec.path}: the run does not advance past step {before}')
@@ -604,7 +722,8 @@ def _tf_message(rec: Recording, sim: Simulation, kind: str, msg_type, ported: se
 
 
 def verify(path: str) -> Verification:
-    """Re-simulate ``path`` offline and compare every recorded output with the re-run."""
+    """Re-simulate ``path`` offline and compare every recorded output with the re-run, each
+    as it is read (memory bounded whatever the length)."""
     rec = load(path)
     result = Verification(inputs=len(rec.inputs), truncated=rec.truncated,
                           recorded=len(rec.outputs),
@@ -617,8 +736,8 @@ def verify(path: str) -> Verification:
         if not _finite_message(kind, msg):
             result.non_finite += 1
         theirs_v, mine_v = _vectors(kind, msg), _vectors(kind, mine)
-        for q, v in theirs_v.items():
-            d = max(abs(a - b) for a, b in zip(v, mine_v[q]))
+        for q, v in theirs_v.items():  # an empty TFMessage (every body deleted): nothing
+            d = max((abs(a - b) for a, b in zip(v, mine_v[q])), default=0.0)
             if not d <= result.max_difference[q]:  # also catches nan
                 result.max_difference[q] = d if not math.isnan(d) else math.inf
         if not identical(kind, msg, mine):
@@ -639,9 +758,11 @@ def play(path: str, rate: float, clock: bool = True, wait: float = 0.0) -> int:
     from rosgraph_msgs.msg import Clock
 
     recording = load(path)
-    # (topic, msg, log time): a list of tuples sharing the messages of the recording (sorted
-    # by step already; log time is step * dt). The recording itself is not kept while playing.
-    outputs = sorted(((o[3], o[4], o[5]) for o in recording.outputs), key=lambda o: o[2])
+    # (topic, msg, log time), in log-time order (log time is step * dt), read from the file
+    # while playing. Not the run definition (or the inputs): the node never publishes it.
+    outputs = ((o[3], o[4], o[5]) for o in recording.outputs)
+    types = {topic: message_class(name) for topic, name in recording.types.items()
+             if recording.recorded_per_topic.get(topic)}
     qos = {}
     for topic, q in recording.qos.items():
         if q is not None:
@@ -649,13 +770,13 @@ def play(path: str, rate: float, clock: bool = True, wait: float = 0.0) -> int:
                 history=HistoryPolicy[q['history'].upper()], depth=q['depth'],
                 reliability=ReliabilityPolicy[q['reliability'].upper()],
                 durability=DurabilityPolicy[q['durability'].upper()])
-    del recording
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = rclpy.create_node('rb_sim_replay')  # on the ROS graph of the environment
         try:
             _publish(rclpy, node, outputs, rate, wait, Clock if clock else None,
-                     QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT), qos)
+                     QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT), qos,
+                     types, recording.last_output_ns)
         finally:
             node.destroy_node()
     finally:
@@ -673,30 +794,35 @@ def _sleep_until(deadline: float) -> None:
 
 
 def _publish(rclpy, node, outputs, rate: float, wait: float, clock_type, clock_qos,
-             qos=None) -> None:
+             qos=None, types=None, end=None) -> None:
     """Publish ``outputs`` ((topic, msg, log time), in log-time order) on one publisher per
     topic, created first: /tf and /tf_static with tf_qos, the others with ``qos[topic]`` (the
-    recorded QoS) or, without it, depth 10."""
+    recorded QoS) or, without it, depth 10. ``types`` (topic -> message class) and ``end``
+    (the last log time) let ``outputs`` be an iterator, read while publishing; without them
+    it is a list."""
     qos = qos or {}
-    types = {}
-    for topic, msg, _ in outputs:
-        types.setdefault(topic, type(msg))
+    if types is None:
+        types = {}
+        for topic, msg, _ in outputs:
+            types.setdefault(topic, type(msg))
+        end = outputs[-1][2] if outputs else 0
     pubs = {topic: node.create_publisher(
         msg_type, topic,
         tf_qos(topic) if topic in (TF, TF_STATIC) else qos.get(topic, DEFAULT_DEPTH))
         for topic, msg_type in types.items()}
     clock_pub = (node.create_publisher(clock_type, '/clock', clock_qos)
                  if clock_type is not None else None)
-    if not outputs:
+    outputs = iter(outputs)
+    first = next(outputs, None)
+    if first is None:
         return
     end_wait = time.monotonic() + wait
     while time.monotonic() < end_wait and not any(
             p.get_subscription_count() for p in pubs.values()):
         rclpy.spin_once(node, timeout_sec=0.05)
-    t0_sim, t0_wall = outputs[0][2], time.monotonic()
-    end = outputs[-1][2]
+    t0_sim, t0_wall = first[2], time.monotonic()
     last_report = 0.0
-    for topic, msg, log_time in outputs:
+    for topic, msg, log_time in itertools.chain([first], outputs):
         if rate > 0:
             _sleep_until(t0_wall + (log_time - t0_sim) * 1e-9 / rate)
         if clock_pub is not None:
