@@ -352,3 +352,48 @@ def test_the_wrench_is_plotted_as_force_in_n_and_torque_in_n_m(tmp_path, monkeyp
     highs = {ax: max(float(np.max(line.get_ydata())) for line in ax.get_lines()
                      if line.get_label() in 'xyz') for ax in (force, torque)}
     assert highs == {force: 4.0, torque: 0.5}
+
+
+def test_plot_memory_is_floats_a_publish_not_messages(tmp_path, monkeypatch):
+    """replay --plot keeps 14 floats a publish of a body (what its panels need), not the
+    messages, and draws a long run's lines as their envelope, at most MAX_LINE_POINTS points
+    a line with every extreme kept: over 9,000 more publishes its heap grows by less than
+    400 bytes a publish (it was 950: a tuple of Python floats a publish and matplotlib's
+    copies of every sample)."""
+    import tracemalloc
+    spec = BodySpec('b', 1.0, (0.1, 0.2, 0.3), initial_angular_velocity=(0.3, 1.0, 2.0))
+    config = Config(dt=1e-3, steps_per_publish=1, bodies=(spec,))
+    short = record_offline(tmp_path / 'short.mcap', config, 3000)
+    long = record_offline(tmp_path / 'long.mcap', config, 12000)
+    plots.plot(short, str(tmp_path / 'warm'))  # (imports and caches out of the count)
+
+    def peak(rec, out):
+        tracemalloc.start()
+        try:
+            plots.plot(rec, str(out))
+            return tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+
+    grown = peak(long, tmp_path / 'l') - peak(short, tmp_path / 's')
+    assert grown < 400 * 9000, grown
+    fig = _figures(monkeypatch, long, tmp_path / 'f')['b.png']
+    series = plots.body_series(long)['b']
+    [ax] = _axes(fig, 'angular velocity')
+    for k, line in enumerate(ax.get_lines()[:3]):
+        y = line.get_ydata()
+        assert len(y) <= plots.MAX_LINE_POINTS
+        assert (y.min(), y.max()) == (series.angular[:, k].min(), series.angular[:, k].max())
+        assert np.all(np.diff(line.get_xdata()) > 0)  # in time order
+
+
+def test_the_envelope_keeps_every_run_s_extremes():
+    t = np.arange(100_000) * 1e-3
+    y = np.sin(t)
+    y[12_345] = 50.0  # a spike
+    y[70_000:70_010] = np.nan
+    et, ey = plots.envelope(t, y)
+    assert len(et) <= plots.MAX_LINE_POINTS and et[0] == t[0] and et[-1] == t[-1]
+    assert 50.0 in ey and np.nanmin(ey) == np.nanmin(y)
+    assert np.all(np.diff(et) > 0) and np.all(ey[~np.isnan(ey)] == np.interp(
+        et[~np.isnan(ey)], t, y))  # samples of the line, not new points

@@ -18,6 +18,7 @@ frame), so the plot shows what the node published. matplotlib renders without a 
 
 from __future__ import annotations
 
+from array import array
 from dataclasses import dataclass, field
 import os
 
@@ -33,6 +34,10 @@ EVENT_STYLE = {'wrench': ('tab:orange', ':'), 'teleport': ('tab:red', '--'),
                'delete': ('tab:gray', '--')}
 # More wrench changes than this (a controller commanding every period) are not marked.
 MAX_WRENCH_MARKS = 40
+# A line of more samples than this is drawn as its envelope: the first, least and greatest
+# sample of each of MAX_LINE_POINTS / 3 runs of samples (a panel is about 500 pixels wide:
+# nothing visible is lost, and matplotlib's memory does not grow with the run's length).
+MAX_LINE_POINTS = 3000
 # Values beyond this magnitude (and non-finite ones) are left out of a panel, which says so: an
 # axis cannot span them (matplotlib fails on ticks or transforms near the float range).
 MAX_VALUE = 1e100
@@ -73,21 +78,41 @@ def roll_pitch_yaw(q: np.ndarray) -> np.ndarray:
     return np.stack([np.unwrap(roll), pitch, np.unwrap(yaw)], axis=1)
 
 
-def body_series(rec, bodies=None) -> dict[str, BodySeries]:
-    """The recorded odom of each body (all moving ones, or those named in ``bodies``), with
-    energy and momentum from the body's mass and inertia in the recording's config."""
-    lives = lifetimes(rec)
-    rows: dict[str, list] = {}
+def recorded_odom(rec, bodies=None, keep: bool = True
+                  ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """One pass over the recorded outputs (which may be read from the file as they are
+    iterated): ({body: (n, 14) t s, position, quaternion x y z w, body-frame linear and
+    angular velocity}, the steps of the publishes); with ``keep`` False, the steps only.
+    Only these floats are kept, not the messages: 112 bytes a publish of a body."""
+    rows: dict[str, array] = {}
+    steps, last = array('q'), None
     for step, body, kind, _topic, msg, log_time in rec.outputs:
-        if kind != 'odom' or (bodies and body not in bodies):
+        if step != last:
+            steps.append(step)
+            last = step
+        if not keep or kind != 'odom' or (bodies and body not in bodies):
             continue
         p, o = msg.pose.pose.position, msg.pose.pose.orientation
         v, w = msg.twist.twist.linear, msg.twist.twist.angular
-        rows.setdefault(body, []).append(
-            (log_time * 1e-9, p.x, p.y, p.z, o.x, o.y, o.z, o.w, v.x, v.y, v.z, w.x, w.y, w.z))
+        row = rows.get(body)
+        if row is None:
+            row = rows[body] = array('d')
+        row.extend((log_time * 1e-9, p.x, p.y, p.z, o.x, o.y, o.z, o.w, v.x, v.y, v.z, w.x,
+                    w.y, w.z))
+    return ({name: np.frombuffer(row, dtype=float).reshape(-1, 14)
+             for name, row in rows.items()},
+            np.unique(np.frombuffer(steps, dtype=np.int64)))
+
+
+def body_series(rec, bodies=None, odom=None) -> dict[str, BodySeries]:
+    """The recorded odom of each body (all moving ones, or those named in ``bodies``), with
+    energy and momentum from the body's mass and inertia in the recording's config; ``odom``
+    is recorded_odom(rec, bodies)[0] if already read."""
+    lives = lifetimes(rec)
+    if odom is None:
+        odom = recorded_odom(rec, bodies)[0]
     out = {}
-    for name, data in rows.items():
-        a = np.array(data, dtype=float)
+    for name, a in odom.items():
         # Each publish with the body of its lifetime (a name deleted and spawned again may
         # be another body): the last spawn strictly before it (a spawn follows the publish
         # of its step).
@@ -155,15 +180,18 @@ def wrench_steps(rec, name: str, t_end: float):
     return np.array(times), np.array(forces), np.array(torques), frames
 
 
-def contact_counts(rec, progress=None):
-    """(times s, contacts) after the last step of every publish, from a re-simulation; None
-    when no body of the run has colliders. Stops at the first non-finite step."""
+def contact_counts(rec, progress=None, steps=None):
+    """(times s, contacts) after the last step of every publish (``steps``, if already read:
+    recorded_odom's), from a re-simulation; None when no body of the run has colliders.
+    Stops at the first non-finite step."""
     collides = rec.config.collides or any(
         isinstance(e, Spawn) and e.spec.colliders for _, e, _ in rec.inputs)
     if not collides:
         return None
     sim = Simulation(rec.config)
-    steps = sorted({o[0] for o in rec.outputs})
+    if steps is None:
+        steps = recorded_odom(rec, keep=False)[1]
+    steps = [int(step) for step in steps]
     pending = [(s, e) for s, e, _ in rec.inputs]
     times, counts = [], []
     for k, step in enumerate(steps):
@@ -203,6 +231,28 @@ def drawable(values: np.ndarray) -> tuple[np.ndarray, int]:
     return values, int(bad.sum())
 
 
+def envelope(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(t, y) of at most MAX_LINE_POINTS samples: all if there are no more, else of each of
+    MAX_LINE_POINTS // 3 runs of consecutive samples its first, least and greatest (a NaN,
+    not drawn, is neither), and the last sample, in time order."""
+    n = len(t)
+    if n <= MAX_LINE_POINTS:
+        return t, y
+    runs = MAX_LINE_POINTS // 3 - 1
+    edges = np.linspace(0, n, runs + 1).astype(np.int64)
+    run = np.repeat(np.arange(runs), np.diff(edges))
+    picks = [edges[:-1], [n - 1]]
+    nan = np.isnan(y)
+    for reduce, blank in ((np.minimum, np.inf), (np.maximum, -np.inf)):
+        z = np.where(nan, blank, y)
+        extreme = reduce.reduceat(z, edges[:-1])
+        at = np.flatnonzero(z == extreme[run])
+        _, first = np.unique(run[at], return_index=True)
+        picks.append(at[first])
+    pick = np.unique(np.concatenate(picks))
+    return t[pick], y[pick]
+
+
 def _left_out(count: int) -> str:
     return f'; {count} values not finite or beyond {MAX_VALUE:g}: not drawn' if count else ''
 
@@ -223,12 +273,14 @@ def _plot(rec, out_dir: str, bodies=None, progress=None) -> list[str]:
     import matplotlib.pyplot as plt
 
     os.makedirs(out_dir, exist_ok=True)
-    series = body_series(rec, bodies)
+    odom, steps = recorded_odom(rec, bodies)
+    series = body_series(rec, bodies, odom)
+    del odom
     if bodies:
         missing = sorted(set(bodies) - set(series))
         if missing:
             raise ValueError(f'no recorded outputs of {missing} (have '
-                             f'{sorted(body_series(rec))})')
+                             f'{sorted(recorded_odom(rec)[0])})')
     all_marks = events(rec)
     written = []
     t_end = max((s.t[-1] for s in series.values() if len(s.t)), default=0.0)
@@ -238,10 +290,11 @@ def _plot(rec, out_dir: str, bodies=None, progress=None) -> list[str]:
         except (ValueError, OverflowError, FloatingPointError) as e:
             plt.close('all')
             raise ValueError(f'body {name!r}: its plots cannot be drawn: {e}') from None
-    counts = contact_counts(rec, progress)
+    counts = contact_counts(rec, progress, steps)
     if counts is not None:
         fig, ax = plt.subplots(figsize=(10, 3.5))
-        ax.step(counts[0], counts[1], where='post', color='k', linewidth=1.0)
+        ax.step(*envelope(counts[0], counts[1].astype(float)), where='post', color='k',
+                linewidth=1.0)
         ax.set_xlabel('sim time (s)')
         ax.set_ylabel('contacts')
         ax.set_title('contacts of the last step of each publish (re-simulated)')
@@ -309,13 +362,13 @@ def body_figure(rec, plt, name, s, all_marks, t_end):
         values, hidden = drawable(values)
         title += _left_out(hidden)
         for k, label in enumerate(labels):
-            ax.plot(s.t, values[:, k], label=label, linewidth=1.0)
+            ax.plot(*envelope(s.t, values[:, k]), label=label, linewidth=1.0)
         ax.set_title(title, fontsize=10)
         ax.legend(fontsize=8, loc='best')
         ax.grid(True, alpha=0.3)
     ax = axes['energy']
     energy, hidden = drawable(s.energy)
-    ax.plot(s.t, energy, color='k', linewidth=1.0)
+    ax.plot(*envelope(s.t, energy), color='k', linewidth=1.0)
     ax.set_title('kinetic energy (J)' + _left_out(hidden), fontsize=10)
     ax.set_ylabel('J')
     ax.grid(True, alpha=0.3)

@@ -19,6 +19,7 @@ no ROS graph, no re-simulation.
 
 from __future__ import annotations
 
+from array import array
 import contextlib
 from dataclasses import dataclass
 import math
@@ -210,23 +211,28 @@ class Timeline:
                 self.spawned_at.setdefault(e.spec.name, []).append(step * dt)
             elif isinstance(e, Delete):
                 self.deleted_at.setdefault(e.body, []).append(step * dt)
-        poses: dict[str, list] = {}
+        # One pass over the outputs (which may be read from the file as they are iterated),
+        # keeping 8 floats a pose, not the messages.
+        poses: dict[str, array] = {}
         for step, body, kind, _t, msg, log_time in rec.outputs:
             if kind == 'pose':
                 p, o = msg.pose.position, msg.pose.orientation
-                poses.setdefault(body, []).append((log_time * 1e-9, p.x, p.y, p.z, o.x, o.y,
-                                                   o.z, o.w))
-        self.times = np.array(sorted({row[0] for rows in poses.values() for row in rows}))
+                row = poses.get(body)
+                if row is None:
+                    row = poses[body] = array('d')
+                row.extend((log_time * 1e-9, p.x, p.y, p.z, o.x, o.y, o.z, o.w))
         self.tracks = {}
-        for name, rows in poses.items():
-            a = np.array(rows, dtype=float)
+        for name, row in poses.items():
+            a = np.frombuffer(row, dtype=float).reshape(-1, 8)
             ok = np.all(np.isfinite(a), axis=1) & np.all(np.abs(a[:, 1:4]) <= MAX_EXTENT, axis=1)
             if not ok.all():
                 _note(f'body {name!r}: {int((~ok).sum())} of its {len(ok)} recorded positions '
                       f'are not finite or further than {MAX_EXTENT:g} m: not drawn there')
             a = a[ok]
-            with np.errstate(all='ignore'):
-                self.tracks[name] = (a[:, 0], a[:, 1:4], rotation_matrices(a[:, 4:8]))
+            self.tracks[name] = (a[:, 0], a[:, 1:4], a[:, 4:8])  # t, position, quaternion
+        self.times = np.unique(np.concatenate(
+            [np.frombuffer(row, dtype=float)[::8] for row in poses.values()] or [np.zeros(0)]))
+        del poses
         self.parts = {name: [p for _, _, parts in lives for p in parts]  # (for the extent)
                       for name, lives in self.lives.items()}
         for name, lives in self.lives.items():
@@ -269,7 +275,7 @@ class Timeline:
         track = self.tracks.get(name)
         if track is None:
             return None
-        times, x, r = track
+        times, x, q = track
         k = int(np.searchsorted(times, t + 1e-12, side='right')) - 1
         if k < 0:
             return None
@@ -277,7 +283,8 @@ class Timeline:
         later = self.times[(self.times > times[k] + 1e-12) & (self.times <= t + 1e-12)]
         if len(later):
             return None
-        return x[k], r[k]
+        with np.errstate(all='ignore'):
+            return x[k], rotation_matrices(q[k:k + 1])[0]
 
 
 def _frame_times(timeline: Timeline, fps: float | None) -> np.ndarray:
