@@ -13,7 +13,11 @@ body-frame vectors to the world frame (``r_world = R @ r_body``), as everywhere 
 A batch is N rows of the step kernel's arrays (``step_kernel``): the same compiled function
 that steps a ``Stepper`` (its one-row case) takes every body n steps in one call, the bodies
 shared among the cores from ``chunk_size`` bodies on. So a body of a batch and a ``Stepper``
-of the same body, state and wrench give the same bits (``test/test_batch.py``).
+of the same body, state and wrench give the same bits (``test/test_batch.py``), read alike:
+``rotations()`` is R as integrated, as ``Stepper.rotation()`` and ``components()`` are;
+``state(i)`` is a ``State``, as ``Stepper.state`` is, whose R is that one projected onto SO(3)
+(up to ~10 ulp away, the integrator's orthonormality error); ``quaternions_xyzw()`` are those
+of ``Stepper.pose_twist()``.
 
 Failures cost nothing until they happen: the kernel reads the committed arrays and writes
 the spare ones, so a run in which some body failed (non-finite, or turning faster than
@@ -27,6 +31,7 @@ from __future__ import annotations
 
 import math
 from typing import Any
+import warnings
 
 import numpy as np
 
@@ -36,7 +41,8 @@ from rb_sim_ros.core.rigid_body import (finite_floats, Frame, RigidBody, ROTATIO
                                         State, SYMMETRY_TOLERANCE, TRIANGLE_TOLERANCE)
 from rb_sim_ros.core.step_count import check_steps
 from rb_sim_ros.core.stepper import (check_dt, coefficients, FixedStep, IntegrationError,
-                                     set_body_params, set_wrench_params, Stepper)
+                                     set_body_params, set_wrench_params, Stepper,
+                                     turn_message, turn_warning_sq, TurnWarning)
 
 # From this many bodies on, a step shares them among the cores.
 CHUNK_SIZE = 4096
@@ -293,6 +299,10 @@ class BatchStepper(FixedStep):
                             float(angular_damping[i]), bool(specialize), Stepper.MAX_TURN,
                             self._dt)
         self._q = np.array(rotated).reshape(-1, 9)
+        # Squared |omega| above which a step warns (TurnWarning, once for the batch); inf for
+        # the isotropic bodies and methods with no energy bound.
+        self._warn_sq = np.array([turn_warning_sq(self._method, self._dt, sq == math.inf)
+                                  for sq in self._params[:, K.MAX_TURN_SQ]])
         self._forces = np.zeros((n, 3))
         self._torques = np.zeros((n, 3))
         self._in_body = np.full(n, self._wrench_frame is Frame.BODY)
@@ -301,6 +311,7 @@ class BatchStepper(FixedStep):
             set_wrench_params(self._params[i], float(self._inverse_mass[i]), zero, zero,
                               bool(self._in_body[i]))
         self._step_count = 0
+        self._warned = not np.isfinite(self._warn_sq).any()
         self._state[:, K.R:K.R + 9] = np.eye(3).reshape(9)
         if self._q.size:  # R = I, stored as r = R Q = Q in the principal frame
             hit = self._q_index >= 0
@@ -368,14 +379,17 @@ class BatchStepper(FixedStep):
         return self._state[:, K.W:K.W + 3].copy()
 
     def rotations(self) -> np.ndarray:
-        """(N, 3, 3) rotation matrices taking each body's frame to the world frame."""
+        """(N, 3, 3) rotation matrices taking each body's frame to the world frame, as
+        integrated: the bits of ``Stepper.rotation()``, not the projection onto SO(3) of
+        ``state(i)`` and ``Stepper.state`` (a few ulp away)."""
         r = self._state[:, K.R:K.R + 9].copy()
         for i in np.flatnonzero(self._q_index >= 0):  # the principal-frame R Q, times Q^T
             r[i] = so3.mul9(r[i], self._q[self._q_index[i]], transpose_b=True)
         return r.reshape(self._n, 3, 3)
 
     def quaternions_xyzw(self) -> np.ndarray:
-        """(N, 4) unit quaternions (x, y, z, w), w >= 0, of ``rotations()`` (Shepperd)."""
+        """(N, 4) unit quaternions (x, y, z, w), w >= 0, of ``rotations()`` (Shepperd): the
+        bits of ``Stepper.pose_twist()``'s."""
         r = self.rotations().reshape(self._n, 9).T
         r00, r01, r02, r10, r11, r12, r20, r21, r22 = r
         tr = r00 + r11 + r22
@@ -508,6 +522,7 @@ class BatchStepper(FixedStep):
         self._advance(self._all, n, False)
         if not self._status.any():
             self._commit(n)
+            self._check_turns()
             return
         failed = np.flatnonzero(self._status).astype(np.int64)
         self._advance(failed, n, True)
@@ -529,6 +544,22 @@ class BatchStepper(FixedStep):
         run = K.advance_parallel if bodies.size >= self._chunk_size else K.advance
         run(self._state, self._spare, self._params, self._coefficients, bodies, n, checked,
             self._status, self._taken, self._bad, self._work)
+
+    def _check_turns(self) -> None:
+        """A TurnWarning, once for the batch, naming the bodies that now turn faster than
+        the method's energy bound (``stepper.TURN_BOUNDS``)."""
+        if self._warned:
+            return
+        w = self._state[:, K.W:K.W + 3]
+        w2 = (w * w).sum(axis=1)
+        over = np.flatnonzero(w2 > self._warn_sq)
+        if not over.size:
+            return
+        self._warned = True
+        shown = over.tolist() if over.size <= 10 else over[:10].tolist() + ['...']
+        who = f'bodies {shown} of the batch (the fastest of them)'
+        warnings.warn(turn_message(self._method, self._dt, math.sqrt(float(w2[over].max())),
+                                   who), TurnWarning, stacklevel=3)
 
     def _commit(self, n: int) -> None:
         self._state, self._spare = self._spare, self._state

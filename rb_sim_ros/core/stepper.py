@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from typing import Any, Sequence
+import warnings
 
 import numpy as np
 
@@ -37,6 +38,50 @@ from rb_sim_ros.core import step_kernel as K
 from rb_sim_ros.core.rigid_body import (finite_floats, Frame, rate, RigidBody, State, Wrench,
                                         ZERO_WRENCH)
 from rb_sim_ros.core.step_count import check_steps
+
+
+# The energy bound of each method (docs/integrators.md, "Energy and the turn per step";
+# measured by ``python bench/energy_drift.py``): up to TURN_BOUNDS[name] rad a step,
+# |omega| dt, a torque-free body with unequal moments keeps its kinetic energy within
+# ENERGY_TOLERANCE (relative) over ENERGY_STEPS steps; beyond it the drift grows fast (the
+# explicit Adams-Bashforth update of Euler's equations: AB2, eq27's, drifts by the order of
+# (omega dt)^4 / 4 a step; AB4, lie4's, has a parasitic root outside the unit circle from
+# 0.43 rad a step of the linearised motion, where the energy doubles within about a hundred
+# steps). The drift grows about in proportion to the steps. A step that ends beyond the bound
+# gives a TurnWarning, once per body. The flows have no bound: they are exact torque-free.
+ENERGY_TOLERANCE = 1e-3
+ENERGY_STEPS = 2000
+TURN_BOUNDS = {'eq27': 0.03, 'eq27-no-cross': 0.03, 'taylor1': 0.02, 'lie3': 0.07, 'lie4': 0.1}
+
+
+class TurnWarning(RuntimeWarning):
+    """A body with unequal moments ended a step turning more than its method's energy bound
+    (``TURN_BOUNDS``) rad a step: its energy may drift beyond ENERGY_TOLERANCE."""
+
+
+def turn_bound(method) -> float | None:
+    """The energy bound (rad a step) of ``method`` (a method of ``multistep.METHODS``), None
+    for one that has none (the flows, or a table not of ``METHODS``)."""
+    if multistep.METHODS.get(method.name) != method:
+        return None
+    return TURN_BOUNDS.get(method.name)
+
+
+def turn_warning_sq(method, dt: float, isotropic: bool) -> float:
+    """The squared |omega| (rad/s)^2 above which a body's step warns (inf: never)."""
+    bound = turn_bound(method)
+    return math.inf if isotropic or bound is None else (bound / dt) ** 2
+
+
+def turn_message(method, dt: float, omega: float, who: str) -> str:
+    """The TurnWarning's text for ``who`` (a body, or bodies of a batch) at |omega| rad/s."""
+    bound = turn_bound(method)
+    return (f'{who} turned {omega * dt:.3g} rad in a step of {method.name} (|omega| = '
+            f'{omega:.6g} rad/s, dt = {dt:g} s), above its energy bound of {bound:g} rad a '
+            f'step: beyond it a torque-free body may drift by more than {ENERGY_TOLERANCE:g} '
+            f'of its kinetic energy in {ENERGY_STEPS} steps (docs/integrators.md, "Energy '
+            f'and the turn per step"); take dt <= {bound / omega:.3g} s, or flow2 or flow4 '
+            '(exact torque-free). Said once for each body')
 
 
 class IntegrationError(RuntimeError):
@@ -132,6 +177,9 @@ class BodyStore:
         self.taken = np.zeros(count, dtype=np.int64)
         self.bad = np.zeros((count, 3))
         self.clock = np.zeros(count, dtype=np.int64)
+        # Each row's squared |omega| above which its step warns (TurnWarning); inf once it has
+        # (and for rows that never warn: isotropic, a flow).
+        self.warn_sq = np.full(count, math.inf)
         self._used = 0
 
     def __len__(self) -> int:
@@ -174,6 +222,12 @@ class BodyStore:
                 else:
                     K.copy_rows(self.state, self.spare, rows)
                 self.clock[row] += n
+                limit = self.warn_sq.item(row)
+                if limit != math.inf:  # scalar reads: this is in each step(1)'s cost
+                    item = self.state.item
+                    wx, wy, wz = item(row, K.W), item(row, K.W + 1), item(row, K.W + 2)
+                    if wx * wx + wy * wy + wz * wz > limit:
+                        self.check_turns(rows)
                 return []
         failed = rows[self.status[rows] != K.STATUS_OK]
         if len(failed):
@@ -188,7 +242,25 @@ class BodyStore:
         self.clock[rows] += n
         if len(failed):
             self.clock[failed] -= n - self.taken[failed]
+            self.check_turns(rows[self.status[rows] == K.STATUS_OK])  # the others raise
+        else:
+            self.check_turns(rows)
         return failed.tolist()
+
+    def check_turns(self, rows: np.ndarray) -> None:
+        """A TurnWarning for each of ``rows`` (int64) whose body now turns faster than its
+        method's energy bound, once for each row (after a run of any kernel that steps
+        them)."""
+        watched = rows[self.warn_sq[rows] != math.inf]
+        if not len(watched):
+            return
+        w = self.state[watched, K.W:K.W + 3]
+        w2 = (w * w).sum(axis=1)
+        for row, sq in zip(watched[w2 > self.warn_sq[watched]].tolist(),
+                           w2[w2 > self.warn_sq[watched]].tolist()):
+            self.warn_sq[row] = math.inf
+            warnings.warn(turn_message(self.method, self.dt, math.sqrt(sq), 'a body'),
+                          TurnWarning, stacklevel=4)
 
 
 class Stepper(FixedStep):
@@ -200,13 +272,13 @@ class Stepper(FixedStep):
     """
 
     ORTHONORMALIZE_EVERY = 1024
-    # The most a body with unequal principal moments may turn in one step, |omega| dt (rad).
-    # The explicit update of Euler's equations (the gyroscopic term) is unstable beyond about
-    # this: measured over random inertias and axes, free rotation keeps its energy to 2000
-    # steps at |omega| dt <= 0.7, while from 1 rad a step on some bodies, and from 3 on nearly
-    # all, the energy grows without bound (x30 in two steps at 3 rad). A step that ends faster
-    # raises IntegrationError rather than publish that. Isotropic bodies have no gyroscopic
-    # term (exp() turns them exactly at any rate) and no limit.
+    # The most a body with unequal principal moments may turn in one step, |omega| dt (rad),
+    # with any method: a step that ends faster raises IntegrationError. It is no accuracy
+    # bound: the energy of a torque-free body is kept (within ENERGY_TOLERANCE over
+    # ENERGY_STEPS steps) only up to TURN_BOUNDS, 0.02 to 0.1 rad a step by method, beyond
+    # which a step warns (TurnWarning); from 0.3 to 0.7 rad a step, by method, the energy of
+    # some bodies grows until this limit stops them (bench/energy_drift.py). Isotropic bodies
+    # have no gyroscopic term (exp() turns them exactly at any rate), and no limit.
     MAX_TURN = 1.0
 
     def __init__(self, body: RigidBody, dt: float, state: State | None = None,
@@ -249,6 +321,8 @@ class Stepper(FixedStep):
         self._rows = np.array([self._row], dtype=np.int64)
         set_body_params(store.params[self._row], moments, gravity, linear_damping,
                         angular_damping, bool(specialize), self.MAX_TURN, self._dt)
+        store.warn_sq[self._row] = turn_warning_sq(
+            self._method, self._dt, store.params[self._row, K.MAX_TURN_SQ] == math.inf)
         self._has_state = False
         self._wrench = None
         self.set_wrench(wrench)
@@ -393,6 +467,7 @@ class Stepper(FixedStep):
         store.params[row] = other._store.params[other._row]
         store.work[row] = other._store.work[other._row]
         store.clock[row] = other._store.clock[other._row]
+        store.warn_sq[row] = other._store.warn_sq[other._row]
         self._wrench, self._has_state = other._wrench, other._has_state
 
     def rest(self, n: int) -> None:
@@ -436,6 +511,9 @@ class Stepper(FixedStep):
         stepping on from there work as usual. The kernel checks the end state only; on failure
         the same steps are taken again from the unchanged start, checked one by one, to find
         the first bad one (the arithmetic repeats the first pass exactly).
+
+        Warns (TurnWarning, once for the body) if the steps end with it turning faster than
+        its method's energy bound, ``TURN_BOUNDS`` rad a step (checked at the end, as MAX_TURN).
         """
         check_steps(n)
         if n == 0:
