@@ -5,6 +5,7 @@
 grow with the number of frames, and the file read back by Pillow shows the frames drawn, with
 the delays the real-time rule gives."""
 
+import re
 import tracemalloc
 
 import numpy as np
@@ -104,3 +105,10 @@ def test_a_frame_that_cannot_be_drawn_leaves_no_half_gif(tmp_path, monkeypatch):
     with pytest.raises(ValueError, match='cannot be drawn'):
         render.render(rec, str(gif), 'top', size=SIZE)
     assert gif.read_bytes() == b'before' and not list(tmp_path.glob('.render-*'))
+
+
+def test_an_output_that_cannot_be_written_is_one_line_naming_it(tmp_path):
+    rec = spinning(tmp_path, 2)
+    out = tmp_path / 'no such folder' / 'r.gif'
+    with pytest.raises(ValueError, match='^' + re.escape(f'{out}: cannot write there')):
+        render.render(rec, str(out), 'top', size=(64, 64))

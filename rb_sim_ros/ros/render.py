@@ -596,7 +596,10 @@ def _write_gif(out_path: str, renderer: Renderer, times, delays, progress) -> No
     GIF)."""
     import tempfile
     folder = os.path.dirname(os.path.abspath(out_path))
-    fd, part_path = tempfile.mkstemp(prefix='.render-', suffix='.gif', dir=folder)
+    try:
+        fd, part_path = tempfile.mkstemp(prefix='.render-', suffix='.gif', dir=folder)
+    except OSError as e:
+        raise ValueError(f'{out_path}: cannot write there ({e.strerror})') from None
     try:
         with os.fdopen(fd, 'wb') as f:
             writer = GifWriter(f)
