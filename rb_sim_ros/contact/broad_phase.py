@@ -22,6 +22,17 @@ import numpy as np
 
 from rb_sim_ros.core.jit import inline_kernel
 
+# The most pairs of colliders the broad phase finds in one step, and the most box tests its
+# sweep makes (each overlap on the sweep axis is one). Past either it stops and returns
+# ``OVERFLOW`` (the world step refuses the step with the reason): colliders piled up in one
+# place (MAX_BODIES bodies of MAX_COLLIDERS each would make 8e11 pairs, more memory than any
+# machine has). A dense pile of 20,000 single-collider bodies makes about 120,000 pairs; the
+# narrow phase's buffers for MAX_PAIRS are some 170 MB.
+MAX_PAIRS = 1 << 18
+MAX_SWEEP = 64 * MAX_PAIRS
+# What sweep_and_prune returns past its bounds: one pair (-1, -1).
+OVERFLOW = -1
+
 
 @inline_kernel
 def sweep_and_prune(lower, upper, group, static, axis):
@@ -29,7 +40,8 @@ def sweep_and_prune(lower, upper, group, static, axis):
     three axes (closed intervals: touching counts), but for pairs of one ``group`` (N,) (the
     colliders of one body) and pairs of two ``static`` (N,) colliders; sorted by (i, j). Sort
     and sweep on ``axis``, or where it is -1 on the axis of the largest spread of the lower
-    bounds (any axis gives the same pairs; the spread only makes it fast)."""
+    bounds (any axis gives the same pairs; the spread only makes it fast). Past MAX_PAIRS
+    pairs or MAX_SWEEP box tests: the one pair (OVERFLOW, OVERFLOW) instead."""
     count = lower.shape[0]
     if count < 2:
         return np.zeros((0, 2), dtype=np.int64)
@@ -48,6 +60,7 @@ def sweep_and_prune(lower, upper, group, static, axis):
         keys[i] = lower[i, axis]
     order = np.argsort(keys, kind='mergesort')
     found = 0
+    tested = 0
     capacity = 4 * count
     pairs = np.empty(capacity, dtype=np.int64)
     for p in range(count):
@@ -57,6 +70,9 @@ def sweep_and_prune(lower, upper, group, static, axis):
             j = order[s]
             if float(lower[j, axis]) > hi:
                 break
+            tested += 1
+            if tested > MAX_SWEEP:
+                return np.full((1, 2), OVERFLOW, dtype=np.int64)
             if group[i] == group[j] or (static[i] and static[j]):
                 continue
             overlap = True
@@ -72,6 +88,8 @@ def sweep_and_prune(lower, upper, group, static, axis):
                 pairs, capacity = bigger, 2 * capacity
             pairs[found] = min(i, j) * count + max(i, j)
             found += 1
+            if found > MAX_PAIRS:
+                return np.full((1, 2), OVERFLOW, dtype=np.int64)
     keys_found = np.sort(pairs[:found])
     out = np.empty((found, 2), dtype=np.int64)
     for k in range(found):

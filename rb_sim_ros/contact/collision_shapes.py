@@ -15,9 +15,13 @@ frictions (``combined_material``), a side without one the world's (the scene's `
 A plane is the set {p : normal . p = offset} in its body's frame (the world for
 ``CollisionWorld(planes=...)``); its solid side is normal . p < offset, so the normal points
 into the free space. Values are immutable and validated once: a ValueError names
-the field. ``shape_from_dict`` reads the form a scene file would use
-(``{'type': 'box', 'size': [...], 'position': [...], 'orientation': [x, y, z, w]}``) and
-``shape_to_dict`` writes it back, exactly (floats kept as they are).
+the field. Every length (a radius, a length, an edge, a coordinate of ``position``, a plane's
+offset) is at most ``MAX_LENGTH`` in size, and a radius or an edge at least ``MIN_LENGTH``:
+what the contact code derives from them (squared distances, support sums, bounding extents,
+the inertia of a shape, products of four lengths in the box tests) then stays far inside the
+floats, where 1e300 gave inf and every step failed. ``shape_from_dict`` reads the form a
+scene file would use (``{'type': 'box', 'size': [...], 'position': [...], 'orientation':
+[x, y, z, w]}``) and ``shape_to_dict`` writes it back, exactly (floats kept as they are).
 """
 
 from __future__ import annotations
@@ -34,6 +38,12 @@ from rb_sim_ros.core.rigid_body import finite_floats, is_number, scaled_to_one, 
 
 IDENTITY_XYZW = (0.0, 0.0, 0.0, 1.0)
 ORIGIN = (0.0, 0.0, 0.0)
+# The bounds of a shape's lengths (m): a million kilometres and a nanometre. A product of four
+# of them (the narrow phase's largest) lies in [1e-36, 1e36], far from overflow and underflow,
+# and a rounding step of the largest (1e-7 m at 1e9 m) is still below a contact's slop. No
+# scene of bodies that touch needs more (the Earth is 1.3e7 m across).
+MAX_LENGTH = 1e9
+MIN_LENGTH = 1e-9
 
 
 def _number(name: str, value: Any, unit: str = 'm') -> float:
@@ -50,17 +60,30 @@ def _number(name: str, value: Any, unit: str = 'm') -> float:
 
 
 def _positive(name: str, value: Any, unit: str = 'm', allow_zero: bool = False) -> float:
+    """A length in [MIN_LENGTH, MAX_LENGTH] (or 0 with ``allow_zero``)."""
     value = _number(name, value, unit)
-    if not math.isfinite(value) or value < 0.0 or (value == 0.0 and not allow_zero):
-        bound = '>= 0' if allow_zero else '> 0'
-        raise ValueError(f'{name} must be finite and {bound} {unit}, got {value!r}')
+    if allow_zero and value == 0.0:
+        return value
+    if not MIN_LENGTH <= value <= MAX_LENGTH:
+        low = '0 or ' if allow_zero else ''
+        raise ValueError(f'{name} must be {low}between MIN_LENGTH = {MIN_LENGTH:g} and '
+                         f'MAX_LENGTH = {MAX_LENGTH:g} {unit}, got {value!r}')
     return value
+
+
+def _coordinates(name: str, value: Any) -> tuple[float, ...]:
+    """3 finite floats, each at most MAX_LENGTH in size (m)."""
+    out = finite_floats(name, value, 3)
+    if any(abs(c) > MAX_LENGTH for c in out):
+        raise ValueError(f'{name} must be 3 coordinates of at most MAX_LENGTH = '
+                         f'{MAX_LENGTH:g} m in size, got {list(out)}')
+    return out
 
 
 def _placement(shape) -> None:
     """Validate and store position/orientation; precompute the local rotation Q (shape axes
     in the body frame) and whether the placement is the identity."""
-    position = finite_floats('position', shape.position, 3)
+    position = _coordinates('position', shape.position)
     q = finite_floats('orientation_xyzw', shape.orientation_xyzw, 4)
     scaled = scaled_to_one(q)  # any length: 1e200 and 1e-200 neither overflow nor vanish
     if scaled is None:
@@ -218,7 +241,11 @@ class Plane:
             norm = math.sqrt(squared)
             n = [n[0] / norm, n[1] / norm, n[2] / norm]
         object.__setattr__(self, 'normal', tuple(n))
-        object.__setattr__(self, 'offset', _number('offset', self.offset))
+        offset = _number('offset', self.offset)
+        if abs(offset) > MAX_LENGTH:
+            raise ValueError(f'offset must be at most MAX_LENGTH = {MAX_LENGTH:g} m in size, '
+                             f'got {offset!r}')
+        object.__setattr__(self, 'offset', offset)
         rotation = np.eye(3)
         rotation.flags.writeable = False
         object.__setattr__(self, 'rotation', rotation)

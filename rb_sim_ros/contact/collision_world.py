@@ -59,7 +59,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from rb_sim_ros.contact import contact_solver, narrow_kernels as nk, world_kernels as wk
+from rb_sim_ros.contact import broad_phase as bp, contact_solver, narrow_kernels as nk
+from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.contact import world_step as ws
 from rb_sim_ros.contact.bodies import BodySpec, make_steppers
 from rb_sim_ros.contact.collision_shapes import Plane, Shape
@@ -545,8 +546,13 @@ class CollisionWorld:
             s = self._by_row[int(status[ws.S_ROW])]
             e = s._error()
             return IntegrationError(e.step, f"body '{self._owner(s)}': {e}")
-        flagged = self._flagged[:int(status[ws.S_FLAGGED])].tolist()
         when = f'at step {step} (t = {step * self.dt:.9g} s)'
+        if kind == ws.CROWDED:
+            return IntegrationError(
+                step, f'more than {bp.MAX_PAIRS} pairs of colliders may touch {when} (the '
+                "broad phase's bound, broad_phase.MAX_PAIRS): too many colliders in one place; "
+                'no contacts were solved in that step')
+        flagged = self._flagged[:int(status[ws.S_FLAGGED])].tolist()
         if kind == ws.WRITE_NON_FINITE:
             e = self._energy
             return IntegrationError(

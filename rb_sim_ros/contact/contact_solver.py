@@ -45,7 +45,8 @@ changes v or omega (the collision world turns omega with R, keeping 1/2 w . I w)
 velocity impulses keep momentum exactly and add no energy.
 
 One compiled kernel does all of it (``solver_kernels.solve_arrays``, on arrays; ``solve``
-below is its Python face). The contacts are coloured greedily in contact order so that no
+below is its Python face). The contacts are coloured in contact order (greedily while a body
+has few; in O(contacts) however many: ``solver_kernels._colour``) so that no
 moving body is in two contacts of one colour, and Gauss-Seidel visits them colour by colour,
 one after the other: the order, and so the result, depends only on the inputs. Its arithmetic
 is plain float64 in a written order (no BLAS), so the compiled and the interpreted path

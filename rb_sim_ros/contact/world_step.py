@@ -18,10 +18,11 @@ written in ``collision_world``'s module docstring:
    (``world_kernels.write_contacts``), and sleeping.
 
 It returns early, after the step in which it happened, when something needs Python: a body
-that could not be integrated or whose contacts failed a check (``w.status``: the kind, the
-step, the body; ``w.flagged`` the bodies named). Every other outcome a step can have is handled
-here, so Python runs once per call, not once per body, pair or contact. The warm-start arrays
-and the last step's contacts change size; they are returned.
+that could not be integrated or whose contacts failed a check, or more colliders in one place
+than the broad phase's bounds (``CROWDED``: that step's contacts are not solved) (``w.status``:
+the kind, the step, the body; ``w.flagged`` the bodies named). Every other outcome a step can
+have is handled here, so Python runs once per call, not once per body, pair or contact. The
+warm-start arrays and the last step's contacts change size; they are returned.
 
 Plain + - * / sqrt sin cos on float64, no BLAS: compiled and interpreted give the same bits.
 """
@@ -51,6 +52,7 @@ S_STEP, S_UNCHECKED, S_KIND, S_ERROR_STEP, S_ROW, S_FLAGGED, S_STEPS_DONE = 0, 1
 S_COLLIDED = 7
 STATUS_WIDTH = 8
 OK, INTEGRATION, SOLVE_NON_FINITE, SOLVE_ENERGY, WRITE_NON_FINITE = 0, 1, 2, 3, 4
+CROWDED = 5  # the broad phase passed broad_phase.MAX_PAIRS or MAX_SWEEP: no contacts solved
 # w.energy (11): [0:2] the kinetic energies (J) before and after a solve that gained, or [0:9]
 # the x, v, omega a failed write would have given; [9:11] the kinetic energy of the bodies in
 # contact before and after the last solve (0 without contacts).
@@ -120,6 +122,7 @@ def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
         nc = w.cbody.shape[0]
         step = w.status[S_STEP] - 1 if integrated else w.status[S_STEP]
         static = np.empty(nc, dtype=np.bool_)
+        crowded = False
         while True:
             # x, R, v, omega and margins of the bodies; colliders placed (step 2's start).
             wk.read_bodies(w.state, w.rows, w.q, w.has_q, w.x, w.rot, w.v, w.w)
@@ -134,7 +137,8 @@ def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
             for k in range(nb):
                 any_asleep = any_asleep or w.asleep[k]
             pairs = bp.sweep_and_prune(w.lower, w.upper, w.cowner, static, int(-1))
-            if not any_asleep or pairs.shape[0] == 0:
+            crowded = pairs.shape[0] == 1 and pairs[0, 0] == bp.OVERFLOW
+            if crowded or not any_asleep or pairs.shape[0] == 0:
                 break
             woken = np.zeros(nb + 1, dtype=np.bool_)
             found = False
@@ -166,6 +170,10 @@ def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
                     w.status[S_KIND], w.status[S_ROW] = INTEGRATION, failed
                     w.status[S_ERROR_STEP] = w.clock[failed]
                     break
+        if crowded and w.status[S_KIND] == OK:  # more pairs than the bounds: refused, and
+            # due again (the next call checks before it integrates: nothing moves on unsolved)
+            w.status[S_KIND], w.status[S_ERROR_STEP] = CROWDED, step
+            w.status[S_UNCHECKED] = 1
         if w.status[S_KIND] != OK:  # a woken body failed its step: the step stops there
             point, normal = np.zeros((0, 3)), np.zeros((0, 3))
             depth, impulse = np.zeros(0), np.zeros(0)

@@ -63,6 +63,7 @@ import reprlib
 import sys
 from typing import Any, NamedTuple, NoReturn
 
+from rb_sim_ros.contact.bodies import MAX_COLLIDERS
 from rb_sim_ros.contact.collision_shapes import Box, Plane, shape_from_dict, Sphere
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import RigidBody
@@ -343,6 +344,9 @@ def _colliders(where: str, colliders: Any, shape: Any, dims: dict, static: bool)
             _fail(where, 'colliders', str(e))
     if not isinstance(colliders, list):
         _fail(where, 'colliders', f"must be a list of shapes or 'shape', got {_show(colliders)}")
+    if len(colliders) > MAX_COLLIDERS:
+        _fail(where, 'colliders', f'{len(colliders)} colliders, more than MAX_COLLIDERS = '
+              f'{MAX_COLLIDERS} on one body')
     out = []
     for i, c in enumerate(colliders):
         field = f'colliders[{i}]'

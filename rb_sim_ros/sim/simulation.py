@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 from typing import Any, Union
 
-from rb_sim_ros.contact.bodies import BodySpec, ContactSettings, make_steppers
+from rb_sim_ros.contact.bodies import BodySpec, ContactSettings, make_steppers, MAX_COLLIDERS
 from rb_sim_ros.contact.collision_shapes import shape_from_dict, shape_to_dict, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import multistep
@@ -113,11 +113,18 @@ def body_from_dict(data: dict[str, Any]) -> BodySpec:
     colliders = b.pop('colliders', ())
     if not isinstance(colliders, (list, tuple)):
         raise ValueError('colliders must be a list')
+    name = b.get('name')
+    named = f"body '{name}': " if isinstance(name, str) and len(name) <= 64 else ''
+    if len(colliders) > MAX_COLLIDERS:  # before they are built
+        raise ValueError(f'{named}colliders: {len(colliders)}, more than MAX_COLLIDERS = '
+                         f'{MAX_COLLIDERS} on one body')
     try:
         return BodySpec(colliders=tuple(shape_from_dict(c) for c in colliders),
                         **{k: (tuple(v) if isinstance(v, list) else v) for k, v in b.items()})
     except TypeError as e:
-        raise ValueError(f'not a body: {e}') from None
+        raise ValueError(f'{named}not a body: {e}') from None
+    except ValueError as e:
+        raise ValueError(f'{named}{e}') from None
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,317 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Bounds on the work of a step, and on what the contact code can take (issue 28: N01, N02,
+N14, N15): every way a body comes in (a scene file, spawn_entity's body entry, a recording's
+config) refuses, in one line naming the body and the bound, colliders the step could not
+bound, masses and moments the contact solve cannot invert and shapes whose derived quantities
+overflow; and what a legitimate scene can still pile up at run time stays bounded.
+
+Oracles: the bounds as the issue states them (a documented constant, named in the refusal);
+the colouring's rule (no moving body twice in one colour) and its greedy reference written
+here; the count of interpreted lines as the measure of work (no clocks); float range.
+"""
+
+import json
+import math
+import sys
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from rb_sim_ros.contact import bodies, broad_phase, collision_shapes, solver_kernels
+from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, shape_from_dict, Sphere
+from rb_sim_ros.core.stepper import IntegrationError
+from rb_sim_ros.sim import scene
+from rb_sim_ros.sim.simulation import BodySpec, Config, ContactSettings, Simulation
+
+SPHERE = {'type': 'sphere', 'radius': 0.1}
+
+
+def _entry(colliders, name='heap', **fields):
+    return json.dumps({'name': name, 'mass': 1.0, 'inertia': [0.1, 0.1, 0.1],
+                       'colliders': colliders, **fields})
+
+
+def _one_line(e, *words):
+    text = str(e.value)
+    assert '\n' not in text and 'Traceback' not in text, text
+    for w in words:
+        assert w in text, text
+    return text
+
+
+# -- N01 / N02: colliders per body -------------------------------------------------------------
+
+def test_a_spawned_body_with_too_many_colliders_is_refused_naming_it_and_the_bound():
+    limit = bodies.MAX_COLLIDERS
+    assert 8 <= limit <= 256  # a documented constant, a compound shape's handful and more
+    scene.body_entry(_entry([SPHERE] * limit))  # at the bound: accepted
+    with pytest.raises(scene.SceneError) as e:
+        scene.body_entry(_entry([SPHERE] * 350))  # the attack's 10 kB spawn
+    _one_line(e, 'heap', 'colliders', '350', f'MAX_COLLIDERS = {limit}')
+
+
+def test_a_scene_body_with_too_many_colliders_is_refused_naming_it_and_the_bound():
+    data = {'bodies': [{'name': 'ground', 'static': True,
+                        'colliders': [{'type': 'plane'}]},
+                       json.loads(_entry([SPHERE] * (bodies.MAX_COLLIDERS + 1), name='pile'))]}
+    with pytest.raises(scene.SceneError) as e:
+        scene.scene_from_data(data, 'heap.yaml')
+    _one_line(e, 'heap.yaml', 'pile', 'colliders', f'MAX_COLLIDERS = {bodies.MAX_COLLIDERS}')
+    with pytest.raises(ValueError, match='MAX_COLLIDERS'):  # the API's own, as a recording's
+        BodySpec('pile', colliders=(Sphere(0.1),) * 400)
+
+
+def test_a_recording_whose_config_has_too_many_colliders_is_refused_by_load(tmp_path):
+    pytest.importorskip('mcap')
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+    from rclpy.serialization import serialize_message
+    from recordings import record_offline
+    from std_msgs.msg import String
+
+    from rb_sim_ros.recording.errors import ReaderError
+    from rb_sim_ros.ros import replay
+    from rb_sim_ros.ros.node_recorder import RUN_DEFINITION
+
+    good = tmp_path / 'good.mcap'
+    record_offline(good, Config(bodies=(BodySpec('one'), BodySpec('two'))), periods=2)
+    with open(good, 'rb') as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        messages = [(c.topic, m) for _s, c, m in reader.iter_messages()]
+        meta = next(dict(m.metadata) for m in reader.iter_metadata() if m.name == 'rb_sim_ros')
+    config = json.loads(meta['config'])
+    for body in config['bodies']:  # N02: two bodies of 400 colliders at one place
+        body['colliders'] = [SPHERE] * 400
+    meta = {**meta, 'config': json.dumps(config)}
+    bad = tmp_path / 'bad.mcap'
+    with open(bad, 'wb') as f:
+        w = Writer(f)
+        w.start(profile='ros2', library='test')
+        sids = {i: w.register_schema(s.name, s.encoding, s.data)
+                for i, s in summary.schemas.items()}
+        cids = {c.topic: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id],
+                                            dict(c.metadata))
+                for c in summary.channels.values()}
+        for topic, m in messages:
+            data = m.data
+            if topic == RUN_DEFINITION:  # the definition message says what the metadata says
+                data = serialize_message(String(data=json.dumps(meta, sort_keys=True)))
+            w.add_message(cids[topic], m.log_time, data, m.publish_time, m.sequence)
+        w.add_metadata('rb_sim_ros', meta)
+        w.finish()
+    with pytest.raises(ReaderError) as e:
+        replay.load(str(bad))
+    _one_line(e, 'one', 'colliders', '400', f'MAX_COLLIDERS = {bodies.MAX_COLLIDERS}')
+
+
+# -- N01: the colouring of the contact solver is linear in a body's contacts ------------------
+
+def _lines_run(n):
+    """Lines the colouring runs (interpreted) for n contacts of one moving body with the
+    ground: the measure of its work, independent of the machine and its load."""
+    colour = getattr(solver_kernels._colour, 'py_func', solver_kernels._colour)
+    body_a = np.zeros(n, dtype=np.int64)
+    body_b = np.ones(n, dtype=np.int64)
+    moving = np.array([True, False])
+    out = np.empty(n, dtype=np.int64)
+    count = [0]
+
+    def trace(frame, event, arg):
+        if frame.f_code is colour.__code__:
+            if event == 'line':
+                count[0] += 1
+            return trace
+        return None
+
+    old = sys.gettrace()
+    sys.settrace(trace)
+    try:
+        colour(body_a, body_b, moving, out)
+    finally:
+        sys.settrace(old)
+    assert len(set(out.tolist())) == n  # one body: every contact a colour of its own
+    return count[0]
+
+
+def test_colouring_work_grows_linearly_with_one_bodys_contacts():
+    # Quadratic (the greedy scan of every earlier contact): x16 for 4x the contacts.
+    small, large = _lines_run(300), _lines_run(1200)
+    assert large < 5 * small, (small, large)
+
+
+def _greedy(body_a, body_b, moving):
+    """The reference: each contact the lowest colour no earlier contact of its moving bodies
+    has."""
+    held = [set() for _ in moving]
+    out = []
+    for a, b in zip(body_a, body_b):
+        used = (held[a] if moving[a] else set()) | (held[b] if moving[b] else set())
+        c = 0
+        while c in used:
+            c += 1
+        out.append(c)
+        for x in (a, b):
+            if moving[x]:
+                held[x].add(c)
+    return out
+
+
+@pytest.mark.parametrize('seed', range(6))
+def test_colouring_is_proper_and_greedy_while_bodies_have_few_contacts(seed):
+    rng = np.random.default_rng(seed)
+    n_bodies = 12 if seed < 3 else 3  # few contacts each, then hundreds on three bodies
+    m = 60 if seed < 3 else 900
+    moving = rng.random(n_bodies) < 0.8
+    moving[0] = True
+    body_a = rng.integers(0, n_bodies, m)
+    body_b = (body_a + rng.integers(1, n_bodies, m)) % n_bodies
+    colour = np.empty(m, dtype=np.int64)
+    count = solver_kernels._colour(body_a.astype(np.int64), body_b.astype(np.int64), moving,
+                                   colour)
+    assert count == colour.max() + 1
+    for body in np.flatnonzero(moving):  # proper: no moving body twice in one colour
+        mine = colour[(body_a == body) | (body_b == body)]
+        assert len(set(mine.tolist())) == len(mine)
+    degree = np.bincount(np.concatenate([body_a, body_b]), minlength=n_bodies)
+    if degree[moving].max() <= solver_kernels.COLOUR_SCAN:
+        assert colour.tolist() == _greedy(body_a.tolist(), body_b.tolist(), moving.tolist())
+
+
+# -- N01: colliders piled up at run time: the step refuses, with the reason --------------------
+
+def test_more_pairs_than_the_broad_phase_bound_stop_the_step_with_the_reason():
+    # 12 bodies of MAX_COLLIDERS balls at one place: 270,336 pairs of colliders that touch.
+    per = bodies.MAX_COLLIDERS
+    count = 12
+    assert count * per * (count * per - 1) // 2 - count * per * (per - 1) // 2 \
+        > broad_phase.MAX_PAIRS
+    heap = tuple(BodySpec(f'b{i}', colliders=(Sphere(0.5),) * per,
+                          initial_position=(0.0, 0.0, 0.01 * i)) for i in range(count))
+    sim = Simulation(Config(bodies=heap, contact=ContactSettings(sleep_time=0.0)))
+    with pytest.raises(IntegrationError) as e:
+        sim.run(1)
+    _one_line(e, str(broad_phase.MAX_PAIRS), 'MAX_PAIRS', 'too many colliders in one place')
+    with pytest.raises(IntegrationError):  # and so again, without moving them through
+        sim.run(1)
+
+
+def test_the_broad_phase_returns_its_overflow_past_the_bound(monkeypatch):
+    sweep = getattr(broad_phase.sweep_and_prune, 'py_func', broad_phase.sweep_and_prune)
+    lower = np.zeros((4, 3))  # 4 unit boxes at one place: 6 pairs
+    group, static = np.arange(4), np.zeros(4, dtype=bool)
+    monkeypatch.setattr(broad_phase, 'MAX_PAIRS', 6)
+    assert sweep(lower, lower + 1.0, group, static, -1).shape == (6, 2)
+    monkeypatch.setattr(broad_phase, 'MAX_PAIRS', 5)
+    assert sweep(lower, lower + 1.0, group, static, -1).tolist() == [[broad_phase.OVERFLOW] * 2]
+    # Overlapping along the sweep axis only (x), apart along y: no pair, but 6 box tests.
+    monkeypatch.setattr(broad_phase, 'MAX_PAIRS', 6)
+    apart = np.array([[0.0, 2.0 * i, 0.0] for i in range(4)])
+    assert sweep(apart, apart + 1.0, group, static, 0).shape == (0, 2)
+    monkeypatch.setattr(broad_phase, 'MAX_SWEEP', 5)
+    assert sweep(apart, apart + 1.0, group, static, 0).tolist() == [[broad_phase.OVERFLOW] * 2]
+
+
+# -- N14: masses and moments the contact solve cannot take --------------------------------------
+
+def _stack_and(tiny):
+    ground = {'name': 'ground', 'static': True, 'colliders': [{'type': 'plane'}]}
+    stack = [{'name': f'stack_{i}', 'mass': 1.0, 'inertia': [1 / 6] * 3,
+              'position': [0, 0, 0.5 + i], 'colliders': [{'type': 'box', 'size': [1, 1, 1]}]}
+             for i in range(3)]
+    return {'gravity': [0, 0, -9.81], 'bodies': [ground, *stack, tiny]}
+
+
+@pytest.mark.parametrize('mass, inertia, word', [
+    (1e-200, [1e-202] * 3, 'mass'),      # the attack's: 1/I cubed overflows in the guard
+    (1.0, [1e-200, 1e-200, 1e-200], 'inertia'),
+    (1e200, [1e200] * 3, 'mass'),        # 1/I cubed underflows to 0: the guard's det
+    (1.0, [1e-70, 1.0, 1.0], 'inertia'),  # a rod too thin: one inverse moment too large
+])
+def test_a_body_the_contact_solve_cannot_take_is_refused_naming_it(mass, inertia, word):
+    tiny = {'name': 'tiny', 'mass': mass, 'inertia': inertia, 'position': [30, 0, 0.1],
+            'colliders': [{'type': 'sphere', 'radius': 0.1}]}
+    with pytest.raises(scene.SceneError) as e:
+        scene.scene_from_data(_stack_and(tiny), 'stack.yaml')
+    _one_line(e, 'stack.yaml', 'tiny', word, f'{bodies.MIN_CONTACT_MASS:g}',
+              f'{bodies.MAX_CONTACT_MASS:g}')
+    # Without colliders it never enters the solve: the attitude simulator keeps its range.
+    del tiny['colliders']
+    scene.scene_from_data(_stack_and(tiny), 'stack.yaml')
+
+
+def test_within_the_bounds_every_product_the_solve_forms_is_a_normal_float():
+    # The guard inverts R diag(1/I) R^T through its determinant (1/I)^3 and cofactors (1/I)^2;
+    # K = 1/m_a + 1/m_b; the ratio of two masses in contact.
+    low, high = bodies.MIN_CONTACT_MASS, bodies.MAX_CONTACT_MASS
+    for inverse in (1.0 / low, 1.0 / high):
+        for power in (1, 2, 3):
+            value = inverse ** power
+            assert math.isfinite(value) and value >= sys.float_info.min
+    assert math.isfinite(high / low) and low / high >= sys.float_info.min
+
+
+def test_a_stack_runs_on_beside_a_body_at_the_bounds():
+    tiny = BodySpec('tiny', mass=bodies.MIN_CONTACT_MASS,
+                    inertia=(bodies.MIN_CONTACT_MASS,) * 3, initial_position=(30.0, 0.0, 0.1),
+                    colliders=(Sphere(0.1),))
+    stack = tuple(BodySpec(f'stack_{i}', mass=1.0, inertia=(1 / 6,) * 3,
+                           initial_position=(0.0, 0.0, 0.5 + i), colliders=(Box((1, 1, 1)),))
+                  for i in range(3))
+    ground = BodySpec('ground', static=True, colliders=(Plane(),))
+    sim = Simulation(Config(gravity=(0.0, 0.0, -9.81), bodies=(ground, *stack, tiny),
+                            contact=ContactSettings(friction=0.8)))
+    sim.run(300)
+    assert sim.pose_twist('stack_2')[0][2] == pytest.approx(2.5, abs=1e-3)
+
+
+# -- N15: shapes whose derived quantities overflow ---------------------------------------------
+
+@pytest.mark.parametrize('collider, field', [
+    ({'type': 'capsule', 'radius': 1e150, 'length': 1e300}, 'radius'),  # the attack's
+    ({'type': 'capsule', 'radius': 0.1, 'length': 1e300}, 'length'),
+    ({'type': 'sphere', 'radius': 1e200}, 'radius'),
+    ({'type': 'sphere', 'radius': 1e-200}, 'radius'),  # squares underflow to 0
+    ({'type': 'box', 'size': [1e155, 1.0, 1.0]}, 'size[0]'),
+    ({'type': 'sphere', 'radius': 0.1, 'position': [0.0, 1e300, 0.0]}, 'position'),
+    ({'type': 'plane', 'offset': 1e300}, 'offset'),
+])
+def test_a_shape_beyond_the_length_bounds_is_refused_naming_the_field(collider, field):
+    with pytest.raises(ValueError) as e:
+        shape_from_dict(collider)
+    _one_line(e, field, 'MAX_LENGTH')
+    with pytest.raises(scene.SceneError) as e:  # what spawn_entity reads
+        scene.body_entry(json.dumps({'name': 'huge', 'mass': 1.0, 'inertia': [1, 1, 1],
+                                     'static': collider['type'] == 'plane',
+                                     'colliders': [collider]}))
+    _one_line(e, 'huge', field)
+
+
+def test_at_the_length_bounds_every_derived_quantity_is_finite():
+    big, small = collision_shapes.MAX_LENGTH, collision_shapes.MIN_LENGTH
+    capsule = Capsule(big, big, position=(big, -big, big))
+    box = Box((big, big, big), position=(-big, big, -big))
+    reach = max(math.sqrt(sum(c * c for c in s.position)) + s.bounding_radius
+                for s in (capsule, box))
+    assert math.isfinite(reach ** 4) and small ** 4 >= sys.float_info.min
+    mass, moments = scene.mass_and_inertia('box', 1.0, {'size': [big] * 3})
+    assert all(math.isfinite(v) for v in (mass, *moments))
+    Sphere(small), Capsule(small, 0.0), Box((small,) * 3)  # accepted
+
+
+def test_spawn_entity_answers_the_huge_capsule_with_its_code_and_reason():
+    srv = pytest.importorskip('simulation_interfaces.srv')
+    from rb_sim_ros.ros.sim_interfaces import SimulationInterfaces
+
+    interfaces = object.__new__(SimulationInterfaces)  # no node: only the request's reading
+    interfaces.node = SimpleNamespace(templates=(), config=Config())
+    request = srv.SpawnEntity.Request()
+    request.name = 'huge'
+    request.resource_string = json.dumps({
+        'mass': 1.0, 'inertia': [1, 1, 1],
+        'colliders': [{'type': 'capsule', 'radius': 1e150, 'length': 1e300}]})
+    code, message, spec = interfaces._spawn_spec(request)
+    assert spec is None and code == srv.SpawnEntity.Response.RESOURCE_PARSE_ERROR
+    assert 'radius' in message and 'MAX_LENGTH' in message and '\n' not in message
