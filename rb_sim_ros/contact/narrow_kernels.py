@@ -64,8 +64,9 @@ MAX_CONTACTS_PER_PAIR = 9
 # Two directions whose cross product is shorter than this are parallel (no edge-edge axis).
 PARALLEL_EPS = 1e-6
 # A face axis is kept over a better edge axis unless the edge one separates by more than
-# EDGE_RELATIVE * face + EDGE_ABSOLUTE (m): an edge contact on a resting face is the classic
-# source of jitter; the same tolerance prefers A's face over B's.
+# EDGE_RELATIVE * face + EDGE_ABSOLUTE (m) where they overlap (face < 0), (2 - EDGE_RELATIVE) *
+# face + EDGE_ABSOLUTE where they are apart (``_better``): an edge contact on a resting face is
+# the classic source of jitter; the same tolerance prefers A's face over B's.
 EDGE_RELATIVE = 0.95
 EDGE_ABSOLUTE = 1e-5
 # Contacts of a capsule lying on a box face: candidates whose normal is within this cosine of
@@ -773,6 +774,18 @@ def _face_contacts(cr, rotr, gr, axis, ci, roti, gi, margin, sign,
 
 
 @kernel
+def _better(sep):
+    """The separation an axis must pass to be taken over one separating by ``sep`` (m):
+    EDGE_RELATIVE of it closer to 0 (less deep) when they overlap, as much further when they
+    are apart (a speculative contact), plus EDGE_ABSOLUTE. (EDGE_RELATIVE * sep for a gap was
+    less than sep: an edge axis parallel to a face axis, with the same separation, won, and
+    a box falling flat on another got one edge contact off to the side, which spun both.)"""
+    if sep > 0.0:
+        return (2.0 - EDGE_RELATIVE) * sep + EDGE_ABSOLUTE
+    return EDGE_RELATIVE * sep + EDGE_ABSOLUTE
+
+
+@kernel
 def _box_box(ca, rota, ga, cb, rotb, gb, margin, point, normal, depth, feature, row):
     """Two boxes by separating axes: the 3 + 3 face normals and the 9 edge cross products
     a_i x b_j. With C_ij = a_i . b_j and d = cb - ca in A's frame (da) and B's (db), the
@@ -839,10 +852,10 @@ def _box_box(ca, rota, ga, cb, rotb, gb, margin, point, normal, depth, feature, 
                 else:
                     lx, ly, lz = u1, u2, 0.0
     face = face_a
-    use_b = face_b > EDGE_RELATIVE * face_a + EDGE_ABSOLUTE
+    use_b = face_b > _better(face_a)
     if use_b:
         face = face_b
-    if edge_i >= 0 and edge_sep > EDGE_RELATIVE * face + EDGE_ABSOLUTE:
+    if edge_i >= 0 and edge_sep > _better(face):
         return _edge_contact(ca, rota, ga, cb, rotb, gb, edge_i, edge_j, lx, ly, lz, edge_sep,
                              point, normal, depth, feature, row)
     if use_b:   # B's face is the reference, A's the incident one
