@@ -112,3 +112,11 @@ def test_an_output_that_cannot_be_written_is_one_line_naming_it(tmp_path):
     out = tmp_path / 'no such folder' / 'r.gif'
     with pytest.raises(ValueError, match='^' + re.escape(f'{out}: cannot write there')):
         render.render(rec, str(out), 'top', size=(64, 64))
+
+
+def test_the_gif_gets_the_mode_of_any_new_file(tmp_path):
+    rec = spinning(tmp_path, 2)
+    gif, plain = tmp_path / 'r.gif', tmp_path / 'plain'
+    plain.write_bytes(b'')
+    render.render(rec, str(gif), 'top', size=(64, 64))
+    assert gif.stat().st_mode == plain.stat().st_mode  # not the part file's 0600

@@ -608,6 +608,10 @@ def _write_gif(out_path: str, renderer: Renderer, times, delays, progress) -> No
                 if progress is not None:
                     progress(k + 1, len(times))
             writer.close()
+            # (mkstemp makes it 0600: the GIF gets the mode any new file of the user gets)
+            umask = os.umask(0o022)
+            os.umask(umask)
+            os.chmod(f.fileno(), 0o666 & ~umask)
         os.replace(part_path, out_path)
     except BaseException:
         with contextlib.suppress(OSError):
