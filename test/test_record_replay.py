@@ -1,6 +1,7 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
 # pypi-only: mcap rosbags
+# built-msgs: tf2_msgs
 """Recordings of the real node over DDS, read by rosbags and re-simulated bit for bit."""
 
 import copy
@@ -11,18 +12,24 @@ from pathlib import Path
 import signal
 import subprocess
 import sys
+import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseArray, PoseStamped, Twist, Wrench, WrenchStamped
+from mcap.writer import Writer
 import pytest
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.highlevel import AnyReader
 from std_srvs.srv import Empty, SetBool, Trigger
+from tf2_msgs.msg import TFMessage
 
 from rb_sim_ros.core import multistep
-from rb_sim_ros.recording import RecordingReader
+from rb_sim_ros.recording import offered_qos_profiles, RecordingReader
 from rb_sim_ros.ros import replay
 from rb_sim_ros.ros.node_recorder import RUN_DEFINITION
 from rb_sim_ros.ros.simulator_node import APPLIED_QOS
+from rb_sim_ros.sim.simulation import BodySpec, Config
+from recordings import mcap_parts, record_offline
 import ros_harness
 from ros_harness import stamp_ns
 
@@ -474,3 +481,87 @@ def test_a_first_start_steps_while_compiling_and_records_the_compiled_bits(
     result = _replay(installed, env, '--verify', str(f))
     assert result.returncode == 0, result.stdout + result.stderr
     assert 'identical: every output message re-simulated bit for bit' in result.stdout
+
+
+def _replay_proc(installed, env, err_path, *args):
+    err = open(err_path, 'w')
+    proc = subprocess.Popen([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), *args], env=env,
+                            stdout=subprocess.DEVNULL, stderr=err, text=True)
+    err.close()
+    return proc
+
+
+def test_a_subscriber_joining_during_playback_gets_what_follows_and_the_latched_tf_static(
+        probe, installed, ros_env, tmp_path):
+    """As from ``ros2 bag play``: a subscriber that joins after the first messages went out
+    receives the messages from then on and /tf_static (transient local, sent once at step 0).
+    The run definition is not republished: the node never publishes it (it is the file's)."""
+    demo = FIXTURES / 'collision_demo.mcap'
+    recorded = RecordingReader(str(demo))
+    poses = [m for t, m, *_ in recorded.messages('/ball/pose')]
+    (static,) = [m for t, m, *_ in recorded.messages('/tf_static')]
+    err = tmp_path / 'stderr.txt'
+    proc = _replay_proc(installed, ros_env, err, str(demo), '--rate', '0.05', '--no-clock')
+    try:
+        # Joined late: after playback has started (its first progress line follows the first
+        # publish).
+        probe.wait_for(lambda: 'replay: t =' in err.read_text() or proc.poll() is not None,
+                       timeout=120, what='playback to start')
+        assert proc.poll() is None, err.read_text()
+        got = probe.collect(PoseStamped, '/ball/pose')
+        latched = probe.collect(TFMessage, '/tf_static', QoSProfile(
+            depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        probe.wait_for(lambda: len(got) >= 5 and latched, timeout=120,
+                       what='poses and /tf_static after joining')
+        assert probe.node.count_publishers(RUN_DEFINITION) == 0
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(60)
+    assert latched == [static] and len(static.transforms) > 0
+    first = poses.index(got[0])
+    assert first > 0 and got == poses[first:first + len(got)]  # from joining on, in order
+
+
+def test_replay_as_fast_as_possible_waits_for_a_keep_all_subscriber_and_drops_nothing(
+        probe, installed, ros_env, tmp_path):
+    """A topic recorded keep_all is republished keep_all: at --rate 0 the subscribers fall
+    behind and DDS has no room (publish failed with an RCLError); replay waits for them."""
+    n = 20_000  # more than DDS keeps for a subscriber that takes nothing (10,000 here)
+    config = Config(dt=1e-3, steps_per_publish=1, bodies=(BodySpec('b', 1.0, (0.1, 0.2, 0.3)),))
+    src = tmp_path / 'run.mcap'
+    record_offline(src, config, n)
+    header, schemas, channels, messages, metadata = mcap_parts(src)
+    f = tmp_path / 'keep_all.mcap'
+    with open(f, 'wb') as out:
+        w = Writer(out)
+        w.start(profile=header.profile, library=header.library)
+        sids = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in schemas.items()}
+        cids = {i: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id], {
+            **c.metadata, 'offered_qos_profiles': offered_qos_profiles(
+                {'history': 'keep_all', 'depth': 0})} if c.topic == '/b/pose'
+            else dict(c.metadata)) for i, c in channels.items()}
+        for m in messages:
+            w.add_message(cids[m.channel_id], m.log_time, m.data, m.publish_time, m.sequence)
+        for name, record in metadata.items():
+            w.add_metadata(name, record)
+        w.finish()
+    assert replay.load(str(f)).qos['/b/pose']['history'] == 'keep_all'
+    got = probe.collect(PoseStamped, '/b/pose', QoSProfile(
+        history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE))
+    err = tmp_path / 'stderr.txt'
+    proc = _replay_proc(installed, ros_env, err, str(f), '--rate', '0', '--wait', '120',
+                        '--no-clock')
+    try:
+        # The probe takes nothing (it does not spin) until the replay has had to wait.
+        end = time.monotonic() + 300
+        while proc.poll() is None and 'subscribers are behind' not in err.read_text():
+            assert time.monotonic() < end, err.read_text()
+            time.sleep(0.05)
+        probe.wait_for(lambda: proc.poll() is not None, timeout=300, what='replay to finish')
+        probe.wait_for(lambda: len(got) >= n + 1, timeout=120, what='every pose')
+    finally:
+        proc.kill()
+        proc.wait()
+    assert proc.returncode == 0, err.read_text()
+    assert 'Traceback' not in err.read_text()
+    assert [stamp_ns(m.header.stamp) for m in got] == [k * 1_000_000 for k in range(n + 1)]

@@ -350,13 +350,22 @@ class RecordingReader:
         topic_of = self._topic_of
         for m in self._raw(ids):
             topic = topic_of[m.channel_id]
-            try:
-                msg = deserialize_message(m.data, classes[m.channel_id])
-            except Exception as e:  # rclpy raises several types for bad bytes
-                raise ReaderError(f'{self.path}: the message on {topic} at {m.log_time} ns '
-                                  f'does not deserialise as {self.topics[topic].type_name}: '
-                                  f'{e}') from None
-            yield RecordedMessage(topic, msg, m.log_time, m.publish_time, m.sequence)
+            yield RecordedMessage(topic, self._decode(topic, m.data, m.log_time,
+                                                      classes[m.channel_id]),
+                                  m.log_time, m.publish_time, m.sequence)
+
+    def deserialize(self, raw: RawMessage) -> RecordedMessage:
+        """``raw`` (from ``raw_messages``) as ``messages`` gives it; ReaderError as there."""
+        cls = message_class(self.topics[raw.topic].type_name)
+        return RecordedMessage(raw.topic, self._decode(raw.topic, raw.data, raw.log_time_ns, cls),
+                               raw.log_time_ns, raw.publish_time_ns, raw.sequence)
+
+    def _decode(self, topic: str, data: bytes, log_time: int, cls: type) -> Any:
+        try:
+            return deserialize_message(data, cls)
+        except Exception as e:  # rclpy raises several types for bad bytes
+            raise ReaderError(f'{self.path}: the message on {topic} at {log_time} ns does not '
+                              f'deserialise as {self.topics[topic].type_name}: {e}') from None
 
     def __repr__(self) -> str:
         state = f'truncated: {self.truncation}' if self.truncated else 'complete'

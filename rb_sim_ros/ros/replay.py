@@ -48,6 +48,9 @@ MAX_REBUILT_BODIES = 5_000_000  # bodies of all the worlds spawns and deletes bu
 GAP_ALLOWANCE = 2  # a damaged chunk may hide outputs: allow twice the steps the outputs imply
 MIN_RATE, MAX_RATE = 1e-6, 1e9  # --rate: sim time per wall time (0: as fast as possible)
 MAX_WAIT_S = 1e6
+# A publish the DDS history has no room for (keep_all: the subscribers have not taken what was
+# sent) is tried again until it goes out, for at most this long without progress.
+MAX_BLOCKED_S = 60.0
 # A full topic name as rmw_validate_full_topic_name accepts it: absolute, tokens of letters,
 # digits and '_' not starting with a digit, no empty token or trailing '/', at most 247 chars.
 TOPIC_NAME = re.compile(r'(?:/[A-Za-z_][A-Za-z0-9_]*)+')
@@ -454,7 +457,8 @@ def load(path: str) -> Recording:
     and what is wrong) if it is not a recording this replay can re-simulate.
 
     Reads the file once to check it, keeping the inputs and counting the outputs; the
-    outputs (``Recording.outputs``) are read again each time they are iterated."""
+    outputs (``Recording.outputs``) are read and deserialised each time they are iterated
+    (bytes that do not deserialise: ReaderError then)."""
     reader = RecordingReader(path)
     meta, from_message = _run_definition(reader, path)
     try:
@@ -499,7 +503,10 @@ def load(path: str) -> Recording:
     # keep none. The first message that has one, and the first without one.
     sequenced = unsequenced = None
     outputs, last_step, published, last_output_ns = 0, None, 0, 0
-    for topic, msg, log_time, _publish_time, sequence in reader.messages():
+    # Outputs are checked here as bytes (their time stamps, counts and channels) and
+    # deserialised when iterated; inputs are deserialised and kept.
+    for raw in reader.raw_messages():
+        topic, log_time, sequence = raw.topic, raw.log_time_ns, raw.sequence
         read[topic] += 1
         steps = log_time / dt_ns  # log time is step * dt; sequence holds step mod 2^32
         if not steps < 2 ** 62:
@@ -527,6 +534,7 @@ def load(path: str) -> Recording:
                 last_step = step
             last_output_ns = log_time
             continue
+        msg = reader.deserialize(raw).message
         try:
             if parsed[1] == 'spawn':
                 event, topics = node_recorder.spawn_from_message(parsed[0], msg)
@@ -822,18 +830,66 @@ def _publish(rclpy, node, outputs, rate: float, wait: float, clock_type, clock_q
         rclpy.spin_once(node, timeout_sec=0.05)
     t0_sim, t0_wall = first[2], time.monotonic()
     last_report = 0.0
+    send = _Sender()
     for topic, msg, log_time in itertools.chain([first], outputs):
         if rate > 0:
             _sleep_until(t0_wall + (log_time - t0_sim) * 1e-9 / rate)
         if clock_pub is not None:
             clock_pub.publish(clock_type(clock=time_msg(log_time)))
-        pubs[topic].publish(msg)
+        send(pubs[topic], topic, msg)
         if time.monotonic() - last_report > 1.0:
             last_report = time.monotonic()
             done = (log_time - t0_sim) / max(1, end - t0_sim)
             print(f'\rreplay: t = {log_time * 1e-9:10.3f} s  {100 * done:5.1f}%',
                   end='', file=sys.stderr, flush=True)
     print(f'\rreplay: t = {end * 1e-9:10.3f} s  100.0%', file=sys.stderr)
+    # What DDS still holds for the subscribers (a keep_all history, the last messages of a
+    # reliable topic) is lost if the process ends now: wait until they have it.
+    for topic, pub in pubs.items():
+        wait_acked = getattr(pub, 'wait_for_all_acked', None)
+        if wait_acked is None:
+            continue
+        from rclpy.duration import Duration
+        if not wait_acked(Duration(seconds=MAX_BLOCKED_S)):
+            print(f'replay: {topic}: its subscribers have not acknowledged every message '
+                  f'after {MAX_BLOCKED_S:g} s; some may not have arrived', file=sys.stderr)
+
+
+class _Sender:
+    """Publishes a message, waiting while DDS has no room for it: a keep_all topic (as
+    recorded) whose subscribers have not yet taken what was sent makes the publish fail (an
+    RCLError after the RMW's blocking time) instead of dropping a message; at ``--rate 0``
+    that is the normal case. Tried again until it goes out; ValueError (one line) after
+    MAX_BLOCKED_S without progress."""
+
+    def __init__(self) -> None:
+        try:
+            from rclpy._rclpy_pybind11 import RCLError
+        except ImportError:  # not this rclpy: nothing to wait for
+            RCLError = ()  # noqa: N806 (an exception class, or none)
+        self._full = RCLError
+        self._told = False
+
+    def __call__(self, pub, topic: str, msg) -> None:
+        end = None
+        while True:
+            try:
+                pub.publish(msg)
+                return
+            except self._full as e:
+                now = time.monotonic()
+                if end is None:
+                    end = now + MAX_BLOCKED_S
+                    if not self._told:
+                        self._told = True
+                        print(f'\nreplay: {topic}: its subscribers are behind (keep_all: '
+                              'nothing is dropped); waiting for them', file=sys.stderr,
+                              flush=True)
+                elif now > end:
+                    raise ValueError(f'{topic}: no room to publish for {MAX_BLOCKED_S:g} s '
+                                     '(a keep_all subscriber takes no messages): stopped '
+                                     f'({" ".join(str(e).split())[:120]})') from None
+                time.sleep(0.005)
 
 
 _Parser = ros_arguments.OneLineParser
