@@ -11,9 +11,10 @@ import json
 from pathlib import Path
 import struct
 import subprocess
+import time
 
 from action_msgs.msg import GoalStatus
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, Wrench, WrenchStamped
 import pytest
 from rclpy.action import ActionClient
 from rosbags.highlevel import AnyReader
@@ -27,6 +28,7 @@ from simulation_interfaces.srv import (DeleteEntity, GetEntities, GetEntityState
                                        ResetSimulation, SetEntityState, SetSimulationState,
                                        SpawnEntity, StepSimulation)
 
+from rb_sim_ros.ros.body_ports import APPLIED_QOS
 from ros_harness import stamp_ns
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -256,13 +258,104 @@ def test_a_name_pattern_that_backtracks_for_ever_cannot_hang_the_node():
     assert match_names('^b.*[0-9]$', names) == ['ball_1']
     with pytest.raises(ValueError, match='not a regular expression'):
         match_names('(', names)
-    with pytest.raises(ValueError, match='took more than'):
-        match_names('(?:.?){400}z', names)  # exponential in a backtracking engine
+    # Exponential in a backtracking engine such as re's: regex answers at once (no z) ...
+    assert match_names('(?:.?){400}z', names) == []
+    # ... or within its time limit, the query's whole: a refusal of one line.
+    started = time.monotonic()
+    with pytest.raises(ValueError, match='took more than 50 ms') as e:
+        match_names('(a|aa)+$', ['a' * 60 + 'b'] * 5)
+    assert '\n' not in str(e.value)
+    assert time.monotonic() - started < 30  # (not the 2**60 steps of the search)
+    # The POSIX classes re lacks.
+    assert match_names('^[[:alpha:]]+$', names) == ['body', 'wall']
+    assert match_names('[[:digit:]]', names) == ['ball_1']
     with pytest.raises(ValueError, match='characters long'):
         match_names('a' * 2000, names)
-    for bad in ('a{4294967296}', '(' * 499 + ')' * 499):  # not re.error: overflow, recursion
-        with pytest.raises(ValueError, match='not a regular expression'):
+    for bad, why in (('a{4294967296}', 'at most 10000'),  # not re.error: overflow, recursion
+                     ('(' * 499 + ')' * 499, 'not a regular expression')):
+        with pytest.raises(ValueError, match=why):
             match_names(bad, names)
+
+
+def test_backtracking_filters_in_flight_never_hold_up_the_wrenches(start_sim, probe,
+                                                                   tmp_path):
+    """Three get_entities with backtracking filters always in flight, a wrench command at a
+    time (each sent once the one before was applied): every wrench is applied, and every
+    filter is answered, a timeout as an error of one line. A filter once held the one
+    executor 2 s (its subprocess's limit): 6 of 500 wrenches got through in 10 s."""
+    name = 'a' * 60 + 'b'  # 61 characters: (a+)+$ and (a|aa)+$ backtrack on it
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(f'bodies:\n  - {{name: {name}, mass: 1.0, inertia: [0.1, 0.1, 0.1]}}\n')
+    # Paused: a wrench is applied (and applied_wrench sent) as it arrives.
+    start_sim('-p', f'scene_file:={scene}', '-p', 'start_paused:=true',
+              '-p', 'command_timeout:=0.0')
+    applied = probe.collect(WrenchStamped, f'{name}/applied_wrench', APPLIED_QOS)
+    pub = probe.publisher(Wrench, f'{name}/wrench')
+    client = probe.node.create_client(GetEntities, 'get_entities')
+    probe.wait_for(client.service_is_ready, what='get_entities')
+    filters = ('(a+)+$', '(a|aa)+$', '^(a|a?)+$')
+    in_flight, answers = [], []
+
+    def keep_three_in_flight():
+        for f in [f for f in in_flight if f.done()]:
+            in_flight.remove(f)
+            answers.append(f.result())
+        while len(in_flight) < 3:
+            req = GetEntities.Request()
+            req.filters.filter = filters[(len(answers) + len(in_flight)) % len(filters)]
+            in_flight.append(client.call_async(req))
+        return True
+
+    wrenches = 60
+    # A bound, not a budget: the 60 take about 2 s here; when each filter held the executor
+    # for its 2 s, each wrench waited behind one, so 120 s at the least (133 s measured).
+    end = time.monotonic() + 60.0
+    for k in range(1, wrenches + 1):
+        keep_three_in_flight()
+        msg = Wrench()
+        msg.force.x = float(k)
+        pub.publish(msg)
+        probe.wait_for(lambda: keep_three_in_flight() and len(applied) >= k,
+                       timeout=max(end - time.monotonic(), 0.1),
+                       what=f'wrench {k} applied while filters are in flight')
+    assert [m.wrench.force.x for m in applied] == [float(k) for k in range(1, wrenches + 1)]
+    probe.wait_for(lambda: all(f.done() for f in in_flight), what='the last filters answered')
+    answers += [f.result() for f in in_flight]
+    assert len(answers) >= wrenches  # they were in flight all along
+    for a in answers:
+        if a.result.result == OK:  # regex finds at once that (a+)+$ does not match
+            assert list(a.entities) == []
+        else:
+            assert a.result.result == Result.RESULT_OPERATION_FAILED
+            assert 'took more than 50 ms' in a.result.error_message
+            assert '\n' not in a.result.error_message
+    assert any(a.result.result != OK for a in answers)  # (a|aa)+$ does time out
+
+
+@pytest.mark.parametrize('pattern', ['(a{1000}){1000}', '((a{100}){100}){100}',
+                                     r'(\w{999}){999}', '(?:[[:alpha:]]{500}){500}',
+                                     '[[](a{1000}){1000}', 'a{99999999999}'])
+def test_a_filter_whose_compile_would_take_seconds_is_refused_before_it(pattern):
+    """regex's compile has no time limit, and spells nested counted repeats out: (a{1000}){1000}
+    took 4 s, ((a{100}){100}){100} 6 s (10^8 items fit in 30 characters). Refused by size,
+    in one line, at once."""
+    from rb_sim_ros.ros.sim_interfaces import match_names, MAX_PATTERN_SIZE
+    started = time.monotonic()
+    with pytest.raises(ValueError, match=f'at most {MAX_PATTERN_SIZE}$') as e:
+        match_names(pattern, ['a' * 60 + 'b'])
+    assert '\n' not in str(e.value)
+    assert time.monotonic() - started < 0.5 * 10  # (not the seconds of a compile)
+
+
+def test_the_size_of_a_filter_counts_its_counted_repeats_as_written_out():
+    from rb_sim_ros.ros.sim_interfaces import match_names, pattern_size
+    assert pattern_size('abc') == 3 and pattern_size('(ab){3}') == 6
+    assert pattern_size('(a{10}b){10}') == 110 and pattern_size('[[:alpha:]]{5}') == 5
+    assert pattern_size('a{2,7}') == 7 and pattern_size('x{,5}') == 5
+    assert pattern_size(r'\{9}') == 3  # an escaped brace is no count
+    # At the bound, a filter still compiles and matches: names of at most 64 characters.
+    assert match_names('([ab]{100}){100}', ['ab' * 30, 'a' * 60 + 'b']) == []
+    assert match_names('^a{60}b$', ['a' * 60 + 'b', 'a' * 59 + 'b']) == ['a' * 60 + 'b']
 
 
 SPAWN_SCENE = ('gravity: [0, 0, -9.81]\n'
