@@ -90,6 +90,69 @@ def test_help_lists_parameters(installed, ros_env):
         assert f'  {name} (default' in out.stdout
 
 
+def test_help_lists_the_endpoints_the_node_has(installed, ros_env, start_sim, probe,
+                                               tmp_path):
+    """simulator --help against the graph (rclpy's own endpoints aside): a scene with a
+    moving body with topics, a static one and a collider has every endpoint help lists, of
+    the type it says, and none it does not list; help once listed an older version's."""
+    import re
+    out = subprocess.run([str(installed / 'lib' / 'rb_sim_ros' / 'simulator'), '--help'],
+                         env=ros_env, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0
+    listed = {}
+    section = None
+    for line in out.stdout.splitlines():
+        if not line.startswith('    '):
+            section = line.strip()
+            continue
+        m = re.match(r'    (\S+)  (\S+/(?:msg|srv|action)/\S+):', line)
+        if m:
+            name = m.group(1) if m.group(1).startswith('/') else '/' + m.group(1)
+            listed[name] = (m.group(2), 'per body' in section)
+    assert {'/wrench', '/pose', '/imu', '/clock', '/tf', '/tf_static', '/get_entities',
+            '/simulate_steps', '/reset'} <= set(listed)
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text('gravity: [0, 0, -9.81]\n'
+                     'bodies:\n'
+                     '  - {name: ball, mass: 1.0, inertia: [0.1, 0.1, 0.1], position: [0, 0, 1],'
+                     ' colliders: [{type: sphere, radius: 0.1}]}\n'
+                     '  - name: ground\n'
+                     '    static: true\n'
+                     '    colliders: [{type: plane, normal: [0, 0, 1], offset: 0}]\n')
+    start_sim('-p', f'scene_file:={scene}', '-p', 'start_paused:=true')
+    node = probe.node
+    rclpy_own = ('/rosout', '/parameter_events', '/rb_sim/')
+
+    def graph():
+        ends = {}
+        for query in (node.get_publisher_names_and_types_by_node,
+                      node.get_subscriber_names_and_types_by_node,
+                      node.get_service_names_and_types_by_node):
+            try:
+                found = query('rb_sim', '/')
+            except Exception:  # noqa: B902 - rclpy's NodeNameNonExistentError: not seen yet
+                return {}
+            for name, types in found:
+                if '/_action/' in name:  # an action's services: the action's name
+                    name, types = name.split('/_action/')[0], ['action']
+                if not name.startswith(rclpy_own):
+                    ends[name] = types
+        for body in ('ball', 'ground'):  # a body's topics are listed once, for any body
+            ends = {('/' + n[len(body) + 2:] if n.startswith(f'/{body}/') else n): t
+                    for n, t in ends.items()}
+        return ends
+
+    probe.wait_for(lambda: set(graph()) >= {'/collision_markers', '/tf_static', '/imu',
+                                            '/get_entities', '/simulate_steps', '/reset'},
+                   what="the node's endpoints")
+    ends = graph()
+    assert set(ends) - set(listed) == set(), 'endpoints --help does not list'
+    assert set(listed) - set(ends) == set(), 'endpoints --help lists, the node has not'
+    for name, types in ends.items():
+        if types != ['action']:
+            assert listed[name][0] in types, (name, listed[name], types)
+
+
 def test_follows_the_core_prediction_for_a_wrench_schedule(start_sim, probe):
     start_sim(*INERTIA, '-p', 'command_timeout:=0.0')
     odoms = probe.collect(Odometry, 'odom')
@@ -520,15 +583,17 @@ def test_qos_of_any_topic_is_set_by_parameter(start_sim, probe):
     from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
     start_sim('-p', 'qos_overrides./pose.publisher.depth:=1',
               '-p', 'qos_overrides./pose.publisher.reliability:=best_effort',
-              '-p', 'qos_overrides./odom.publisher.durability:=transient_local')
+              '-p', 'qos_overrides./odom.publisher.durability:=transient_local',
+              '-p', 'qos_overrides./diagnostics.publisher.reliability:=best_effort')
 
     def offered(topic):
         return [i.qos_profile for i in probe.node.get_publishers_info_by_topic(topic)
                 if i.node_name == 'rb_sim']
 
-    probe.wait_for(lambda: offered('/pose') and offered('/odom') and offered('/twist'),
-                   what='the publishers')
+    probe.wait_for(lambda: offered('/pose') and offered('/odom') and offered('/twist')
+                   and offered('/diagnostics'), what='the publishers')
     assert offered('/pose')[0].reliability == ReliabilityPolicy.BEST_EFFORT
+    assert offered('/diagnostics')[0].reliability == ReliabilityPolicy.BEST_EFFORT
     assert offered('/odom')[0].durability == DurabilityPolicy.TRANSIENT_LOCAL
     twist = offered('/twist')[0]
     assert twist.reliability == ReliabilityPolicy.RELIABLE
@@ -541,13 +606,21 @@ def test_qos_of_any_topic_is_set_by_parameter(start_sim, probe):
 @pytest.mark.parametrize('override, why', [
     ('qos_overrides./pose.publisher.reliability:=sometimes', 'reliability'),
     ('qos_overrides./odom.publisher.depth:=deep', 'INTEGER'),
-    ('qos_overrides./pose.publisher.depth:=99999999999', 'qos_overrides'),
+    # (The C profile's depth is 32 bits: rclpy's TypeError, a sentence cut at its colon.)
+    ('qos_overrides./pose.publisher.depth:=99999999999',
+     "'pose' (check its qos_overrides parameters): depth must be from 1 to 2147483647, got "
+     '99999999999'),
+    ('qos_overrides./wrench.subscription.depth:=-3', 'depth must be from 1 to 2147483647'),
+    # /diagnostics takes overrides as the others do (they were silently ignored).
+    ('qos_overrides./diagnostics.publisher.depth:=0',
+     "'/diagnostics' (check its qos_overrides parameters): depth must be from 1"),
 ])
 def test_a_bad_qos_override_is_one_line_and_exit_2(start_sim, override, why):
     sim = start_sim('-p', override)
     assert sim.proc.wait(60) == 2
     out = sim.output()
     assert 'qos_overrides' in out and why in out and 'Traceback' not in out
+    assert len(out.strip().splitlines()) == 1, out
 
 
 def test_a_point_named_like_the_world_frame_is_refused(start_sim, tmp_path):

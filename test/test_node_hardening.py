@@ -15,6 +15,7 @@ from nav_msgs.msg import Odometry
 import pytest
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
+from sensor_msgs.msg import Imu
 from std_srvs.srv import Empty, SetBool, Trigger
 
 from rb_sim_ros.ros.simulator_node import APPLIED_QOS
@@ -131,11 +132,19 @@ def test_an_integration_error_pauses_with_an_error_and_reset_goes_on(start_sim, 
                     'command_timeout:=0.0')
     poses = probe.collect(PoseStamped, 'pose')
     odoms = probe.collect(Odometry, 'odom')
+    # Heard: the publish after the failed step then finds the acceleration not finite too.
+    probe.collect(Imu, 'imu')
     diags = probe.collect(DiagnosticArray, '/diagnostics')
     probe.wait_for(lambda: poses, what='a pose')
     probe.publisher(Wrench, 'wrench').publish(_wrench((1e300, 0.0, 0.0)))
     probe.wait_for(lambda: any(d.status[0].level == DiagnosticStatus.ERROR for d in diags),
                    what='an ERROR in /diagnostics')
+    # The cause, the integration's error (a step became non-finite, from v and omega), not
+    # what followed from it (the publish after it found the acceleration not finite).
+    error = next(d.status[0].message for d in diags
+                 if d.status[0].level == DiagnosticStatus.ERROR)
+    assert 'became non-finite at step' in error and 'from v = ' in error, error
+    assert 'has a non-finite state' not in error, error
     probe.publisher(Twist, 'set_twist').publish(Twist())
     time_at_error = stamp_ns(poses[-1].header.stamp)
     probe.call(Empty, 'reset', Empty.Request())
@@ -147,6 +156,30 @@ def test_an_integration_error_pauses_with_an_error_and_reset_goes_on(start_sim, 
     assert all(_finite(m) for m in poses + odoms)
     assert sim.proc.poll() is None
     assert sim.output().count('paused at the last finite state') == 1
+
+
+@pytest.mark.parametrize('override', [
+    'qos_overrides./clock.publisher.reliability:=sometimes',
+    'qos_overrides./tf.publisher.depth:=-1',
+    'qos_overrides./poses.publisher.durability:=forever',
+    'qos_overrides./diagnostics.publisher.depth:=99999999999',
+])
+def test_a_start_refused_for_its_qos_never_touches_the_recording(start_sim, tmp_path, override):
+    """Refused in one line; an existing file is the same bytes after (record_overwrite
+    truncated it), and without one no file is left (one of 32 kB blocked the corrected
+    command)."""
+    kept = tmp_path / 'kept.mcap'
+    data = bytes(range(256)) * 64
+    kept.write_bytes(data)
+    fresh = tmp_path / 'fresh.mcap'
+    for f, more in ((kept, ('-p', 'record_overwrite:=true')), (fresh, ())):
+        sim = start_sim('-p', f'record:={f}', *more, '-p', override)
+        assert sim.proc.wait(60) == 2
+        out = sim.output()
+        assert len(out.strip().splitlines()) == 1 and 'qos_overrides' in out, out
+        assert 'Traceback' not in out, out
+    assert kept.read_bytes() == data
+    assert not fresh.exists()
 
 
 def test_sigint_at_full_speed_exits_0_and_the_recording_verifies(start_sim, probe,
@@ -348,3 +381,27 @@ def test_a_users_pause_survives_reset_and_a_failed_step_says_so(start_sim, probe
     probe.call(Empty, 'reset', Empty.Request())
     answer = probe.call(Trigger, 'step', Trigger.Request())
     assert answer.success, answer.message  # still paused (else: 'not paused'), and it steps
+
+
+def test_a_re_sent_identical_wrench_is_not_a_change(start_sim, probe, tmp_path):
+    """A controller re-sending the wrench it holds changes nothing: neither a new
+    applied_wrench nor an input of the recording (read with mcap's own reader), where each
+    once counted as a change (verify's '171 inputs', the plot's '171 changes')."""
+    from mcap.reader import make_reader
+    from rclpy.serialization import deserialize_message
+    f = tmp_path / 'same.mcap'
+    sim = start_sim('-p', f'record:={f}', '-p', 'command_timeout:=0.0',
+                    '-p', 'start_paused:=true')
+    applied = probe.collect(WrenchStamped, 'applied_wrench', APPLIED_QOS)
+    pub = probe.publisher(Wrench, 'wrench')
+    for _ in range(12):
+        pub.publish(_wrench((1.0, 0.0, 0.0)))
+    pub.publish(_wrench((2.0, 0.0, 0.0)))
+    probe.wait_for(lambda: any(m.wrench.force.x == 2.0 for m in applied), what='the change')
+    assert sim.stop() == 0
+    assert [m.wrench.force.x for m in applied] == [1.0, 2.0]
+    with open(f, 'rb') as stream:
+        recorded = [deserialize_message(m.data, WrenchStamped).wrench.force.x
+                    for _, c, m in make_reader(stream).iter_messages()
+                    if c.topic == '/rb_sim/input/body/wrench']
+    assert recorded == [1.0, 2.0]

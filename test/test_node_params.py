@@ -81,7 +81,45 @@ def test_a_period_of_unbounded_work_is_refused():
     values = dict(DEFAULTS, dt=1e-9, publish_rate=1e-3)
     with pytest.raises(ValueError, match='steps a period'):
         _config(values)
-    assert _config(dict(DEFAULTS, dt=1e-6, publish_rate=1.0)).steps_per_publish == 10**6
+    assert _config(dict(DEFAULTS, dt=1e-6, publish_rate=10.0)).steps_per_publish == 10**5
+
+
+def test_a_period_that_would_hold_the_lock_for_seconds_is_refused_in_one_line():
+    """dt 1e-9 at 1 kHz is 10^6 steps a period, stepped with the node's lock held: a pause
+    waited 4 to 10 s for it. The bound is the documented constant, 10^5 steps."""
+    assert node_params.MAX_STEPS_PER_PERIOD == 100_000
+    with pytest.raises(ValueError) as e:
+        _config(dict(DEFAULTS, dt=1e-9, publish_rate=1000.0))
+    why = str(e.value)
+    assert '1e+06 steps a period' in why and 'at most 100000' in why and '\n' not in why
+    # The bound itself is a period.
+    assert _config(dict(DEFAULTS, dt=1e-8, publish_rate=1000.0)).steps_per_publish == 10**5
+
+
+@pytest.mark.parametrize('name, value', [
+    ('body_frame', 'a b'), ('body_frame', 'a//b'), ('body_frame', 'a/'), ('body_frame', '/a'),
+    ('body_frame', '1a'), ('body_frame', ''), ('body_frame', 'a-b'), ('body_frame', 'a.b'),
+    ('world_frame', 'my world'), ('world_frame', 'map/'), ('world_frame', 'map\t'),
+    ('frame_prefix', 'a//'), ('frame_prefix', 'a b/'), ('frame_prefix', '/sim1/'),
+    ('frame_prefix', '1/'), ('frame_prefix', '//'), ('frame_prefix', 'a/b-'),
+])
+def test_a_frame_id_that_is_not_a_ros_name_is_refused_naming_the_parameter(name, value):
+    """tf frame ids are ROS names without the leading slash: tokens of letters, digits and _
+    (not starting with a digit) joined by single slashes; frame_prefix + a body frame too."""
+    with pytest.raises(ValueError, match=f'^{name} must be') as e:
+        node_params.check(name, value)
+    assert '\n' not in str(e.value)
+
+
+@pytest.mark.parametrize('name, value', [
+    ('body_frame', 'base_link'), ('body_frame', 'robot1/base_link'), ('body_frame', '_b'),
+    ('world_frame', 'map'), ('world_frame', 'odom'), ('frame_prefix', ''),
+    ('frame_prefix', 'sim1/'), ('frame_prefix', 'sim1_'), ('frame_prefix', 'a/b/'),
+])
+def test_frame_ids_that_are_ros_names_are_taken(name, value):
+    node_params.check(name, value)
+    frame = node_params.body_frame(dict(DEFAULTS, **{name: value}), 'body', True)
+    assert node_params._FRAME.fullmatch(frame)
 
 
 def test_every_parameter_has_a_description_and_accepts_its_default():

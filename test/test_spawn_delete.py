@@ -224,3 +224,31 @@ def test_without_warm_starts_a_spawn_leaves_sleepers_asleep():
     far = _with(FAR, colliders=(Sphere(0.1),))
     world = world.rebuilt((box, ground, far), recheck=True)
     assert world.sleeping == ['box']
+
+
+def test_a_spawn_whose_frame_would_be_world_frame_is_refused(start_sim, probe):
+    """Over DDS: frame_prefix 'wor' + a body 'ld' is the frame 'world', world_frame: refused
+    with the reason (/tf would say world -> world), nothing spawned; 'world' is the frame
+    'worworld' and spawns."""
+    pytest.importorskip('simulation_interfaces', reason='tools/build_msgs.sh builds it')
+    from simulation_interfaces.msg import Result
+    from simulation_interfaces.srv import GetEntities, SpawnEntity
+    start_sim('-p', 'frame_prefix:=wor', '-p', 'start_paused:=true')
+    entry = '{mass: 1.0, inertia: [0.1, 0.1, 0.1]}'
+
+    def spawn(name):
+        reply = probe.call(SpawnEntity, 'spawn_entity',
+                           SpawnEntity.Request(name=name, resource_string=entry))
+        return reply.result.result, reply.result.error_message
+
+    code, why = spawn('ld')
+    assert code == Result.RESULT_OPERATION_FAILED, why
+    assert "body 'ld': its frame 'world' is world_frame" in why
+    assert spawn('world') == (Result.RESULT_OK, '')
+    names = probe.call(GetEntities, 'get_entities', GetEntities.Request()).entities
+    assert list(names) == ['body', 'world']
+
+    def topics():
+        return {name for name, _ in probe.node.get_topic_names_and_types()}
+    probe.wait_for(lambda: '/world/pose' in topics(), what="the spawned body's topics")
+    assert not any(t.startswith('/ld/') for t in topics())

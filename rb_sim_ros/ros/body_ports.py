@@ -10,10 +10,12 @@ validate and turn messages into simulation events for the node's queue; they nev
 from __future__ import annotations
 
 import math
+import warnings
 
 from geometry_msgs.msg import AccelStamped, PoseStamped, Twist, Wrench as WrenchMsg, \
     WrenchStamped
 from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.qos import DurabilityPolicy, QoSPolicyKind, QoSProfile
 from rclpy.qos_overriding_options import QoSOverridingOptions
 from sensor_msgs.msg import Imu
@@ -25,10 +27,47 @@ from rb_sim_ros.sim.simulation import SetPose, SetWrench
 
 # Latched (transient local) like a state: a late subscriber still gets the recent ones.
 APPLIED_QOS = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+# The deepest history DDS takes (its depth is a 32-bit int; rclpy's profile raises a
+# TypeError of pybind11's for a deeper one, rcl an error for a negative one).
+MAX_DEPTH = 2 ** 31 - 1
+
+
+def _valid_overrides(qos: QoSProfile) -> SetParametersResult:
+    """The profile of a topic after its overrides, checked before rclpy hands it to rcl."""
+    if not 1 <= qos.depth <= MAX_DEPTH:
+        return SetParametersResult(successful=False, reason=(
+            f'depth must be from 1 to {MAX_DEPTH}, got {qos.depth}'))
+    return SetParametersResult(successful=True)
+
+
+# (rclpy warns of a zero depth as the override sets it, in three lines, before the check
+# above refuses it in one.)
+warnings.filterwarnings('ignore', message='A zero depth with KEEP_LAST', category=UserWarning)
 # Every topic's history, depth, reliability and durability can be set by parameter, as for
 # rclcpp nodes: qos_overrides./<topic>.publisher.depth:=1 (or .subscription.reliability ...).
 OVERRIDABLE = QoSOverridingOptions([QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH,
-                                    QoSPolicyKind.RELIABILITY, QoSPolicyKind.DURABILITY])
+                                    QoSPolicyKind.RELIABILITY, QoSPolicyKind.DURABILITY],
+                                   callback=_valid_overrides)
+
+
+# A body's topics, relative to its prefix: (topic, message type, what it carries). The node
+# creates them from these tables, and ``simulator --help`` lists them from the same.
+PUBLISHED = (
+    ('pose', PoseStamped, 'pose in world_frame'),
+    ('twist', Twist, 'velocities in twist_frame'),
+    ('odom', Odometry, 'pose in world_frame, twist in the body frame'),
+    ('imu', Imu, 'orientation, angular velocity, specific force'),
+    ('accel', AccelStamped, 'acceleration of the centre of mass'),
+    ('applied_wrench', WrenchStamped, 'the wrench held, at each change (transient local)'),
+)
+MOVING_ONLY = ('imu', 'accel')
+RECORDED = ('pose', 'twist', 'odom', 'imu', 'accel')  # the outputs a recording holds
+SUBSCRIBED = (
+    ('wrench', WrenchMsg, 'wrench (N, N m) in wrench_frame, held until the next'),
+    ('wrench_stamped', WrenchStamped, 'the same in its frame_id: world, the body or a point'),
+    ('set_pose', PoseStamped, 'teleport to a pose in world_frame'),
+    ('set_twist', Twist, 'set the velocities (twist_frame)'),
+)
 
 
 class TwistInput:
@@ -62,9 +101,8 @@ class BodyPorts:
 
         def qos():
             return QoSProfile(depth=10)
-        self.pub_pose = self.pub_twist = self.pub_odom = self.pub_imu = None
-        self.pub_accel = self.pub_applied = None
-        self.motion_pubs = ()
+        self._pubs: dict = {}  # topic (relative) -> publisher
+        self.motion_pubs = self.state_pubs = ()
         self._subs: list = []
         try:
             self._create(node, prefix, qos, moving)
@@ -74,45 +112,38 @@ class BodyPorts:
 
     def _create(self, node, prefix: str, qos, moving: bool) -> None:
         over = {'qos_overriding_options': OVERRIDABLE}
-        self.pub_pose = node.create_publisher(PoseStamped, prefix + 'pose', qos(), **over)
-        self.pub_twist = node.create_publisher(Twist, prefix + 'twist', qos(), **over)
-        self.pub_odom = node.create_publisher(Odometry, prefix + 'odom', qos(), **over)
-        if moving:
-            self.pub_imu = node.create_publisher(Imu, prefix + 'imu', qos(), **over)
-            self.pub_accel = node.create_publisher(AccelStamped, prefix + 'accel', qos(),
-                                                   **over)
-            self.motion_pubs = ((self.pub_imu, self.out.imu),
-                                (self.pub_accel, self.out.accel))
-        self.pub_applied = node.create_publisher(
-            WrenchStamped, prefix + 'applied_wrench',
-            QoSProfile(depth=APPLIED_QOS.depth, durability=APPLIED_QOS.durability), **over)
-        self.state_pubs = ((self.pub_pose, self.out.pose), (self.pub_twist, self.out.twist),
-                           (self.pub_odom, self.out.odom))
-        for msg_type, topic, callback in (
-                (WrenchMsg, 'wrench', self._on_wrench),
-                (WrenchStamped, 'wrench_stamped', self._on_wrench_stamped),
-                (PoseStamped, 'set_pose', self._on_set_pose),
-                (Twist, 'set_twist', self._on_set_twist)):
-            self._subs.append(node.create_subscription(msg_type, prefix + topic, callback,
-                                                       qos(), **over))
+        for topic, msg_type, _ in PUBLISHED:
+            if topic in MOVING_ONLY and not moving:
+                continue
+            profile = QoSProfile(depth=APPLIED_QOS.depth, durability=APPLIED_QOS.durability) \
+                if topic == 'applied_wrench' else qos()
+            self._pubs[topic] = node.create_publisher(msg_type, prefix + topic, profile,
+                                                      **over)
+        self.pub_applied = self._pubs['applied_wrench']
+        self.state_pubs = tuple((self._pubs[kind], getattr(self.out, kind))
+                                for kind in ('pose', 'twist', 'odom'))
+        self.motion_pubs = tuple((self._pubs[kind], getattr(self.out, kind))
+                                 for kind in MOVING_ONLY if kind in self._pubs)
+        callbacks = {'wrench': self._on_wrench, 'wrench_stamped': self._on_wrench_stamped,
+                     'set_pose': self._on_set_pose, 'set_twist': self._on_set_twist}
+        for topic, msg_type, _ in SUBSCRIBED:
+            self._subs.append(node.create_subscription(msg_type, prefix + topic,
+                                                       callbacks[topic], qos(), **over))
 
     def destroy(self, node) -> None:
         """Take the body's topics off ``node`` (a deleted body's)."""
         for sub in self._subs:
             node.destroy_subscription(sub)
-        for pub in (self.pub_pose, self.pub_twist, self.pub_odom, self.pub_imu,
-                    self.pub_accel, self.pub_applied):
-            if pub is not None:
-                node.destroy_publisher(pub)
-        self._subs = []
-        self.pub_pose = self.pub_twist = self.pub_odom = self.pub_imu = None
-        self.pub_accel = self.pub_applied = None
+        for pub in self._pubs.values():
+            node.destroy_publisher(pub)
+        self._subs, self._pubs = [], {}
+        self.motion_pubs = self.state_pubs = ()
+        self.pub_applied = None
 
     def topics(self) -> dict[str, str]:
         """kind -> the topic it is published on (what a recording names)."""
-        pubs = {'pose': self.pub_pose, 'twist': self.pub_twist, 'odom': self.pub_odom,
-                'imu': self.pub_imu, 'accel': self.pub_accel}
-        return {kind: pub.topic_name for kind, pub in pubs.items() if pub is not None}
+        return {kind: pub.topic_name for kind, pub in self._pubs.items()
+                if kind in RECORDED}
 
     def publish(self, sim, recorder=None) -> bool:
         """Publish the body's state, and for a moving body its imu and accel, to whoever

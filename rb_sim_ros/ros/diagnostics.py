@@ -10,6 +10,7 @@ import time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from rb_sim_ros.core import jit
+from rb_sim_ros.ros.body_ports import OVERRIDABLE
 
 
 class Diagnostics:
@@ -36,7 +37,9 @@ class Diagnostics:
         self._pub = None
 
     def create_publisher(self, node) -> None:
-        self._pub = node.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        """/diagnostics, whose QoS takes overrides as every topic of the node does."""
+        self._pub = node.create_publisher(DiagnosticArray, '/diagnostics', 10,
+                                          qos_overriding_options=OVERRIDABLE)
 
     def tick(self, lateness_ns: float, late: bool) -> None:
         """A timer tick that was due ``lateness_ns`` ago; ``late`` if it had to catch up."""

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import math
+import re
 from typing import Any, Callable
 
 from rb_sim_ros.core import multistep
@@ -19,9 +20,12 @@ from rb_sim_ros.core.rigid_body import Frame
 from rb_sim_ros.sim.imu import ImuNoise, MAX_SIGMA
 
 
-# The work of one publish period is bounded: at most this many physics steps (a period of
-# dt = 1e-300 would otherwise never end, and the node would not answer a signal).
-MAX_STEPS_PER_PERIOD = 1_000_000
+# The work of one publish period is bounded: at most this many physics steps. A period is
+# stepped with the node's lock held (inputs take effect between periods, never inside one), so
+# a pause, a service or a parameter change waits up to one period: 10^5 steps of one body are
+# 0.1 to 0.5 s (10^6, dt 1e-9 at 1 kHz, made a pause wait 4 to 10 s). Longer periods: raise
+# publish_rate or dt.
+MAX_STEPS_PER_PERIOD = 100_000
 # A real_time_factor below this would make one period last longer than 10^4 times its sim time.
 MIN_REAL_TIME_FACTOR = 1e-4
 MAX_CATCHUP = 10_000
@@ -125,10 +129,11 @@ def _sigma(name: str, v: Any) -> None:
 
 
 def _prefix(name: str, v: Any) -> None:
-    if not isinstance(v, str) or v.startswith('/') or len(v) > 256 or \
-            any(c.isspace() for c in v):
-        raise ValueError(f'{name} must be a frame id prefix (at most 256 characters, no '
-                         f'leading /, no spaces), got {v!r}')
+    """'' or what makes a frame id of any body frame after it ('sim1/', 'sim1_')."""
+    if not isinstance(v, str) or len(v) > 256 or (v and not _FRAME.fullmatch(v + 'x')):
+        raise ValueError(f'{name} must be empty or a frame id prefix (at most 256 characters: '
+                         'names of letters, digits and _, not starting with a digit, each '
+                         f"followed by one / or by the body frame, e.g. 'sim1/'), got {v!r}")
 
 
 def imu_noise(values: dict):
@@ -161,10 +166,16 @@ def _frame(name: str, v: Any) -> None:
     Frame.parse(v)
 
 
+# A frame id as a ROS name relative to nothing (tf2 ids have no leading /): tokens of letters,
+# digits and _, not starting with a digit, separated by single slashes.
+_FRAME = re.compile(r'[A-Za-z_][A-Za-z0-9_]*(?:/[A-Za-z_][A-Za-z0-9_]*)*')
+
+
 def _frame_id(name: str, v: Any) -> None:
-    if not isinstance(v, str) or not v or v.startswith('/') or len(v) > 256:
-        raise ValueError(f'{name} must be a non-empty frame id (at most 256 characters) '
-                         f'without a leading /, got {v!r}')
+    if not isinstance(v, str) or len(v) > 256 or not _FRAME.fullmatch(v):
+        raise ValueError(f'{name} must be a frame id (at most 256 characters: names of '
+                         'letters, digits and _, not starting with a digit, separated by '
+                         f"single /, no leading or trailing /, e.g. 'base_link'), got {v!r}")
 
 
 def _integrator(name: str, v: Any) -> None:

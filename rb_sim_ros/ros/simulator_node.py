@@ -32,6 +32,7 @@ import sys
 import threading
 import time
 
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Pose, PoseArray
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 import rclpy
@@ -51,8 +52,9 @@ except ImportError:  # then no /tf, said once at start
     TFMessage = None
 try:  # the same
     from rb_sim_ros.ros.sim_interfaces import EntityStateInput, SimulationInterfaces
+    from rb_sim_ros.ros import sim_interfaces
 except ImportError:  # then no simulation_interfaces services, said once at start
-    SimulationInterfaces = None
+    SimulationInterfaces = sim_interfaces = None
 
     class EntityStateInput:  # never made without them
         pass
@@ -60,7 +62,7 @@ except ImportError:  # then no simulation_interfaces services, said once at star
 from rb_sim_ros.core import jit, multistep
 from rb_sim_ros.core.rigid_body import ZERO_WRENCH
 from rb_sim_ros.core.stepper import IntegrationError
-from rb_sim_ros.ros import node_params, ros_arguments, ros_messages
+from rb_sim_ros.ros import body_ports, node_params, ros_arguments, ros_messages
 from rb_sim_ros.ros.body_ports import APPLIED_QOS, BodyPorts, OVERRIDABLE, TwistInput
 from rb_sim_ros.ros.collision_markers import CollisionMarkers
 from rb_sim_ros.ros.diagnostics import Diagnostics
@@ -72,6 +74,27 @@ from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Delete
                                        warm_up_contacts)
 
 __all__ = ['APPLIED_QOS', 'SimulatorNode', 'main']
+
+# The node's own topics and services: (name, type, when it has it ('' always), what). The node
+# creates them with the types of these tables (``_own``), and ``simulator --help`` lists them
+# from the same, with body_ports' tables of a body's topics and sim_interfaces' services.
+TOPICS = (
+    ('/clock', ClockMsg, 'publish_clock', 'sim time (best effort)'),
+    ('/diagnostics', DiagnosticArray, '', 'step cost, ticks, rejections, errors, every second'),
+    ('poses', PoseArray, '', "every body's pose in world_frame, in scene order"),
+    (TF, TFMessage or 'tf2_msgs/msg/TFMessage', 'publish_tf and a moving body',
+     'world_frame -> each moving body with topics'),
+    (TF_STATIC, TFMessage or 'tf2_msgs/msg/TFMessage', 'publish_tf and a static body',
+     'world_frame -> each static body (transient local)'),
+    ('collision_markers', MarkerArray, 'a body with colliders',
+     "the colliders and the last step's contact points"),
+)
+SERVICES = (
+    ('reset', Empty, '', 'every moving body back to its initial state'),
+    ('pause', SetBool, '', 'data true pauses, false runs'),
+    ('step', Trigger, '', 'one publish period, while paused'),
+)
+_TYPES = {name: t for name, t, _, _ in TOPICS + SERVICES}
 
 # Most steps run between two looks at the stop flag: shutdown never waits for a long period.
 _CHUNK_STEPS = 1000
@@ -100,15 +123,24 @@ class SimulatorNode(Node):
     def create_subscription(self, msg_type, topic, *args, **kwargs):
         return self._endpoint(super().create_subscription, msg_type, topic, *args, **kwargs)
 
+    def _own(self, topic: str, *args, **kwargs):
+        """A publisher of one of the node's TOPICS, of the type the table gives it."""
+        return self.create_publisher(_TYPES[topic], topic, *args, **kwargs)
+
     @staticmethod
     def _endpoint(create, msg_type, topic, *args, **kwargs):
         try:
             return create(msg_type, topic, *args, **kwargs)
-        except (RuntimeError, TypeError, ParameterException, InvalidQosOverridesError) as e:
-            # (TypeError: a depth too large for the C profile; RuntimeError: rcl refused it)
-            why = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-            raise ValueError(f"cannot create the endpoint of '{topic}' (check its "
-                             f'qos_overrides parameters): {why}') from None
+        except InvalidQosOverridesError as e:  # body_ports.OVERRIDABLE's check: its reason
+            why = str(e).partition('are not valid: ')[2] or str(e)
+        except (RuntimeError, TypeError, ParameterException) as e:
+            # (RuntimeError: rcl refused it; TypeError: a value the C profile cannot hold.) A
+            # first line that does not end a sentence is not a reason: the type then.
+            lines = str(e).strip().splitlines()
+            why = lines[0] if lines and not lines[0].endswith(':') else \
+                f'{type(e).__name__}: its QoS profile was refused'
+        raise ValueError(f"cannot create the endpoint of '{topic}' (check its "
+                         f'qos_overrides parameters): {why}')
 
     def _start(self) -> None:
         for p in node_params.PARAMS:
@@ -165,14 +197,13 @@ class SimulatorNode(Node):
             self.get_logger().warning(
                 'publish_tf: tf2_msgs is not installed, so no /tf (on a ROS install: '
                 'ros-jazzy-tf2-msgs; in the PyPI venv tools/build_msgs.sh builds it)')
-        self._recorder = _open_recorder(self, values)
         over = {'qos_overriding_options': OVERRIDABLE}
-        self._pub_clock = (self.create_publisher(ClockMsg, '/clock', QoSProfile(
+        self._pub_clock = (self._own('/clock', QoSProfile(
             depth=1, reliability=ReliabilityPolicy.BEST_EFFORT), **over)
             if values['publish_clock'] else None)
         self._clock_msg = ClockMsg()
         self.diagnostics.create_publisher(self)
-        self._pub_poses = self.create_publisher(PoseArray, 'poses', 10, **over)
+        self._pub_poses = self._own('poses', 10, **over)
         self._poses_msg = PoseArray()
         self._poses_msg.header.frame_id = values['world_frame']
         self._pub_markers = None
@@ -185,10 +216,13 @@ class SimulatorNode(Node):
                 'simulation_interfaces is not installed, so no standard simulator services (on '
                 'a ROS install: ros-jazzy-simulation-interfaces; in the PyPI venv '
                 'tools/build_msgs.sh builds it)')
-        self.create_service(Empty, 'reset', self._on_reset)
-        self.create_service(SetBool, 'pause', self._on_pause)
-        self.create_service(Trigger, 'step', self._on_step)
+        for name, callback in (('reset', self._on_reset), ('pause', self._on_pause),
+                               ('step', self._on_step)):
+            self.create_service(_TYPES[name], name, callback)
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        # Last, once every endpoint exists: a start refused for a bad value (a QoS override of
+        # /clock, /tf, poses, ...) never creates, nor truncates, the file.
+        self._recorder = _open_recorder(self, values)
         self._set_rate()
         self._publish()
         self._thread = threading.Thread(target=self._loop, name='rb_sim_step_loop', daemon=True)
@@ -230,7 +264,7 @@ class SimulatorNode(Node):
         self._tf_msg = ros_messages.tf_message(TFMessage, world,
                                                [p.body_frame for p in self._moving])
         if self._moving and self._tf is None:
-            self._tf = self.create_publisher(TFMessage, TF, ros_messages.tf_qos(TF), **over)
+            self._tf = self._own(TF, ros_messages.tf_qos(TF), **over)
         static = [p for p in self.ports.values() if not self.sim.is_moving(p.name)]
         frames = [p.body_frame for p in static]
         if frames == self._tf_static_frames:
@@ -239,8 +273,8 @@ class SimulatorNode(Node):
         self._tf_static = ros_messages.tf_message(TFMessage, world, frames)
         self._tf_static_poses = [self.sim.pose_twist(p.name)[:2] for p in static]
         if self._pub_tf_static is None:
-            self._pub_tf_static = self.create_publisher(
-                TFMessage, TF_STATIC, ros_messages.tf_qos(TF_STATIC), **over)
+            self._pub_tf_static = self._own(TF_STATIC, ros_messages.tf_qos(TF_STATIC),
+                                            **over)
         self._tf_static_due = True
 
     # -- spawning and deleting -------------------------------------------------------------
@@ -304,9 +338,8 @@ class SimulatorNode(Node):
         if self.config.collides:
             self._markers = CollisionMarkers(self.config, self._v['world_frame'])
             if self._pub_markers is None:
-                self._pub_markers = self.create_publisher(
-                    MarkerArray, 'collision_markers', 1,
-                    qos_overriding_options=OVERRIDABLE)
+                self._pub_markers = self._own('collision_markers', 1,
+                                              qos_overriding_options=OVERRIDABLE)
 
     # -- inputs (callbacks only queue; the step loop applies) ------------------------------
     def _queue(self, event) -> None:
@@ -368,9 +401,15 @@ class SimulatorNode(Node):
 
     def _fail(self, reason: str) -> None:
         """Stop stepping on an error: logged once, /diagnostics ERROR, services still answer;
-        reset or unpause clear it."""
+        reset or unpause clear it. While paused by an error, a later one (the publish that
+        follows a failed step finds the state not finite) is logged, and /diagnostics keeps
+        the first: the cause."""
+        first = not (self._error_paused and self.diagnostics.error)
         self._paused = self._error_paused = True
         self._failures += 1
+        if not first:
+            self.get_logger().error(f'and then: {reason}')
+            return
         self.diagnostics.error = reason
         self.get_logger().error(f'{reason}; paused at the last finite state (reset or unpause '
                                 'to go on)')
@@ -574,6 +613,8 @@ class SimulatorNode(Node):
         if port is not None and isinstance(event, SetWrench) and command:
             port.last_command_step = self.sim.step_count
         now = self.sim.wrench(name) if moving else None
+        if isinstance(event, SetWrench) and now == held:
+            return  # a re-sent wrench: no change, so neither published nor recorded as one
         if port is not None and now != held:
             port.applied(now, self.sim.time_ns)
         if self._recorder is not None:
@@ -709,7 +750,8 @@ def config_from(v: dict, scene=None) -> Config:
     """The run's Config from the node's parameter values ``v`` and a scene (or the single
     body of the parameters)."""
     steps = 1.0 / (v['publish_rate'] * v['dt'])
-    if not math.isfinite(steps) or steps > node_params.MAX_STEPS_PER_PERIOD:
+    # (1/(rate*dt) is a whole number up to rounding: 10 Hz at 1e-6 s is 100000.00000000001)
+    if not math.isfinite(steps) or steps > node_params.MAX_STEPS_PER_PERIOD * (1 + 1e-9):
         raise ValueError(f"publish_rate {v['publish_rate']} Hz with dt {v['dt']} s makes "
                          f'{steps:.3g} steps a period; at most '
                          f'{node_params.MAX_STEPS_PER_PERIOD} (raise publish_rate or dt)')
@@ -755,6 +797,38 @@ def _open_recorder(node: SimulatorNode, values: dict):
                         overwrite=bool(values['record_overwrite']), tf_topics=tf_topics)
 
 
+def type_name(t) -> str:
+    """'geometry_msgs/msg/PoseStamped' of a message, service or action class (or a name)."""
+    if isinstance(t, str):
+        return t
+    package, kind = t.__module__.split('.')[:2]
+    return f'{package}/{kind}/{t.__name__}'
+
+
+def endpoints_text() -> str:
+    """What ``simulator --help`` says of the node's topics, services and action: from the
+    tables the node creates them from (body_ports, TOPICS, SERVICES, sim_interfaces)."""
+    def rows(table, when=lambda row: row[2]):
+        return [f'    {row[0]}  {type_name(row[1])}: {row[-1]}'
+                + (f' (with {when(row)})' if when(row) else '') for row in table]
+
+    def moving(row):
+        return 'a moving body' if row[0] in body_ports.MOVING_ONLY else ''
+    lines = ["Topics (relative to the node's namespace; with scene_file, each body's own "
+             'under <body>/, for the first max_body_topics bodies):',
+             '  subscribed, per body:', *rows(body_ports.SUBSCRIBED, lambda row: ''),
+             '  published, per body:', *rows(body_ports.PUBLISHED, moving),
+             '  published by the node:', *rows(TOPICS), 'Services:', *rows(SERVICES)]
+    if sim_interfaces is None:
+        lines.append('  simulation_interfaces is not installed here: none of the standard '
+                     'simulator services (tools/build_msgs.sh builds it)')
+    else:
+        lines += ['  simulation_interfaces (the standard simulator API):',
+                  *rows(sim_interfaces.SERVICES, lambda row: ''), 'Action:',
+                  *rows(sim_interfaces.ACTIONS, lambda row: '')]
+    return '\n'.join(lines)
+
+
 def main(args=None) -> int:
     """Run the node until SIGINT or SIGTERM; then stop and join the step loop, finish the
     recording, destroy the node and shut rclpy down, in that order, and exit 0.
@@ -767,9 +841,7 @@ def main(args=None) -> int:
     argv = sys.argv if args is None else args
     parser = argparse.ArgumentParser(
         prog='simulator', formatter_class=argparse.RawDescriptionHelpFormatter,
-        description='rb_sim_ros rigid-body simulator node. Subscribes wrench '
-        '(geometry_msgs/Wrench), wrench_stamped, set_pose, set_twist; publishes pose, twist, '
-        'odom, /clock, /diagnostics; services reset, pause, step.',
+        description='rb_sim_ros rigid-body simulator node.\n\n' + endpoints_text(),
         epilog=node_params.help_text())
     parser.parse_args(ros_arguments.non_ros_args(argv, 'simulator'))
     stop = threading.Event()
