@@ -7,8 +7,16 @@ a local Ray give the same recordings and rows), and a worker that dies mid-sweep
 nothing."""
 
 import csv
+import io
+import json
+import math
 import os
 from pathlib import Path
+import shutil
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
 
@@ -206,3 +214,193 @@ def test_a_ray_address_that_is_not_one_is_one_line(scene, tmp_path, capsys):
     code = sweep.main(['sweep', scene, '--out', str(tmp_path / 'o'), '--ray', 'bogus://x'])
     err = capsys.readouterr().err
     assert code == 2 and err.startswith('sweep: --ray bogus://x') and err.count('\n') == 1
+
+
+# -- stopping: SIGTERM as SIGINT, and workers that never outlive the driver ---------------------
+def _children(pid):
+    """{child pid: its start time} of the processes whose parent is ``pid`` (from /proc)."""
+    out = {}
+    for entry in os.listdir('/proc'):
+        if entry.isdigit():
+            stat = _stat(int(entry))
+            if stat is not None and stat[1] == pid:
+                out[int(entry)] = stat[2]
+    return out
+
+
+def _stat(pid):
+    """(state, parent, start time) of a process from /proc/PID/stat, None if it is gone."""
+    try:
+        with open(f'/proc/{pid}/stat') as f:
+            text = f.read()
+    except OSError:
+        return None
+    fields = text[text.rindex(')') + 2:].split()  # after 'pid (name) '
+    return fields[0], int(fields[1]), int(fields[19])
+
+
+def _alive(children):
+    """Those of ``children`` still running: not gone, not a zombie, not a new process that
+    took a freed pid."""
+    return [pid for pid, start in children.items()
+            if (s := _stat(pid)) is not None and s[0] not in 'ZX' and s[2] == start]
+
+
+def _wait_for(condition, what, bound_s=600.0):
+    deadline = time.monotonic() + bound_s
+    while not condition():
+        assert time.monotonic() < deadline, f'gave up waiting for {what}'
+        time.sleep(0.2)
+
+
+def _partial_rows(out):
+    try:
+        with open(out / 'summary.partial.jsonl') as f:
+            return [json.loads(line) for line in f if line.endswith('\n')]
+    except OSError:
+        return []
+
+
+@pytest.mark.parametrize('signum', [signal.SIGTERM, signal.SIGKILL])
+def test_a_signal_to_the_driver_ends_its_workers_and_sigterm_keeps_what_finished(
+        scene, tmp_path, signum):
+    """N04: the sweep command with two workers, signalled once its first rows are in. SIGTERM
+    (as SIGINT): exit 128 + 15 with one line, summary.csv of every finished run (free fall,
+    checked in closed form) and nothing else. SIGKILL: no summary can be written, but the
+    workers and the resource tracker go with the driver, none blocked for ever."""
+    out = tmp_path / 'o'
+    driver = subprocess.Popen(
+        [sys.executable, '-m', 'rb_sim_ros.ros.sweep', scene, '--seeds', '400', '--steps',
+         '2000', '--workers', '2', '--out', str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        _wait_for(lambda: _partial_rows(out) or driver.poll() is not None, 'a first row')
+        children = _children(driver.pid)
+        before = _partial_rows(out)
+        assert driver.poll() is None and len(children) >= 2  # two workers (and a tracker)
+        os.kill(driver.pid, signum)
+        code = driver.wait(timeout=300)
+        stdout, stderr = driver.communicate()
+    finally:
+        if driver.poll() is None:
+            driver.kill()
+    _wait_for(lambda: not _alive(children), f'the workers {_alive(children)} to end', 120)
+    if signum == signal.SIGKILL:
+        assert code == -signal.SIGKILL
+        return
+    assert code == 128 + signal.SIGTERM, stderr
+    assert stderr.count('\n') == 1 and 'SIGTERM' in stderr and stdout == '', stderr
+    rows = _summary(out)
+    runs = [int(r['run']) for r in rows]
+    assert set(r['run'] for r in before) <= set(runs) and len(runs) < 400
+    assert runs == sorted(set(runs))
+    assert sorted(os.listdir(out)) == sorted([f'run_{r:06d}.mcap' for r in runs]
+                                             + ['summary.csv'])
+    for row in rows:  # 2000 steps of 1 ms from z = 1: z = 1 - g t^2 / 2
+        assert not row['error'] and row['steps'] == '2000'
+        assert float(row['ball.z']) == pytest.approx(1 - 0.5 * G * 2.0 ** 2, abs=1e-9)
+    assert f'{len(rows)} of 400 runs finished' in stderr
+
+
+# -- what --vary takes -----------------------------------------------------------------------
+@pytest.mark.parametrize('spec', [
+    'uniform(-1e308, 1e308)',  # the span b - a overflows (numpy's traceback, before)
+    'normal(1e308, 1e307)',  # draws beyond a float
+    'normal(0, 1e307)',
+    '-1e308:1e308:3',  # the span, so the spacing (a NaN blamed on the scene file, before)
+    '1.7e308:-1.7e308:2',
+    '[1e999]', '[.inf, 1]', '[.nan]', '[[0, 0, -.inf]]', '1, 2e400',
+    '[1' + '0' * 400 + ']',  # an integer no float holds
+])
+def test_a_vary_spec_with_a_value_that_is_not_a_finite_float_is_refused(spec):
+    with pytest.raises(ValueError) as e:
+        sweep.parse_spec('bodies.probe.mass', spec)
+    assert str(e.value).startswith(f'--vary bodies.probe.mass={spec}: '[:60])
+    assert '\n' not in str(e.value)
+
+
+def test_vary_specs_at_the_edge_of_a_float_that_fit_are_taken():
+    assert sweep.parse_spec('k', '-8e307:8e307:3') == ('values', [-8e307, 0.0, 8e307])
+    kind, (_, a, b) = sweep.parse_spec('k', 'uniform(-8e307, 8e307)')
+    assert kind == 'draw' and (a, b) == (-8e307, 8e307)
+    draws = [sweep.drawn({'k': ('uniform', a, b)}, r, 0)['k'] for r in range(100)]
+    draws += [sweep.drawn({'k': ('normal', 0.0, 1e306)}, r, 0)['k'] for r in range(1000)]
+    assert all(math.isfinite(v) for v in draws)
+    assert sweep.parse_spec('k', '[1' + '0' * 300 + ']') == ('values', [10 ** 300])
+
+
+@pytest.mark.parametrize('spec', ['uniform(-1e308, 1e308)', '-1e308:1e308:3'])
+def test_the_sweep_command_refuses_an_overflowing_vary_in_one_line(scene, tmp_path, capsys,
+                                                                   spec):
+    code = sweep.main(['sweep', scene, '--out', str(tmp_path / 'o'), '--vary',
+                       f'bodies.probe.mass={spec}'])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count('\n') == 1, err
+    assert err.startswith(f'sweep: --vary bodies.probe.mass={spec}: ') and 'scene' not in err
+    assert not (tmp_path / 'o').exists()
+
+
+def test_a_vector_index_is_a_plain_number():
+    data = {'bodies': [{'name': 'b', 'position': [0, 0, 1]}]}
+    for part in ('\u00b2', '9' * 5000):  # str.isdigit() takes both; int() takes neither
+        with pytest.raises(ValueError, match=f'--vary bodies.b.position.{part[:10]}'):
+            sweep.set_key(data, f'bodies.b.position.{part}', 2.0)
+    sweep.set_key(data, 'bodies.b.position.2', 2.0)
+    assert data['bodies'][0]['position'] == [0, 0, 2.0]
+
+
+# -- --verify of many files ------------------------------------------------------------------
+def test_verify_reports_a_missing_file_alone(scene, tmp_path, capsys):
+    """N17: ten paths on one worker (tasks of two), the fourth not there: one line names it;
+    the nine recordings that are there verify, as they do alone."""
+    engine = sweep.LocalEngine(1)
+    try:
+        sweep.sweep(scene, [], 1, 50, str(tmp_path / 'o'), engine=engine, progress=False)
+    finally:
+        engine.close()
+    good = tmp_path / 'o' / 'run_000000.mcap'
+    paths = []
+    for k in range(10):
+        path = tmp_path / f'copy_{k}.mcap'
+        if k != 3:
+            shutil.copy(good, path)
+        paths.append(str(path))
+    assert len(sweep.chunks(10, 1)) == 5  # the missing one shares its task with a good one
+    code = sweep.main(['sweep', '--verify', *paths, '--workers', '1'])
+    lines = capsys.readouterr().out.splitlines()
+    assert code == 1
+    assert lines == [f'MISSING {paths[3]}',
+                     'sweep: 9 of 10 recordings verify bit for bit, 1 could not be read']
+    results = sweep.verify_many(paths, progress=False)
+    assert [ok for _, ok, _ in results] == [True] * 3 + [None] + [True] * 6, results
+
+
+# -- progress --------------------------------------------------------------------------------
+class _Stream(io.StringIO):
+    def __init__(self, tty):
+        super().__init__()
+        self.tty = tty
+
+    def isatty(self):
+        return self.tty
+
+
+def test_progress_is_whole_lines_in_a_pipe_and_a_bar_on_a_terminal(monkeypatch):
+    pipe = _Stream(False)
+    monkeypatch.setattr(sys, 'stderr', pipe)
+    monkeypatch.setattr(sweep.Progress, 'PLAIN_EVERY_S', 0.0)
+    show = sweep.Progress(3, 'runs')
+    for done in range(4):
+        show(done)
+    show.close()
+    text = pipe.getvalue()
+    assert '\r' not in text and text.endswith('\n')
+    assert text.splitlines()[-1].startswith('sweep: 3/3 runs, ')
+    pytest.importorskip('tqdm')
+    tty = _Stream(True)
+    monkeypatch.setattr(sys, 'stderr', tty)
+    show = sweep.Progress(3, 'runs')
+    for done in range(4):
+        show(done)
+    show.close()
+    assert show.bar is not None and '3/3' in tty.getvalue()

@@ -39,6 +39,12 @@ one). Runs go in tasks of several, sized to amortise scheduling; a task whose wo
 that raises is retried once, then its runs are recorded as failed and the sweep goes on. The
 scene and parameters travel in each task; recordings come back as bytes and are written by the
 driver, so workers need no shared file system.
+
+SIGINT and SIGTERM stop a sweep alike: the workers are killed, ``summary.csv`` holds the runs
+that finished (and only they), one line says how many, exit status 128 + the signal. Local
+workers end with the driver however it ends (Linux's parent-death signal). Each --vary value
+must be a finite float (so must a range's span and a distribution's reach): else one line.
+``--verify`` names a missing file on a line of its own (MISSING PATH), the others verified.
 """
 
 from __future__ import annotations
@@ -54,8 +60,10 @@ import math
 import multiprocessing
 import os
 import re
+import signal
 import sys
 import tempfile
+import threading
 import time
 
 import numpy as np
@@ -74,6 +82,7 @@ from rb_sim_ros.sim.simulation import SetWrench, Simulation
 
 MAX_RUNS = 10_000_000
 MAX_VALUES = 100_000  # in one list or range
+NORMAL_REACH = 64  # sigmas: numpy's ziggurat draws stay within about 14
 OUTPUT_KINDS = tuple(node_recorder.OUTPUTS)
 # Fault injection for the tests: "<marker file>:<run>" makes the worker running that run die
 # (os._exit) the first time, as a killed worker would; "always:<run>" every time.
@@ -83,31 +92,45 @@ DIE_ONCE_ENV = 'RB_SIM_SWEEP_DIE_ONCE'
 # -- what to run -----------------------------------------------------------------------------
 def parse_spec(key: str, spec: str):
     """('values', [v, ...]) for a list or range, ('draw', (kind, a, b)) for a distribution;
-    ValueError naming KEY."""
-    where = f'--vary {key}'
+    ValueError naming KEY. Every value a spec can give is finite: a list's numbers, a range's
+    ends, span and spacing, a distribution's span (uniform) or its widest draw (normal, out to
+    ``NORMAL_REACH`` sigmas, beyond any draw numpy's ziggurat makes)."""
+    where = f'--vary {key}={spec.strip()}'
     m = re.fullmatch(r'\s*(uniform|normal)\(\s*([^,()]+)\s*,\s*([^,()]+)\s*\)\s*', spec)
     if m:
+        kind = m.group(1)
         try:
             a, b = float(m.group(2)), float(m.group(3))
         except ValueError:
-            raise ValueError(f'{where}: {m.group(1)} takes two numbers, got {spec!r}') from None
-        if not (math.isfinite(a) and math.isfinite(b)) or (m.group(1) == 'uniform' and b < a) \
-                or (m.group(1) == 'normal' and b < 0):
-            raise ValueError(f'{where}: bad {m.group(1)}({a}, {b})')
-        return 'draw', (m.group(1), a, b)
+            raise ValueError(f'{where}: {kind} takes two numbers') from None
+        if not (math.isfinite(a) and math.isfinite(b)):
+            raise ValueError(f'{where}: {kind} takes finite numbers')
+        if (kind == 'uniform' and b < a) or (kind == 'normal' and b < 0):
+            raise ValueError(f'{where}: bad {kind}({a}, {b})')
+        reach = b - a if kind == 'uniform' else abs(a) + NORMAL_REACH * b
+        if not math.isfinite(reach):
+            raise ValueError(f'{where}: its draws overflow a float ('
+                             + ('b - a' if kind == 'uniform' else
+                                f'|mu| + {NORMAL_REACH:g} sigma') + ' is not finite)')
+        return 'draw', (kind, a, b)
     m = re.fullmatch(r'\s*([^:\[\]]+):([^:\[\]]+):([^:\[\]]+)\s*', spec)
     if m:
         try:
             a, b, n = float(m.group(1)), float(m.group(2)), int(m.group(3))
         except ValueError:
-            raise ValueError(f'{where}: a range is a:b:n (numbers, n an integer), got '
-                             f'{spec!r}') from None
+            raise ValueError(f'{where}: a range is a:b:n (numbers, n an integer)') from None
         if not (math.isfinite(a) and math.isfinite(b)) or not 1 <= n <= MAX_VALUES:
             raise ValueError(f'{where}: a range needs finite ends and 1 to {MAX_VALUES} '
-                             f'values, got {spec!r}')
-        return 'values', [float(v) for v in np.linspace(a, b, n)]
+                             'values')
+        if not math.isfinite(b - a):
+            raise ValueError(f'{where}: the span b - a of the range overflows a float')
+        with np.errstate(all='ignore'):
+            values = [float(v) for v in np.linspace(a, b, n)]
+        if not all(math.isfinite(v) for v in values):  # not seen with a finite span; a guard
+            raise ValueError(f'{where}: the range spacing overflows a float')
+        return 'values', values
     if ':' in spec and not spec.strip().startswith('['):
-        raise ValueError(f'{where}: a range is a:b:n (n values from a to b), got {spec!r}')
+        raise ValueError(f'{where}: a range is a:b:n (n values from a to b)')
     try:
         data = safe_yaml.load(spec if spec.strip().startswith('[') else f'[{spec}]',
                               max_depth=4, max_nodes=MAX_VALUES)
@@ -116,7 +139,35 @@ def parse_spec(key: str, spec: str):
                          f'normal(mu, sigma): {e.reason}') from None
     if not isinstance(data, list) or not data:
         raise ValueError(f'{where}: an empty list')
+    bad = _not_finite(data)
+    if bad is not None:
+        raise ValueError(f'{where}: {bad} is not a finite number')
     return 'values', data
+
+
+def _not_finite(value):
+    """The first number in ``value`` (lists and mappings searched) that is not a finite
+    float (inf, nan, an integer beyond a float's range), as text; None if there is none."""
+    if isinstance(value, (list, tuple)):
+        items = value
+    elif isinstance(value, dict):
+        items = value.values()
+    elif isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    else:
+        try:
+            ok = math.isfinite(float(value))
+        except OverflowError:
+            ok = False
+        text = repr(value)
+        if len(text) > 40:
+            text = f'{text[:20]}... ({len(text)} digits)'
+        return None if ok else text
+    for item in items:
+        bad = _not_finite(item)
+        if bad is not None:
+            return bad
+    return None
 
 
 def set_key(data: dict, key: str, value) -> None:
@@ -131,7 +182,7 @@ def set_key(data: dict, key: str, value) -> None:
                        if isinstance(item, dict) and item.get('name') == part]
             if by_name:
                 index = by_name[0]
-            elif part.isdigit() and int(part) < len(node):
+            elif re.fullmatch(r'[0-9]{1,9}', part) and int(part) < len(node):
                 index = int(part)
             else:
                 where = '.'.join(parts[:i]) or 'the scene'
@@ -364,17 +415,31 @@ class _Files:
 
     def __getstate__(self) -> dict:
         items = []
-        for path in self.paths:
-            with open(path, 'rb') as f:
-                items.append((path, f.read()))
+        for path in self.paths:  # a file that cannot be read is its own result, not the task's
+            try:
+                with open(path, 'rb') as f:
+                    items.append((path, f.read()))
+            except OSError as e:
+                items.append((path, _unreadable(e)))
         return {'paths': self.paths, 'items': items}
 
 
+def _unreadable(e: OSError) -> str:
+    """Why a file cannot be read, in a line ('missing' for one that is not there)."""
+    if isinstance(e, FileNotFoundError):
+        return 'missing'
+    return f'cannot read it: {e.strerror or type(e).__name__}'
+
+
 def verify_task(_shared, files: _Files) -> list:
-    """A task of ``replay --verify``: [(path, identical, one-line summary)] of the files."""
+    """A task of ``replay --verify``: [(path, identical, one-line summary)] of the files;
+    identical is None for a file that could not be read (the summary says why)."""
     out = []
     with tempfile.TemporaryDirectory(prefix='rb_sim_verify_') as d:
         for name, data in files.items:
+            if isinstance(data, str):
+                out.append((name, None, data))
+                continue
             path = os.path.join(d, os.path.basename(name))
             with open(path, 'wb') as f:
                 f.write(data)
@@ -400,8 +465,57 @@ def chunks(count: int, workers: int) -> list:
     return [(i, min(i + size, count)) for i in range(0, count, size)]
 
 
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM in the driver (a KeyboardInterrupt, so that whatever stops on one
+    stops on both): ``signum``, and what was done before it (``note``)."""
+
+    def __init__(self, signum: int = signal.SIGINT, note: str = '') -> None:
+        super().__init__(signum, note)
+        self.signum, self.note = signum, note
+
+
+_HANDLED = (signal.SIGINT, signal.SIGTERM)  # main's: either stops the sweep, keeping rows
+_SIGNALS = []  # those main's handler took: Ray turns what a handler raises into a plain
+# KeyboardInterrupt (its waits check for signals), so the signal is kept here too
+
+
+def _on_signal(signum, _frame) -> None:
+    _SIGNALS.append(signum)
+    raise Interrupted(signum)
+
+
+def _signum(e: BaseException) -> int:
+    """The signal that interrupted: Interrupted's own, else the last main's handler took."""
+    return getattr(e, 'signum', None) or (_SIGNALS[-1] if _SIGNALS else signal.SIGINT)
+
+
+def _worker_init(driver: int) -> None:
+    """A local worker: SIGINT is the driver's to act on (it stops the pool); the worker ends
+    when the driver does, however it ends (SIGKILL too): Linux's parent-death signal, else a
+    thread that watches the parent."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    armed = False
+    if sys.platform.startswith('linux'):
+        try:
+            import ctypes
+            armed = ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL) == 0  # DEATHSIG
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != driver:  # the driver went before the signal was armed
+        os._exit(1)
+    if not armed:
+        threading.Thread(target=_watch_parent, args=(driver,), daemon=True).start()
+
+
+def _watch_parent(driver: int) -> None:
+    while os.getppid() == driver:
+        time.sleep(1.0)
+    os._exit(1)
+
+
 class LocalEngine:
-    """Worker processes on this machine (spawned: nothing of the driver's state is shared)."""
+    """Worker processes on this machine (spawned: nothing of the driver's state is shared;
+    each ends with the driver)."""
 
     def __init__(self, workers: int) -> None:
         self.workers = workers
@@ -411,8 +525,21 @@ class LocalEngine:
         if self._pool is not None:
             self._pool.shutdown(wait=False, cancel_futures=True)
         self._pool = ProcessPoolExecutor(self.workers,
-                                         mp_context=multiprocessing.get_context('spawn'))
+                                         mp_context=multiprocessing.get_context('spawn'),
+                                         initializer=_worker_init, initargs=(os.getpid(),))
         return self._pool
+
+    def abort(self) -> None:
+        """Stop now: the workers are killed, what they were running is lost."""
+        pool, self._pool = self._pool, None
+        if pool is None:
+            return
+        processes = list((getattr(pool, '_processes', None) or {}).values())
+        for p in processes:
+            p.kill()
+        pool.shutdown(wait=True, cancel_futures=True)
+        for p in processes:
+            p.join()
 
     def map(self, fn, shared, tasks: list):
         """Yield (task index, result or exception) as tasks finish, ``fn(shared, *task)``.
@@ -503,12 +630,13 @@ class RayEngine:
                              f'{str(e).strip().splitlines()[0] if str(e).strip() else e!r}'
                              ) from None
         self.workers = int(ray.cluster_resources().get('CPU', workers))
+        self._refs = {}
 
     def map(self, fn, shared, tasks: list):
         remote = self.ray.remote(max_retries=1, retry_exceptions=True)(fn)
         shared_ref = self.ray.put(shared)
         waiting = collections.deque(range(len(tasks)))
-        refs = {}
+        refs = self._refs = {}
         while waiting or refs:
             while waiting and len(refs) < 4 * self.workers:
                 i = waiting.popleft()
@@ -521,6 +649,15 @@ class RayEngine:
                 except Exception as e:  # noqa: B902 - failed twice: recorded
                     yield i, e
 
+    def abort(self) -> None:
+        """Stop now: the tasks in flight are cancelled (their workers killed)."""
+        for ref in list(self._refs):
+            try:
+                self.ray.cancel(ref, force=True)
+            except Exception:  # noqa: B902 - done already, or Ray going: nothing to stop
+                pass
+        self._refs.clear()
+
     def close(self) -> None:
         self.ray.shutdown()
 
@@ -531,21 +668,59 @@ def make_engine(ray_address: str | None, workers: int):
 
 # -- the driver --------------------------------------------------------------------------------
 class Progress:
-    """One line on stderr, at most twice a second: done, rate, ETA."""
+    """Progress on stderr: a tqdm bar on a terminal (when tqdm is installed), else a plain
+    line at most every ``PLAIN_EVERY_S`` seconds and at the end (no carriage returns: a pipe or
+    a log file gets whole lines)."""
+
+    PLAIN_EVERY_S = 10.0
 
     def __init__(self, total: int, what: str) -> None:
-        self.total, self.what, self.start, self.last = total, what, time.monotonic(), 0.0
+        self.total, self.what, self.start, self.last = total, what, time.monotonic(), None
+        self.bar = None
+        if _isatty(sys.stderr):
+            try:
+                from tqdm import tqdm
+            except ImportError:
+                tqdm = None
+            if tqdm is not None:
+                self.bar = tqdm(total=total, unit=f' {what}', desc='sweep', file=sys.stderr,
+                                dynamic_ncols=True)
 
     def __call__(self, done: int) -> None:
+        if self.bar is not None:
+            self.bar.update(done - self.bar.n)
+            return
         now = time.monotonic()
-        if done < self.total and now - self.last < 0.5:
+        if done < self.total and self.last is not None and now - self.last < self.PLAIN_EVERY_S:
+            return
+        if self.last is None and done < self.total:  # the first line waits a period too
+            self.last = now
             return
         self.last = now
         rate = done / max(now - self.start, 1e-9)
-        eta = (self.total - done) / rate if rate > 0 else math.inf
-        end = '\n' if done >= self.total else ''
-        print(f'\rsweep: {done}/{self.total} {self.what}, {rate:.2f}/s, ETA {eta:.0f} s   ',
-              end=end, file=sys.stderr, flush=True)
+        eta = f', ETA {(self.total - done) / rate:.0f} s' if 0 < rate and done < self.total \
+            else ''
+        print(f'sweep: {done}/{self.total} {self.what}, {rate:.2f}/s{eta}', file=sys.stderr,
+              flush=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _isatty(stream) -> bool:
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError):
+        return False
+
+
+class _NoProgress:
+    def __call__(self, done: int) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
 
 
 def sweep(scene_path: str, varies: list, seeds: int, steps: int, out_dir: str,
@@ -585,7 +760,8 @@ def sweep(scene_path: str, varies: list, seeds: int, steps: int, out_dir: str,
     keys = [k for k, _ in varies]
     rows = []
     partial = os.path.join(out_dir, 'summary.partial.jsonl')
-    show = Progress(len(runs), 'runs') if progress else (lambda done: None)
+    show = Progress(len(runs), 'runs') if progress else _NoProgress()
+    stop = None
     try:
         with open(partial, 'w') as f:
             for i, result in engine.map(run_task, context, tasks):
@@ -605,20 +781,34 @@ def sweep(scene_path: str, varies: list, seeds: int, steps: int, out_dir: str,
                     f.write(json.dumps(row, sort_keys=True) + '\n')
                     f.flush()
                 show(len(rows))
+    except KeyboardInterrupt as e:  # SIGINT, or SIGTERM by main's handler: stop, keep rows
+        stop = e
+        engine.abort()
     finally:
+        show.close()
         if own:
             engine.close()
     rows.sort(key=lambda r: r['run'])
-    _write_summary(os.path.join(out_dir, 'summary.csv'), rows, keys)
+    summary = os.path.join(out_dir, 'summary.csv')
+    _write_summary(summary, rows, keys)
     os.unlink(partial)
+    if stop is not None:  # the runs not finished are not in the summary
+        raise Interrupted(_signum(stop),
+                          f'{len(rows)} of {len(runs)} runs finished, their summary in '
+                          f'{summary}') from None
     return rows
 
 
 def _write_atomically(path: str, data: bytes) -> None:
     tmp = path + '.part'
-    with open(tmp, 'wb') as f:
-        f.write(data)
-    os.replace(tmp, path)
+    try:
+        with open(tmp, 'wb') as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:  # an interrupt too: no half file left
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
 
 
 def _write_summary(path: str, rows: list, keys: list) -> None:
@@ -630,30 +820,38 @@ def _write_summary(path: str, rows: list, keys: list) -> None:
                 columns.append(c)
     columns += ['energy', 'contacts', 'max_contacts', 'steps', 'file', 'error', 'wall_s',
                 'cpu_s']
-    with open(path, 'w', newline='') as f:
+    tmp = path + '.part'
+    with open(tmp, 'w', newline='') as f:
         writer = csv.DictWriter(f, columns, extrasaction='ignore')
         writer.writeheader()
         for row in rows:
             writer.writerow(row)
+    os.replace(tmp, path)
 
 
 def verify_many(paths: list, engine=None, progress: bool = True) -> list:
-    """replay --verify of every file on the engine: [(path, identical, summary)] in order."""
+    """replay --verify of every file on the engine: [(path, identical, summary)] in order;
+    identical is None for a file that cannot be read (missing, say), and only for it."""
     own = engine is None
     engine = engine or LocalEngine(os.cpu_count() or 1)
     tasks = chunks(len(paths), engine.workers)
     results = {}
-    show = Progress(len(paths), 'files') if progress else (lambda done: None)
+    show = Progress(len(paths), 'files') if progress else _NoProgress()
     try:
         for i, result in engine.map(verify_task, None,
                                     [(_Files(paths[a:b]),) for a, b in tasks]):
             if isinstance(result, BaseException):
-                result = [(name, False, f'task failed twice: {result}') for name in
-                          paths[slice(*tasks[i])]]
+                why = f'task failed twice: {type(result).__name__}: {result}'.splitlines()[0]
+                result = [(name, False, why) for name in paths[slice(*tasks[i])]]
             for name, ok, text in result:
                 results[name] = (ok, text)
             show(len(results))
+    except KeyboardInterrupt as e:
+        engine.abort()
+        raise Interrupted(_signum(e),
+                          f'{len(results)} of {len(paths)} files verified') from None
     finally:
+        show.close()
         if own:
             engine.close()
     return [(p, *results[p]) for p in paths]
@@ -687,16 +885,40 @@ def main(args=None) -> int:
     opts = parser.parse_args(ros_arguments.non_ros_args(argv, 'sweep'))
     if not 1 <= opts.workers <= 4096:
         parser.error(f'--workers must be from 1 to 4096, got {opts.workers}')
+    handle = threading.current_thread() is threading.main_thread()
+    _SIGNALS.clear()
+    previous = {n: signal.signal(n, _on_signal) for n in _HANDLED} if handle else {}
+    try:
+        return _main(parser, opts, handle)
+    except KeyboardInterrupt as e:  # SIGINT, or SIGTERM: what finished is kept
+        signum = _signum(e)
+        note = getattr(e, 'note', '')
+        print(f'sweep: interrupted by {signal.Signals(signum).name}'
+              + (f': {note}' if note else ''), file=sys.stderr)
+        return 128 + signum
+    finally:
+        for n, handler in previous.items():
+            signal.signal(n, handler)
+
+
+def _main(parser, opts, handle: bool) -> int:
     try:
         if opts.verify:
-            engine = make_engine(opts.ray, opts.workers)
-            results = verify_many(opts.inputs, engine)
+            engine = _engine(opts, handle)
+            try:
+                results = verify_many(opts.inputs, engine)
+            finally:
+                engine.close()
             bad = [r for r in results if not r[1]]
+            unread = [r for r in bad if r[1] is None]
             for path, ok, text in results:
-                if not ok:
+                if ok is None:  # a line of its own: the file, not the recording, is bad
+                    print(f'MISSING {path}' if text == 'missing' else
+                          f'UNREADABLE {path}: {text}')
+                elif not ok:
                     print(f'MISMATCH {path}: {text}')
             print(f'sweep: {len(results) - len(bad)} of {len(results)} recordings verify '
-                  'bit for bit')
+                  'bit for bit' + (f', {len(unread)} could not be read' if unread else ''))
             return 1 if bad else 0
         if len(opts.inputs) != 1:
             parser.error('one scene file (or --verify and files)')
@@ -715,7 +937,7 @@ def main(args=None) -> int:
                 params[name] = safe_yaml.load(text, max_depth=3, max_nodes=100)
             except safe_yaml.YamlError as e:
                 parser.error(f'--param {name}: {e.reason}')
-        engine = make_engine(opts.ray, opts.workers)
+        engine = _engine(opts, handle)
         try:
             rows = sweep(opts.inputs[0], varies, opts.seeds, opts.steps, opts.out, params,
                          opts.wrench, opts.wrench_body, engine, wrench_hold=opts.wrench_hold)
@@ -728,9 +950,14 @@ def main(args=None) -> int:
     except (ValueError, OSError) as e:
         print(f'sweep: {str(e).splitlines()[0]}', file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print('sweep: interrupted', file=sys.stderr)
-        return 130
+
+
+def _engine(opts, handle: bool):
+    engine = make_engine(opts.ray, opts.workers)
+    if handle:  # ray.init sets a SIGTERM handler of its own (sys.exit): ours again
+        for n in _HANDLED:
+            signal.signal(n, _on_signal)
+    return engine
 
 
 if __name__ == '__main__':
