@@ -13,7 +13,10 @@ here; the count of interpreted lines as the measure of work (no clocks); float r
 
 import json
 import math
+import os
+import subprocess
 import sys
+import textwrap
 from types import SimpleNamespace
 
 import numpy as np
@@ -196,6 +199,37 @@ def test_more_pairs_than_the_broad_phase_bound_stop_the_step_with_the_reason():
     _one_line(e, str(broad_phase.MAX_PAIRS), 'MAX_PAIRS', 'too many colliders in one place')
     with pytest.raises(IntegrationError):  # and so again, without moving them through
         sim.run(1)
+
+
+def test_more_contacts_than_the_solve_bound_stop_the_step_with_the_reason():
+    # Interpreted (NUMBA_DISABLE_JIT=1, where the bound is read when the step runs), with the
+    # bound at 10: three boxes resting apart on the ground make 12 contacts (4 each).
+    code = textwrap.dedent("""
+        from rb_sim_ros.contact import world_step
+        from rb_sim_ros.contact.collision_shapes import Box, Plane
+        from rb_sim_ros.core.stepper import IntegrationError
+        from rb_sim_ros.sim.simulation import BodySpec, Config, Simulation
+        world_step.MAX_CONTACTS = 10
+        boxes = tuple(BodySpec(f'box_{i}', colliders=(Box((1.0, 1.0, 1.0)),),
+                               initial_position=(1.2 * i, 0.0, 0.4999)) for i in range(3))
+        sim = Simulation(Config(bodies=(BodySpec('ground', static=True,
+                                                 colliders=(Plane(),)),) + boxes))
+        try:
+            sim.run(1)
+        except IntegrationError as e:
+            print(e)
+        world_step.MAX_CONTACTS = 12
+        sim.run(1)
+        print('ran', sim.step_count)
+        """)
+    env = dict(os.environ, NUMBA_DISABLE_JIT='1')
+    run = subprocess.run([sys.executable, '-c', code], env=env, capture_output=True,
+                         text=True, timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
+    refusal, ran = run.stdout.strip().splitlines()
+    assert '12 contacts, more than world_step.MAX_CONTACTS = 10' in refusal, refusal
+    assert 'too many colliders in one place' in refusal, refusal
+    assert ran == 'ran 1'  # the refused step did not move them: checked again, then stepped
 
 
 def test_the_broad_phase_returns_its_overflow_past_the_bound(monkeypatch):

@@ -548,10 +548,14 @@ class CollisionWorld:
             return IntegrationError(e.step, f"body '{self._owner(s)}': {e}")
         when = f'at step {step} (t = {step * self.dt:.9g} s)'
         if kind == ws.CROWDED:
+            contacts = int(self._stats[ws.CONTACTS])
+            what = (f'{contacts} contacts, more than world_step.MAX_CONTACTS = '
+                    f'{ws.MAX_CONTACTS}' if contacts > ws.MAX_CONTACTS else
+                    f'more than {bp.MAX_PAIRS} pairs of colliders that may touch (the broad '
+                    "phase's bound, broad_phase.MAX_PAIRS)")
             return IntegrationError(
-                step, f'more than {bp.MAX_PAIRS} pairs of colliders may touch {when} (the '
-                "broad phase's bound, broad_phase.MAX_PAIRS): too many colliders in one place; "
-                'no contacts were solved in that step')
+                step, f'{what} {when}: too many colliders in one place; no contacts were '
+                'solved in that step')
         flagged = self._flagged[:int(status[ws.S_FLAGGED])].tolist()
         if kind == ws.WRITE_NON_FINITE:
             e = self._energy

@@ -52,7 +52,11 @@ S_STEP, S_UNCHECKED, S_KIND, S_ERROR_STEP, S_ROW, S_FLAGGED, S_STEPS_DONE = 0, 1
 S_COLLIDED = 7
 STATUS_WIDTH = 8
 OK, INTEGRATION, SOLVE_NON_FINITE, SOLVE_ENERGY, WRITE_NON_FINITE = 0, 1, 2, 3, 4
-CROWDED = 5  # the broad phase passed broad_phase.MAX_PAIRS or MAX_SWEEP: no contacts solved
+CROWDED = 5  # past broad_phase.MAX_PAIRS or MAX_SWEEP, or MAX_CONTACTS: no contacts solved
+# The most contacts a step solves: the solver's rows take 416 bytes a contact (220 MB here);
+# the broad phase's MAX_PAIRS pairs could make 9 each. A dense pile of 20,000 balls makes
+# about 140,000.
+MAX_CONTACTS = 1 << 19
 # w.energy (11): [0:2] the kinetic energies (J) before and after a solve that gained, or [0:9]
 # the x, v, omega a failed write would have given; [9:11] the kinetic energy of the bodies in
 # contact before and after the last solve (0 without contacts).
@@ -174,6 +178,7 @@ def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
             # due again (the next call checks before it integrates: nothing moves on unsolved)
             w.status[S_KIND], w.status[S_ERROR_STEP] = CROWDED, step
             w.status[S_UNCHECKED] = 1
+            w.stats[CONTACTS] = 0  # none: the narrow phase did not run
         if w.status[S_KIND] != OK:  # a woken body failed its step: the step stops there
             point, normal = np.zeros((0, 3)), np.zeros((0, 3))
             depth, impulse = np.zeros(0), np.zeros(0)
@@ -216,6 +221,14 @@ def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
         for k in range(8):
             stats[k] = 0
         stats[CANDIDATE_PAIRS], stats[PLANE_PAIRS], stats[CONTACTS] = p1, p2, m
+        if m > MAX_CONTACTS:  # more than the solve's bound: refused, and due again
+            w.status[S_KIND], w.status[S_ERROR_STEP] = CROWDED, step
+            w.status[S_UNCHECKED] = 1
+            point, normal = np.zeros((0, 3)), np.zeros((0, 3))
+            depth, impulse = np.zeros(0), np.zeros(0)
+            ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+            w.status[S_COLLIDED] = 1
+            break
         ca = np.empty(m, dtype=np.int64)
         cbb = np.empty(m, dtype=np.int64)
         body_a = np.empty(m, dtype=np.int64)
