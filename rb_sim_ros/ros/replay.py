@@ -844,13 +844,16 @@ def _publish(rclpy, node, outputs, rate: float, wait: float, clock_type, clock_q
                   end='', file=sys.stderr, flush=True)
     print(f'\rreplay: t = {end * 1e-9:10.3f} s  100.0%', file=sys.stderr)
     # What DDS still holds for the subscribers (a keep_all history, the last messages of a
-    # reliable topic) is lost if the process ends now: wait until they have it.
+    # reliable topic) is lost if the process ends now: wait until they have it (at most
+    # MAX_BLOCKED_S in all).
+    deadline = time.monotonic() + MAX_BLOCKED_S
     for topic, pub in pubs.items():
         wait_acked = getattr(pub, 'wait_for_all_acked', None)
         if wait_acked is None:
             continue
         from rclpy.duration import Duration
-        if not wait_acked(Duration(seconds=MAX_BLOCKED_S)):
+        left = max(0.0, deadline - time.monotonic())
+        if not wait_acked(Duration(nanoseconds=int(left * 1e9))):
             print(f'replay: {topic}: its subscribers have not acknowledged every message '
                   f'after {MAX_BLOCKED_S:g} s; some may not have arrived', file=sys.stderr)
 
