@@ -66,7 +66,9 @@ def test_a_scene_body_with_too_many_colliders_is_refused_naming_it_and_the_bound
         BodySpec('pile', colliders=(Sphere(0.1),) * 400)
 
 
-def test_a_recording_whose_config_has_too_many_colliders_is_refused_by_load(tmp_path):
+def _load_edited_recording(tmp_path, change):
+    """replay.load of a recording made offline (two bodies, no colliders) whose config
+    ``change`` (a function of the decoded config) edited, as an attacker would."""
     pytest.importorskip('mcap')
     from mcap.reader import make_reader
     from mcap.writer import Writer
@@ -74,7 +76,6 @@ def test_a_recording_whose_config_has_too_many_colliders_is_refused_by_load(tmp_
     from recordings import record_offline
     from std_msgs.msg import String
 
-    from rb_sim_ros.recording.errors import ReaderError
     from rb_sim_ros.ros import replay
     from rb_sim_ros.ros.node_recorder import RUN_DEFINITION
 
@@ -86,8 +87,7 @@ def test_a_recording_whose_config_has_too_many_colliders_is_refused_by_load(tmp_
         messages = [(c.topic, m) for _s, c, m in reader.iter_messages()]
         meta = next(dict(m.metadata) for m in reader.iter_metadata() if m.name == 'rb_sim_ros')
     config = json.loads(meta['config'])
-    for body in config['bodies']:  # N02: two bodies of 400 colliders at one place
-        body['colliders'] = [SPHERE] * 400
+    change(config)
     meta = {**meta, 'config': json.dumps(config)}
     bad = tmp_path / 'bad.mcap'
     with open(bad, 'wb') as f:
@@ -105,9 +105,30 @@ def test_a_recording_whose_config_has_too_many_colliders_is_refused_by_load(tmp_
             w.add_message(cids[topic], m.log_time, data, m.publish_time, m.sequence)
         w.add_metadata('rb_sim_ros', meta)
         w.finish()
+    return replay.load(str(bad))
+
+
+def test_a_recording_whose_config_has_too_many_colliders_is_refused_by_load(tmp_path):
+    from rb_sim_ros.recording.errors import ReaderError
+
+    def pile(config):  # N02: two bodies of 400 colliders at one place
+        for body in config['bodies']:
+            body['colliders'] = [SPHERE] * 400
+
     with pytest.raises(ReaderError) as e:
-        replay.load(str(bad))
+        _load_edited_recording(tmp_path, pile)
     _one_line(e, 'one', 'colliders', '400', f'MAX_COLLIDERS = {bodies.MAX_COLLIDERS}')
+
+
+def test_a_recording_whose_config_asks_for_endless_iterations_is_refused_by_load(tmp_path):
+    from rb_sim_ros.recording.errors import ReaderError
+
+    def endless(config):  # a scene file is held to MAX_ITERATIONS; a recording was not
+        config['contact']['velocity_iterations'] = 2 ** 31 - 1
+
+    with pytest.raises(ReaderError) as e:
+        _load_edited_recording(tmp_path, endless)
+    _one_line(e, 'velocity_iterations', f'{bodies.MAX_ITERATIONS}', 'MAX_ITERATIONS')
 
 
 # -- N01: the colouring of the contact solver is linear in a body's contacts ------------------

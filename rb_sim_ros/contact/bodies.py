@@ -33,6 +33,10 @@ MAX_COLLIDERS = 64
 # 1e-180) and every ratio of two masses in contact (1e120) is a normal float; a dust grain
 # (1e-15 kg) and a planet (6e24 kg) are both inside.
 MIN_CONTACT_MASS, MAX_CONTACT_MASS = 1e-60, 1e60
+# The most Gauss-Seidel iterations of either pass a run may ask for (each is a pass over all
+# contacts): a scene file's bound, and a recording's config's too (which reached the solver's
+# 2^31 - 1 before).
+MAX_ITERATIONS = 1000
 
 
 @dataclass(frozen=True)
@@ -171,6 +175,12 @@ class ContactSettings:
             raise ValueError(f'speculative must be true or false, got {self.speculative!r}')
         for name in ('sleep_time', 'sleep_speed'):
             non_negative(name, getattr(self, name))
+        for name in ('velocity_iterations', 'position_iterations'):
+            value = getattr(self, name)
+            if (not isinstance(value, int) or isinstance(value, bool)
+                    or not 0 <= value <= MAX_ITERATIONS):
+                raise ValueError(f'{name} must be an integer in [0, {MAX_ITERATIONS}] '
+                                 f'(MAX_ITERATIONS), got {value!r}')
         contact_solver.SolverSettings(**{  # validates the rest
             f.name: getattr(self, f.name) for f in fields(self)
             if f.name in contact_solver.SolverSettings.__dataclass_fields__})

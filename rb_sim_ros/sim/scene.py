@@ -63,7 +63,7 @@ import reprlib
 import sys
 from typing import Any, NamedTuple, NoReturn
 
-from rb_sim_ros.contact.bodies import MAX_COLLIDERS
+from rb_sim_ros.contact.bodies import MAX_COLLIDERS, MAX_ITERATIONS
 from rb_sim_ros.contact.collision_shapes import Box, Plane, shape_from_dict, Sphere
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import RigidBody
@@ -88,8 +88,8 @@ MAX_ENTRY_BYTES = 64 * 1024
 # A ROS 2 topic name token (rcl/rmw: alphanumerics and '_', not starting with a digit),
 # and further: ASCII only, starting with a letter.
 NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]*\Z')
-# The bounds of the contact solver's iteration counts (each one costs a pass over contacts).
-MAX_ITERATIONS = 1000
+# MAX_ITERATIONS (bodies): the bound of the contact solver's iteration counts (each one costs
+# a pass over contacts), a recording's as a scene file's.
 # The smallest mass or principal moment: the smallest normal float, whose inverse is finite.
 TINY = sys.float_info.min
 
