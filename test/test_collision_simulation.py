@@ -218,9 +218,28 @@ def test_a_symmetric_face_on_impact_spins_nothing(speed, friction, bound):
     sim.run(3)
     momentum = 0.0
     for spec in (plate, cube):
+        assert sim.pose_twist(spec.name)[2][2] != 0.0  # they met
         _, _, v, w = sim.pose_twist(spec.name)
         assert np.linalg.norm(w) * half < bound * speed, (spec.name, w)
         assert np.linalg.norm(v[:2]) < bound * speed, (spec.name, v)
         momentum += spec.mass * v[2]
     assert momentum == pytest.approx(-cube.mass * speed, rel=1e-12)  # kept by the impulses
     assert sim.pose_twist('cube')[2][2] > 0.0  # it bounced
+
+
+@pytest.mark.parametrize('friction, bound', [(0.0, 1e-7), (0.5, 1e-3)])
+@pytest.mark.parametrize('speed', [1.0, 10.0, 100.0])
+def test_a_plate_falling_flat_on_the_ground_spins_nothing(speed, friction, bound):
+    # Issue 28 L3, box-plane: four corners of a 1 m x 1 m x 2 cm plate land at once.
+    mass, half = 20.0, 0.5
+    plate = BodySpec('plate', mass, (mass * (1.0 + 4e-4) / 12,) * 2 + (mass * 2.0 / 12,),
+                     initial_position=(0.0, 0.0, 0.01 + speed * 1e-3 / 2),
+                     initial_linear_velocity=(0.0, 0.0, -speed),
+                     colliders=(Box((2 * half, 2 * half, 0.02)),))
+    sim = Simulation(Config(bodies=(GROUND, plate), contact=ContactSettings(
+        restitution=0.5, friction=friction, sleep_time=0.0)))
+    sim.run(3)
+    _, _, v, w = sim.pose_twist('plate')
+    assert np.linalg.norm(w) * half < bound * speed, w
+    assert np.linalg.norm(v[:2]) < bound * speed, v
+    assert v[2] == pytest.approx(0.5 * speed, rel=1e-6)  # e = 0.5, as one contact would
