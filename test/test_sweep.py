@@ -269,10 +269,11 @@ def test_a_signal_to_the_driver_ends_its_workers_and_sigterm_keeps_what_finished
     checked in closed form) and nothing else. SIGKILL: no summary can be written, but the
     workers and the resource tracker go with the driver, none blocked for ever."""
     out = tmp_path / 'o'
-    driver = subprocess.Popen(
-        [sys.executable, '-m', 'rb_sim_ros.ros.sweep', scene, '--seeds', '400', '--steps',
-         '2000', '--workers', '2', '--out', str(out)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    stdout_file, stderr_file = tmp_path / 'stdout', tmp_path / 'stderr'
+    with open(stdout_file, 'w') as o, open(stderr_file, 'w') as e:  # not pipes: a child that
+        driver = subprocess.Popen(  # outlived the driver would hold them open
+            [sys.executable, '-m', 'rb_sim_ros.ros.sweep', scene, '--seeds', '400', '--steps',
+             '2000', '--workers', '2', '--out', str(out)], stdout=o, stderr=e)
     try:
         _wait_for(lambda: _partial_rows(out) or driver.poll() is not None, 'a first row')
         children = _children(driver.pid)
@@ -280,11 +281,11 @@ def test_a_signal_to_the_driver_ends_its_workers_and_sigterm_keeps_what_finished
         assert driver.poll() is None and len(children) >= 2  # two workers (and a tracker)
         os.kill(driver.pid, signum)
         code = driver.wait(timeout=300)
-        stdout, stderr = driver.communicate()
     finally:
         if driver.poll() is None:
             driver.kill()
     _wait_for(lambda: not _alive(children), f'the workers {_alive(children)} to end', 120)
+    stdout, stderr = stdout_file.read_text(), stderr_file.read_text()
     if signum == signal.SIGKILL:
         assert code == -signal.SIGKILL
         return
