@@ -15,9 +15,13 @@ First the checks, which stop the run (exit 1) if they fail:
   same bodies (mass, full inertia tensor, orientation, omega).
 
 Then ns per body-step at each N, the minimum over repeats of a block of steps: the batch path
-on free bodies (no wrench; several steps per call, and one step per call as a node would
-step), the batch path under a held world wrench, and MuJoCo's mj_step on the same free bodies
-(free joints, gravity 0, contacts disabled, no geoms) with its Euler and RK4 integrators.
+on free bodies (no wrench; several steps per call on every core and on one thread, and one
+step per call as a node would step), the batch path under a held world wrench, and MuJoCo's
+mj_step on the same free bodies (free joints, full inertia tensors, gravity 0, contacts
+disabled, no geoms), each copy stepped a block in one call (``nstep``), with its Euler and RK4
+integrators on one thread, and Euler on every core (Python threads sharing the copies; mj_step
+releases the GIL). Ratios compare like with like: one thread against one, every core against
+every core.
 MuJoCo's model compiler is quadratic in the number of free joints (``engine_setconst.c``
 forms a Jacobian over all nv dofs for every body: 10,000 bodies take about 35 s here, so
 100,000 would take about an hour), so above ``--single-model-max`` bodies MuJoCo steps
@@ -36,6 +40,7 @@ bytes per body between 100 B and 100 kB.
 from __future__ import annotations
 
 import argparse
+from concurrent.futures import ThreadPoolExecutor
 import math
 from pathlib import Path
 import platform
@@ -45,6 +50,7 @@ import tracemalloc
 
 import figures  # a bench module
 import mujoco
+import numba
 import numpy as np
 from scipy.integrate import solve_ivp
 
@@ -53,6 +59,7 @@ from rb_sim_ros.core import so3
 from rb_sim_ros.core.batch import BatchStepper
 
 DT = 1e-3
+CORES = numba.config.NUMBA_NUM_THREADS  # numba's default: every core
 
 
 def bodies(n: int, seed: int = 0) -> dict:
@@ -217,7 +224,21 @@ def _block(run, n: int, seconds: float) -> int:
 
 
 def time_batch(b: dict, seconds: float, repeats: int, wrench: bool = False,
-               per_call: int | None = None) -> float:
+               per_call: int | None = None, threads: int | None = None) -> float:
+    """ns per body-step of the batch path; ``threads`` caps numba's threads for the timing
+    (None: all cores, as a user gets by default)."""
+    if threads is None:
+        return _time_batch(b, seconds, repeats, wrench, per_call)
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        return _time_batch(b, seconds, repeats, wrench, per_call)
+    finally:
+        numba.set_num_threads(before)
+
+
+def _time_batch(b: dict, seconds: float, repeats: int, wrench: bool,
+                per_call: int | None) -> float:
     n = len(b['masses'])
     batch = _batch(b)
     if wrench:
@@ -250,19 +271,35 @@ def mujoco_tiles(b: dict, n: int, tile: int, single_max: int):
                    for i in range(0, n, tile)]
 
 
-def time_mujoco(model, datas, integrator: str, seconds: float, repeats: int) -> float:
+def time_mujoco(model, datas, integrator: str, seconds: float, repeats: int,
+                threads: int = 1) -> float:
+    """ns per body-step of MuJoCo: each copy steps ``steps`` in one ``mj_step`` call (the loop
+    in C, as ours); with ``threads``, that many Python threads share the copies (``mj_step``
+    releases the GIL, so they run on as many cores, as ``mujoco.rollout`` would)."""
     model.opt.integrator = getattr(mujoco.mjtIntegrator, f'mjINT_{integrator.upper()}')
     n = model.nbody - 1
-    if len(datas) == 1:
+    if threads == 1:
         def run(steps):
-            mujoco.mj_step(model, datas[0], nstep=steps)
+            for data in datas:
+                mujoco.mj_step(model, data, nstep=steps)
     else:
-        def run(steps):  # every copy takes each step, as the bodies of one model would
-            for _ in range(steps):
-                for data in datas:
-                    mujoco.mj_step(model, data)
-    steps = _block(run, n * len(datas), seconds)
-    return _best(run, steps, repeats, n * len(datas))
+        shares = [datas[i::threads] for i in range(threads)]
+
+        def share(part, steps):
+            for data in part:
+                mujoco.mj_step(model, data, nstep=steps)
+
+        pool = ThreadPoolExecutor(threads)
+
+        def run(steps):
+            for f in [pool.submit(share, part, steps) for part in shares]:
+                f.result()
+    try:
+        steps = _block(run, n * len(datas), seconds)
+        return _best(run, steps, repeats, n * len(datas))
+    finally:
+        if threads != 1:
+            pool.shutdown()
 
 
 def memory(b: dict, model, datas) -> dict:
@@ -316,18 +353,22 @@ def main() -> int:
         print('checks failed: no timings', file=sys.stderr)
         return 1
 
-    print(f'\nns per body-step, the minimum of {repeats} blocks of ~{seconds} s.\nbatch: free '
-          'bodies stepped n at a time (step(n)) and one at a time (step(1)), and under a\n'
-          'held world force and torque; MuJoCo: the same free bodies, gravity 0, contacts off')
-    print(f'{"N":>8} {"batch":>8} {"batch":>9} {"batch":>9} {"MuJoCo":>8} {"MuJoCo":>8} '
-          f'{"Euler /":>8}')
-    print(f'{"":>8} {"step(n)":>8} {"step(1)":>9} {"wrench":>9} {"Euler":>8} {"RK4":>8} '
-          f'{"batch":>8}')
+    print(f'\nns per body-step, the minimum of {repeats} blocks of ~{seconds} s. batch: free '
+          'bodies stepped n at a\ntime (step(n)) on every core and on one, one at a time '
+          '(step(1)), and under a held world\nforce and torque; MuJoCo: the same free bodies '
+          '(gravity 0, contacts off), each copy stepped\nn at a time (mj_step nstep), on one '
+          'thread and on every core; ratios MuJoCo Euler / batch\nwith the same threads on '
+          'both sides')
+    print(f'{"N":>8} {"step(n)":>8} {"step(n)":>8} {"step(1)":>8} {"wrench":>8} {"Euler":>8} '
+          f'{"Euler":>8} {"RK4":>8} {"ratio":>7} {"ratio":>7}')
+    print(f'{"":>8} {"cores":>8} {"1 thr":>8} {"cores":>8} {"cores":>8} {"1 thr":>8} '
+          f'{"cores":>8} {"1 thr":>8} {"1 thr":>7} {"cores":>7}')
     rows = []
     for n in sizes:
         b = bodies(n)
         row = {'n': n,
                'batch_free_ns': time_batch(b, seconds, repeats),
+               'batch_free_one_thread_ns': time_batch(b, seconds, repeats, threads=1),
                'batch_free_one_step_per_call_ns': time_batch(b, seconds, repeats, per_call=1),
                'batch_world_wrench_ns': time_batch(b, seconds, repeats, wrench=True)}
         t = time.perf_counter()
@@ -338,12 +379,21 @@ def main() -> int:
         for integrator in ('Euler', 'RK4'):
             row[f'mujoco_{integrator.lower()}_ns'] = time_mujoco(
                 model, datas, integrator, seconds, repeats)
+        if CORES > 1 and n >= 2 * CORES and n % CORES == 0:
+            # Both engines on every core: MuJoCo's copies shared among threads (at least one
+            # copy a thread: one model of n bodies is cut into CORES copies for this).
+            many = (model, datas) if len(datas) >= CORES else mujoco_tiles(b, n, n // CORES, 0)
+            row['mujoco_euler_all_cores_ns'] = time_mujoco(*many, 'Euler', seconds, repeats,
+                                                           threads=CORES)
         row['memory_per_body'] = memory(b, model, datas)
         rows.append(row)
-        print(f'{n:>8} {row["batch_free_ns"]:8.1f} {row["batch_free_one_step_per_call_ns"]:9.1f} '
-              f'{row["batch_world_wrench_ns"]:9.1f} {row["mujoco_euler_ns"]:8.1f} '
-              f'{row["mujoco_rk4_ns"]:8.1f} {row["mujoco_euler_ns"] / row["batch_free_ns"]:8.2f}'
-              f'   MuJoCo: {row["mujoco_layout"]}', flush=True)
+        cores = row.get('mujoco_euler_all_cores_ns', math.nan)
+        print(f'{n:>8} {row["batch_free_ns"]:8.1f} {row["batch_free_one_thread_ns"]:8.1f} '
+              f'{row["batch_free_one_step_per_call_ns"]:8.1f} '
+              f'{row["batch_world_wrench_ns"]:8.1f} {row["mujoco_euler_ns"]:8.1f} '
+              f'{cores:8.1f} {row["mujoco_rk4_ns"]:8.1f} '
+              f'{row["mujoco_euler_ns"] / row["batch_free_one_thread_ns"]:7.1f} '
+              f'{cores / row["batch_free_ns"]:7.1f}   MuJoCo: {row["mujoco_layout"]}', flush=True)
     out['rows'] = rows
     if not opts.quick and 10_000 in sizes and single_max >= 10_000:
         b = bodies(10_000)
@@ -371,9 +421,11 @@ def sanity(rows: list[dict]) -> figures.Sanity:
     s = figures.Sanity()
     for row in rows:
         n = row['n']
-        for key in ('batch_free_ns', 'batch_free_one_step_per_call_ns', 'batch_world_wrench_ns',
-                    'mujoco_euler_ns', 'mujoco_rk4_ns'):
-            s.within(f'N = {n}: {key}', row[key], 1.0, 1e6)
+        for key in ('batch_free_ns', 'batch_free_one_thread_ns', 'batch_free_one_step_per_call_ns',
+                    'batch_world_wrench_ns', 'mujoco_euler_ns', 'mujoco_rk4_ns',
+                    'mujoco_euler_all_cores_ns'):
+            if key in row:
+                s.within(f'N = {n}: {key}', row[key], 1.0, 1e6)
         for key in ('mujoco_euler_ns', 'mujoco_rk4_ns'):
             s.within(f'N = {n}: {key} / batch_free_ns', row[key] / row['batch_free_ns'],
                      0.01, 1000.0)
