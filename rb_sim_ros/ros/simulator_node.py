@@ -51,8 +51,8 @@ try:  # not among ROS 2 Jazzy's PyPI wheels: tools/build_msgs.sh builds it into 
 except ImportError:  # then no /tf, said once at start
     TFMessage = None
 try:  # the same
+    import rb_sim_ros.ros.sim_interfaces as sim_interfaces
     from rb_sim_ros.ros.sim_interfaces import EntityStateInput, SimulationInterfaces
-    from rb_sim_ros.ros import sim_interfaces
 except ImportError:  # then no simulation_interfaces services, said once at start
     SimulationInterfaces = sim_interfaces = None
 
