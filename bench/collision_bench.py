@@ -13,15 +13,16 @@ the spheres about 1 m/s). Each engine steps until its heap is settled: the RMS s
 contacts keep its heap jittering at 0.5-1.5 cm/s). The ``--steps`` after that are timed one by
 one (median), and the RMS speed must still be below 2 cm/s after them.
 
-Like for like: rb_sim_ros runs projected Gauss-Seidel, 10 velocity iterations at most (and 4
-position iterations); MuJoCo settles, and is timed, with its PGS solver at the same budget of
-10 iterations. From copies of MuJoCo's settled state its other solvers are timed too: CG at 10
-iterations, and its defaults (Newton, at most 100 iterations, tolerance 1e-8; it takes about a
-second a step on the 1000-sphere heap, so fewer steps) and CG at its default 100. MuJoCo has
-soft contacts, pyramidal friction cones and no restitution coefficient (ours is 0.2).
-Contacts are counted the same way on both sides: those that carried a force in the step
-(rb_sim_ros: normal impulse > 0; MuJoCo: efc_force > 0 on one of the contact's rows);
-rb_sim_ros's count of all its contacts, speculative ones included, is given beside it.
+Like for like: neither engine sleeps; rb_sim_ros runs projected Gauss-Seidel, 10 velocity
+iterations at most (and 4 position iterations); MuJoCo settles, and is timed, with its PGS
+solver at the same budget of 10 iterations. From copies of MuJoCo's settled state its other
+solvers are timed too: CG at 10 iterations, and its defaults (Newton, at most 100 iterations,
+tolerance 1e-8; it takes about a second a step on the 1000-sphere heap, so fewer steps) and CG
+at its default 100. MuJoCo has soft contacts, pyramidal friction cones and no restitution
+coefficient (ours is 0.2). Contacts are counted the same way on both sides: those that carried
+a force in the step (rb_sim_ros: normal impulse > 0; MuJoCo: efc_force > 0 on one of the
+contact's rows); rb_sim_ros's count of all its contacts, speculative ones included, is given
+beside it.
 
 First the checks, which stop the run (exit 1) if they fail: both engines keep every sphere
 inside the box and above the floor, the heaps agree (mean height of the centres within a
@@ -98,8 +99,10 @@ def _rms(v: np.ndarray) -> float:
 
 # -- rb_sim_ros --------------------------------------------------------------------------------
 def run_ours(s: dict, max_settle: int, steps: int) -> dict:
+    # No sleeping (MuJoCo's is off by default too): a settled heap whose bodies slept would be
+    # timed doing nothing.
     world = CollisionWorld(bodies(s), DT, GRAVITY, restitution=RESTITUTION, friction=FRICTION,
-                           planes=walls(s['half']))
+                           planes=walls(s['half']), sleep_time=0.0)
     assert world.settings.velocity_iterations == ITERATIONS
 
     def rms():
