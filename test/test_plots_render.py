@@ -258,7 +258,7 @@ def test_the_command_line(demo, tmp_path):
                                                                'crate.png']
     code, out, err = _main('--render', demo.path, str(tmp_path / 'a.gif'), '--view', 'top',
                            '--fps', '10', '--size', '160x120')
-    assert code == 0 and '16 frames written' in out and 'rendering frame 16/16' in err
+    assert code == 0 and '16 frames written' in out and 'rendering frame: 16/16' in err
     for args, words in [(('--render', demo.path), '--render needs FILE and OUT'),
                         (('--plot', demo.path, '--view', 'top'), 'only for --render'),
                         (('--render', demo.path, 'a.gif', '--size', '12'), '--size must be'),

@@ -434,7 +434,7 @@ def test_replay_stops_on_sigint_without_a_traceback(probe, installed, ros_env, t
                                  '--rate', '0.001'], env=ros_env, stdout=subprocess.PIPE,
                                 stderr=err_file, text=True)
         try:
-            probe.wait_for(lambda: 'replay: t =' in err.read_text(), timeout=60,
+            probe.wait_for(lambda: 'replay: publishing' in err.read_text(), timeout=60,
                            what='playback to start')
             proc.send_signal(signal.SIGINT)
             probe.wait_for(lambda: proc.poll() is not None, timeout=60, what='replay to stop')
@@ -503,9 +503,8 @@ def test_a_subscriber_joining_during_playback_gets_what_follows_and_the_latched_
     err = tmp_path / 'stderr.txt'
     proc = _replay_proc(installed, ros_env, err, str(demo), '--rate', '0.05', '--no-clock')
     try:
-        # Joined late: after playback has started (its first progress line follows the first
-        # publish).
-        probe.wait_for(lambda: 'replay: t =' in err.read_text() or proc.poll() is not None,
+        # Joined late: after playback has started (its first line follows the first publish).
+        probe.wait_for(lambda: 'replay: publishing' in err.read_text() or proc.poll() is not None,
                        timeout=120, what='playback to start')
         assert proc.poll() is None, err.read_text()
         got = probe.collect(PoseStamped, '/ball/pose')

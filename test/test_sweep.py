@@ -390,18 +390,19 @@ def test_progress_is_whole_lines_in_a_pipe_and_a_bar_on_a_terminal(monkeypatch):
     pipe = _Stream(False)
     monkeypatch.setattr(sys, 'stderr', pipe)
     monkeypatch.setattr(sweep.Progress, 'PLAIN_EVERY_S', 0.0)
-    show = sweep.Progress(3, 'runs')
+    show = sweep.Progress(3, 'sweep', 'runs')
     for done in range(4):
         show(done)
     show.close()
     text = pipe.getvalue()
     assert '\r' not in text and text.endswith('\n')
-    assert text.splitlines()[-1].startswith('sweep: 3/3 runs, ')
+    assert text.splitlines()[-1].startswith('sweep: 3/3 runs (100.0%)')
     pytest.importorskip('tqdm')
     tty = _Stream(True)
     monkeypatch.setattr(sys, 'stderr', tty)
-    show = sweep.Progress(3, 'runs')
+    show = sweep.Progress(3, 'sweep', 'runs')
+    bar = show.bar
     for done in range(4):
         show(done)
     show.close()
-    assert show.bar is not None and '3/3' in tty.getvalue()
+    assert bar is not None and '3/3' in tty.getvalue()

@@ -34,6 +34,7 @@ from rb_sim_ros.recording import (message_class, ReaderError, RecordingReader, r
 from rb_sim_ros.recording.qos import POLICIES
 from rb_sim_ros.recording.schemas import type_name_of
 from rb_sim_ros.ros import node_params, node_recorder, plots, render, ros_arguments
+from rb_sim_ros.ros.progress import Progress
 from rb_sim_ros.ros.ros_messages import (fill_tf, OutputMessages, TF, tf_message, tf_qos,
                                          TF_STATIC, time_msg)
 from rb_sim_ros.sim.imu import ImuSensor
@@ -829,20 +830,21 @@ def _publish(rclpy, node, outputs, rate: float, wait: float, clock_type, clock_q
             p.get_subscription_count() for p in pubs.values()):
         rclpy.spin_once(node, timeout_sec=0.05)
     t0_sim, t0_wall = first[2], time.monotonic()
-    last_report = 0.0
     send = _Sender()
+    progress = Progress(round((end - t0_sim) * 1e-9, 3), 'replay', 's of sim time')
+    started = None
     for topic, msg, log_time in itertools.chain([first], outputs):
         if rate > 0:
             _sleep_until(t0_wall + (log_time - t0_sim) * 1e-9 / rate)
         if clock_pub is not None:
             clock_pub.publish(clock_type(clock=time_msg(log_time)))
         send(pubs[topic], topic, msg)
-        if time.monotonic() - last_report > 1.0:
-            last_report = time.monotonic()
-            done = (log_time - t0_sim) / max(1, end - t0_sim)
-            print(f'\rreplay: t = {log_time * 1e-9:10.3f} s  {100 * done:5.1f}%',
-                  end='', file=sys.stderr, flush=True)
-    print(f'\rreplay: t = {end * 1e-9:10.3f} s  100.0%', file=sys.stderr)
+        if started is None:  # said once the first message is out
+            started = True
+            print(f'replay: publishing {len(pubs)} topics, sim time {t0_sim * 1e-9:.3f} to '
+                  f'{end * 1e-9:.3f} s', file=sys.stderr, flush=True)
+        progress(round((log_time - t0_sim) * 1e-9, 3))
+    progress.close()
     # What DDS still holds for the subscribers (a keep_all history, the last messages of a
     # reliable topic) is lost if the process ends now: wait until they have it (at most
     # MAX_BLOCKED_S in all).
@@ -976,17 +978,16 @@ def main(args=None) -> int:
 
 
 def _progress(what: str):
-    """A progress line on stderr (at most twice a second), ended at the last of ``total``."""
-    last = [0.0]
+    """A progress callback ``show(done, total)`` for plots and renders (``Progress``: a tqdm bar
+    on a terminal, else whole lines), closed at the last of ``total``."""
+    bar = []
 
     def show(done: int, total: int) -> None:
-        now = time.monotonic()
-        if done < total and now - last[0] < 0.5:
-            return
-        last[0] = now
-        end = '\n' if done >= total else ''
-        print(f'\rreplay: {what} {done}/{total} {100.0 * done / max(total, 1):5.1f}%', end=end,
-              file=sys.stderr, flush=True)
+        if not bar:
+            bar.append(Progress(total, f'replay: {what}'))
+        bar[0](done)
+        if done >= total:
+            bar[0].close()
     return show
 
 

@@ -72,6 +72,7 @@ from rb_sim_ros.core.rigid_body import Wrench, ZERO_WRENCH
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.ros import node_params, node_recorder, replay, ros_arguments
 from rb_sim_ros.ros.node_recorder import NodeRecorder
+from rb_sim_ros.ros.progress import Progress
 from rb_sim_ros.ros.ros_messages import OutputMessages
 from rb_sim_ros.ros.send_wrench import load_profile
 from rb_sim_ros.ros.simulator_node import config_from
@@ -667,54 +668,6 @@ def make_engine(ray_address: str | None, workers: int):
 
 
 # -- the driver --------------------------------------------------------------------------------
-class Progress:
-    """Progress on stderr: a tqdm bar on a terminal (when tqdm is installed), else a plain
-    line at most every ``PLAIN_EVERY_S`` seconds and at the end (no carriage returns: a pipe or
-    a log file gets whole lines)."""
-
-    PLAIN_EVERY_S = 10.0
-
-    def __init__(self, total: int, what: str) -> None:
-        self.total, self.what, self.start, self.last = total, what, time.monotonic(), None
-        self.bar = None
-        if _isatty(sys.stderr):
-            try:
-                from tqdm import tqdm
-            except ImportError:
-                tqdm = None
-            if tqdm is not None:
-                self.bar = tqdm(total=total, unit=f' {what}', desc='sweep', file=sys.stderr,
-                                dynamic_ncols=True)
-
-    def __call__(self, done: int) -> None:
-        if self.bar is not None:
-            self.bar.update(done - self.bar.n)
-            return
-        now = time.monotonic()
-        if done < self.total and self.last is not None and now - self.last < self.PLAIN_EVERY_S:
-            return
-        if self.last is None and done < self.total:  # the first line waits a period too
-            self.last = now
-            return
-        self.last = now
-        rate = done / max(now - self.start, 1e-9)
-        eta = f', ETA {(self.total - done) / rate:.0f} s' if 0 < rate and done < self.total \
-            else ''
-        print(f'sweep: {done}/{self.total} {self.what}, {rate:.2f}/s{eta}', file=sys.stderr,
-              flush=True)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
-
-
-def _isatty(stream) -> bool:
-    try:
-        return stream.isatty()
-    except (AttributeError, ValueError):
-        return False
-
-
 class _NoProgress:
     def __call__(self, done: int) -> None:
         pass
@@ -760,7 +713,7 @@ def sweep(scene_path: str, varies: list, seeds: int, steps: int, out_dir: str,
     keys = [k for k, _ in varies]
     rows = []
     partial = os.path.join(out_dir, 'summary.partial.jsonl')
-    show = Progress(len(runs), 'runs') if progress else _NoProgress()
+    show = Progress(len(runs), 'sweep', 'runs') if progress else _NoProgress()
     stop = None
     try:
         with open(partial, 'w') as f:
@@ -836,7 +789,7 @@ def verify_many(paths: list, engine=None, progress: bool = True) -> list:
     engine = engine or LocalEngine(os.cpu_count() or 1)
     tasks = chunks(len(paths), engine.workers)
     results = {}
-    show = Progress(len(paths), 'files') if progress else _NoProgress()
+    show = Progress(len(paths), 'sweep --verify', 'files') if progress else _NoProgress()
     try:
         for i, result in engine.map(verify_task, None,
                                     [(_Files(paths[a:b]),) for a, b in tasks]):
