@@ -98,6 +98,18 @@ _TYPES = {name: t for name, t, _, _ in TOPICS + SERVICES}
 
 # Most steps run between two looks at the stop flag: shutdown never waits for a long period.
 _CHUNK_STEPS = 1000
+# ... and about the wall time a chunk may take: where a step is slow (a heap of contacts), the
+# chunks shrink to what runs in this time (one step at least, which nothing can interrupt).
+_CHUNK_WALL_S = 0.05
+
+
+def next_chunk(steps: int, seconds: float) -> int:
+    """Steps of the next chunk after one of ``steps`` took ``seconds`` of wall time."""
+    if steps <= 0 or not seconds > 0.0:
+        return _CHUNK_STEPS
+    return max(1, min(_CHUNK_STEPS, int(_CHUNK_WALL_S * steps / seconds)))
+
+
 # Messages the recording's writer may have queued before the step loop waits for it.
 MAX_BACKLOG = 10_000
 
@@ -109,6 +121,7 @@ class SimulatorNode(Node):
         super().__init__('rb_sim', **kwargs)
         self._thread = self._recorder = None
         self._stop = threading.Event()
+        self._chunk = _CHUNK_STEPS  # steps between two looks at the stop flag (next_chunk)
         try:
             self._start()
         except BaseException:  # a bad value or a signal while starting: leave nothing open
@@ -565,7 +578,10 @@ class SimulatorNode(Node):
             # on shutdown; chunking does not change a run.
             end = start + (self.config.steps_per_publish if steps is None else steps)
             while sim.step_count < end and not self._stop.is_set():
-                sim.run(min(end - sim.step_count, _CHUNK_STEPS))
+                n = min(end - sim.step_count, self._chunk)
+                chunk_t0 = time.perf_counter()
+                sim.run(n)
+                self._chunk = next_chunk(n, time.perf_counter() - chunk_t0)
         except IntegrationError as e:
             self._fail(str(e))
         self.diagnostics.stepped(sim.step_count - start, time.perf_counter_ns() - t0,
