@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from rb_sim_ros.ros import node_params
-from rb_sim_ros.ros.simulator_node import _CHUNK_STEPS, _CHUNK_WALL_S, config_from, next_chunk
+from rb_sim_ros.ros.simulator_node import (_CHUNK_STEPS, _CHUNK_WALL_S, config_from,
+                                           describe_bodies, next_chunk)
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import Simulation
 
@@ -51,3 +52,13 @@ def test_chunks_of_any_size_give_the_bits_of_one_call():
     for name in moving:
         for a, b in zip(one.pose_twist(name), chunked.pose_twist(name)):
             assert np.array_equal(np.asarray(a), np.asarray(b)), name
+
+
+def test_the_start_up_line_gives_a_moving_body_its_mass_and_a_static_one_none():
+    values = {p.name: p.default for p in node_params.PARAMS}
+    config = config_from(values, load_scene(str(ROOT / 'scenes' / 'collisions.yaml')))
+    line = describe_bodies(config.bodies, 0)
+    for b in config.bodies:
+        part = line.split(f'{b.name} (')[1].split(')')[0]
+        assert part == ('static' if b.static else f'{b.mass:g} kg'), (b.name, line)
+    assert any(b.static for b in config.bodies) and not all(b.static for b in config.bodies)

@@ -110,6 +110,17 @@ def next_chunk(steps: int, seconds: float) -> int:
     return max(1, min(_CHUNK_STEPS, int(_CHUNK_WALL_S * steps / seconds)))
 
 
+def describe_bodies(bodies, with_topics: int, shown: int = 10) -> str:
+    """The start-up line's bodies: a moving body with its mass, a static one without (it has
+    none that means anything: infinite in contacts); the first ``shown``, then a count."""
+    text = ', '.join(f'{b.name} (static)' if b.static else f'{b.name} ({b.mass:g} kg)'
+                     for b in bodies[:shown])
+    if len(bodies) > shown:
+        text += (f' and {len(bodies) - shown} more ({with_topics} with topics of their own, '
+                 "all on 'poses')")
+    return text
+
+
 # Messages the recording's writer may have queued before the step loop waits for it.
 MAX_BACKLOG = 10_000
 
@@ -240,14 +251,10 @@ class SimulatorNode(Node):
         self._publish()
         self._thread = threading.Thread(target=self._loop, name='rb_sim_step_loop', daemon=True)
         self._thread.start()
-        bodies = ', '.join(f'{b.name} (static)' if b.static else f'{b.name} ({b.mass:g} kg)'
-                           for b in self.config.bodies[:10])
-        if len(self.config.bodies) > 10:
-            bodies += (f' and {len(self.config.bodies) - 10} more ({len(self.ports)} with '
-                       "topics of their own, all on 'poses')")
         self.get_logger().info(
-            f'simulating {bodies}; dt {self.config.dt} s, publishing every '
-            f'{self.config.steps_per_publish} steps, real_time_factor '
+            f'simulating {describe_bodies(self.config.bodies, len(self.ports))}; '
+            f'dt {self.config.dt} s, publishing every {self.config.steps_per_publish} steps, '
+            f'real_time_factor '
             f'{values["real_time_factor"]}')
         if self._recorder is not None:
             self.get_logger().info(f"recording to '{os.path.abspath(values['record'])}'")
