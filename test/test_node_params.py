@@ -171,3 +171,16 @@ def test_a_scene_body_named_like_world_frame_is_refused():
         node_params.body_frame(DEFAULTS, 'world', False)
     assert node_params.body_frame(dict(DEFAULTS, frame_prefix='sim1/'), 'world', False) == \
         'sim1/world'
+
+
+def test_a_keep_all_override_takes_the_depth_0_rosbag2_records_and_keep_last_needs_1():
+    from rclpy.qos import HistoryPolicy, QoSProfile
+
+    from rb_sim_ros.ros.body_ports import _valid_overrides, MAX_DEPTH
+    assert _valid_overrides(QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=0)).successful
+    assert _valid_overrides(QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1)).successful
+    for history, depth in ((HistoryPolicy.KEEP_LAST, 0), (HistoryPolicy.KEEP_ALL, MAX_DEPTH + 1)):
+        profile = QoSProfile(history=history, depth=1)
+        profile.depth = depth
+        result = _valid_overrides(profile)
+        assert not result.successful and 'depth must be from' in result.reason

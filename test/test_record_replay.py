@@ -556,6 +556,7 @@ def test_replay_as_fast_as_possible_waits_for_a_keep_all_subscriber_and_drops_no
         while proc.poll() is None and 'subscribers are behind' not in err.read_text():
             assert time.monotonic() < end, err.read_text()
             time.sleep(0.05)
+        assert 'subscribers are behind' in err.read_text(), err.read_text()  # it had to wait
         probe.wait_for(lambda: proc.poll() is not None, timeout=300, what='replay to finish')
         probe.wait_for(lambda: len(got) >= n + 1, timeout=120, what='every pose')
     finally:

@@ -5,6 +5,11 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 req=${1:-requirements.txt}
 venv=${RB_SIM_VENV:-$root/.venv}
+# Two set-up commands started at once (a test run beside the simulator) set up one at a time:
+# the second waits on the lock, then finds the venv made and the stamp current.
+mkdir -p "$venv"
+exec {rb_sim_lock}>"$venv/.rb_sim_ros.lock"
+flock "$rb_sim_lock"
 if [ ! -x "$venv/bin/python" ]; then
   echo "[rb_sim_ros] creating $venv" >&2
   python3 -m venv "$venv"
@@ -26,10 +31,6 @@ rb_sim_current() {
   done
   return 1
 }
-# Two set-up commands started at once (a test run beside the simulator) install one at a time:
-# the second waits on the lock, then finds the stamp current.
-exec {rb_sim_lock}>"$venv/.rb_sim_ros.lock"
-flock "$rb_sim_lock"
 if ! rb_sim_current; then
   echo "[rb_sim_ros] installing $req into $venv (about 1 min the first time;" \
     "pip's log: $venv/.rb_sim_ros-pip.log)" >&2

@@ -16,7 +16,7 @@ from geometry_msgs.msg import AccelStamped, PoseStamped, Twist, Wrench as Wrench
     WrenchStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.qos import DurabilityPolicy, QoSPolicyKind, QoSProfile
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSPolicyKind, QoSProfile
 from rclpy.qos_overriding_options import QoSOverridingOptions
 from sensor_msgs.msg import Imu
 
@@ -33,10 +33,12 @@ MAX_DEPTH = 2 ** 31 - 1
 
 
 def _valid_overrides(qos: QoSProfile) -> SetParametersResult:
-    """The profile of a topic after its overrides, checked before rclpy hands it to rcl."""
-    if not 1 <= qos.depth <= MAX_DEPTH:
+    """The profile of a topic after its overrides, checked before rclpy hands it to rcl: a
+    keep_last history needs a depth of 1 or more (keep_all ignores it, 0 as rosbag2 writes)."""
+    low = 0 if qos.history == HistoryPolicy.KEEP_ALL else 1
+    if not low <= qos.depth <= MAX_DEPTH:
         return SetParametersResult(successful=False, reason=(
-            f'depth must be from 1 to {MAX_DEPTH}, got {qos.depth}'))
+            f'depth must be from {low} to {MAX_DEPTH}, got {qos.depth}'))
     return SetParametersResult(successful=True)
 
 

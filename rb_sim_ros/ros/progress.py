@@ -51,12 +51,16 @@ class Progress:
             self.last = now
             self._line(now)
 
-    def close(self) -> None:
+    def close(self, finished: bool = True) -> None:
+        """The end: of the whole job (the bar full, a last line), or, not ``finished``
+        (interrupted), where it stopped: the bar left as it is and no line (the caller says
+        what was done)."""
         if self.bar is not None:
-            self.bar.update(self.total - self.bar.n)
+            if finished:
+                self.bar.update(self.total - self.bar.n)
             self.bar.close()
             self.bar = None
-        else:
+        elif finished:
             self.done = self.total
             self._line(time.monotonic())
 

@@ -830,7 +830,7 @@ def _publish(rclpy, node, outputs, rate: float, wait: float, clock_type, clock_q
             p.get_subscription_count() for p in pubs.values()):
         rclpy.spin_once(node, timeout_sec=0.05)
     t0_sim, t0_wall = first[2], time.monotonic()
-    send = _Sender()
+    send = _Sender(t for t in types if _keeps_all(qos.get(t)))
     progress = Progress(round((end - t0_sim) * 1e-9, 3), 'replay', 's of sim time')
     started = None
     for topic, msg, log_time in itertools.chain([first], outputs):
@@ -848,16 +848,23 @@ def _publish(rclpy, node, outputs, rate: float, wait: float, clock_type, clock_q
     # What DDS still holds for the subscribers (a keep_all history, the last messages of a
     # reliable topic) is lost if the process ends now: wait until they have it (at most
     # MAX_BLOCKED_S in all).
-    deadline = time.monotonic() + MAX_BLOCKED_S
+    # In slices: the wait is in C, and Ctrl-C is acted on only between two calls.
+    from rclpy.duration import Duration
+    start = time.monotonic()
+    deadline = start + MAX_BLOCKED_S
+    behind = []
     for topic, pub in pubs.items():
         wait_acked = getattr(pub, 'wait_for_all_acked', None)
         if wait_acked is None:
             continue
-        from rclpy.duration import Duration
-        left = max(0.0, deadline - time.monotonic())
-        if not wait_acked(Duration(nanoseconds=int(left * 1e9))):
-            print(f'replay: {topic}: its subscribers have not acknowledged every message '
-                  f'after {MAX_BLOCKED_S:g} s; some may not have arrived', file=sys.stderr)
+        while not wait_acked(Duration(nanoseconds=200_000_000)):
+            if time.monotonic() >= deadline:
+                behind.append(topic)
+                break
+    if behind:
+        print(f'replay: the subscribers of {", ".join(behind)} had not acknowledged every '
+              f'message after {time.monotonic() - start:.0f} s; some may not have arrived',
+              file=sys.stderr)
 
 
 class _Sender:
@@ -867,7 +874,8 @@ class _Sender:
     that is the normal case. Tried again until it goes out; ValueError (one line) after
     MAX_BLOCKED_S without progress."""
 
-    def __init__(self) -> None:
+    def __init__(self, keep_all=()) -> None:
+        self._keep_all = set(keep_all)  # the topics published keep_all
         try:
             from rclpy._rclpy_pybind11 import RCLError
         except ImportError:  # not this rclpy: nothing to wait for
@@ -882,19 +890,29 @@ class _Sender:
                 pub.publish(msg)
                 return
             except self._full as e:
+                why = ' '.join(str(e).split())[:120]
+                if topic not in self._keep_all:  # not a full keep_all history: failed
+                    raise ValueError(f'{topic}: publishing failed ({why})') from None
                 now = time.monotonic()
                 if end is None:
                     end = now + MAX_BLOCKED_S
                     if not self._told:
                         self._told = True
-                        print(f'\nreplay: {topic}: its subscribers are behind (keep_all: '
+                        print(f'replay: {topic}: its subscribers are behind (keep_all: '
                               'nothing is dropped); waiting for them', file=sys.stderr,
                               flush=True)
                 elif now > end:
                     raise ValueError(f'{topic}: no room to publish for {MAX_BLOCKED_S:g} s '
                                      '(a keep_all subscriber takes no messages): stopped '
-                                     f'({" ".join(str(e).split())[:120]})') from None
+                                     f'({why})') from None
                 time.sleep(0.005)
+
+
+def _keeps_all(qos) -> bool:
+    """Whether a publisher of ``qos`` (a QoSProfile, or a depth) keeps all (where a full
+    queue fails a publish)."""
+    from rclpy.qos import HistoryPolicy
+    return getattr(qos, 'history', None) == HistoryPolicy.KEEP_ALL
 
 
 _Parser = ros_arguments.OneLineParser

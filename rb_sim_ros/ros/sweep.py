@@ -485,6 +485,16 @@ def _on_signal(signum, _frame) -> None:
     raise Interrupted(signum)
 
 
+def _hold_signals() -> None:
+    """After the first SIGINT or SIGTERM: later ones are noted, not raised, while the workers
+    are stopped and the summary is written (main restores its handlers after)."""
+    try:
+        for n in _HANDLED:
+            signal.signal(n, lambda signum, _frame: _SIGNALS.append(signum))
+    except ValueError:  # not the main thread: nothing of ours is installed there
+        pass
+
+
 def _signum(e: BaseException) -> int:
     """The signal that interrupted: Interrupted's own, else the last main's handler took."""
     return getattr(e, 'signum', None) or (_SIGNALS[-1] if _SIGNALS else signal.SIGINT)
@@ -672,7 +682,7 @@ class _NoProgress:
     def __call__(self, done: int) -> None:
         pass
 
-    def close(self) -> None:
+    def close(self, finished: bool = True) -> None:
         pass
 
 
@@ -736,9 +746,10 @@ def sweep(scene_path: str, varies: list, seeds: int, steps: int, out_dir: str,
                 show(len(rows))
     except KeyboardInterrupt as e:  # SIGINT, or SIGTERM by main's handler: stop, keep rows
         stop = e
+        _hold_signals()  # a second one must not lose the summary of the first
         engine.abort()
     finally:
-        show.close()
+        show.close(finished=stop is None)
         if own:
             engine.close()
     rows.sort(key=lambda r: r['run'])
@@ -790,6 +801,7 @@ def verify_many(paths: list, engine=None, progress: bool = True) -> list:
     tasks = chunks(len(paths), engine.workers)
     results = {}
     show = Progress(len(paths), 'sweep --verify', 'files') if progress else _NoProgress()
+    stopped = False
     try:
         for i, result in engine.map(verify_task, None,
                                     [(_Files(paths[a:b]),) for a, b in tasks]):
@@ -800,11 +812,13 @@ def verify_many(paths: list, engine=None, progress: bool = True) -> list:
                 results[name] = (ok, text)
             show(len(results))
     except KeyboardInterrupt as e:
+        stopped = True
+        _hold_signals()
         engine.abort()
         raise Interrupted(_signum(e),
                           f'{len(results)} of {len(paths)} files verified') from None
     finally:
-        show.close()
+        show.close(finished=not stopped)
         if own:
             engine.close()
     return [(p, *results[p]) for p in paths]
