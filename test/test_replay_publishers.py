@@ -164,3 +164,24 @@ def test_topic_names_are_judged_as_rclpy_judges_them():
         except Exception:  # rclpy's InvalidTopicNameException
             valid = False
         assert (replay.topic_name_problem(name) == '') == valid, name
+
+
+class _Failing:
+    """A publisher whose every publish fails as rclpy's does (an RCLError)."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def publish(self, msg):
+        from rclpy._rclpy_pybind11 import RCLError
+        self.calls += 1
+        raise RCLError('failed to publish: some rmw error')
+
+
+def test_a_publish_that_fails_on_a_topic_not_keep_all_is_one_line_at_once():
+    """Only a keep_all topic waits for room (its full history fails the publish); anywhere
+    else a failed publish is an error, said at once, not retried for a minute."""
+    pub = _Failing()
+    with pytest.raises(ValueError, match=r'^/a: publishing failed \(failed to publish'):
+        replay._Sender(keep_all=['/b'])(pub, '/a', object())
+    assert pub.calls == 1
