@@ -195,3 +195,24 @@ def test_a_step_that_fails_raises_and_does_not_warn_too():
         with pytest.raises(IntegrationError, match='faster than 1 rad a step'):
             step_all([slow, fast], 2)
         assert _turn_warnings(record) == []
+
+
+def test_a_body_of_a_collision_world_warns_as_a_stepper_does():
+    """The world's own kernel steps its bodies: a body spinning past eq27's bound warns once,
+    one turning within it (the other ball) does not."""
+    from rb_sim_ros.contact.collision_shapes import Sphere
+    from rb_sim_ros.contact.collision_world import CollisionWorld
+    from rb_sim_ros.sim.simulation import BodySpec
+    dt, bound = 1e-3, TURN_BOUNDS['eq27']
+    fast = BodySpec('fast', 1.0, (0.1, 0.2, 0.3), initial_angular_velocity=(
+        1.5 * bound / dt, 0.1, 0.0), colliders=(Sphere(0.1),))
+    slow = BodySpec('slow', 1.0, (0.1, 0.2, 0.3), initial_position=(5.0, 0.0, 0.0),
+                    initial_angular_velocity=(0.5 * bound / dt, 0.0, 0.0),
+                    colliders=(Sphere(0.1),))
+    world = CollisionWorld((fast, slow), dt, (0.0, 0.0, 0.0))
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter('always')
+        world.step(3)
+        world.step(2)
+    (w,) = _turn_warnings(record)
+    assert 'eq27' in str(w.message)

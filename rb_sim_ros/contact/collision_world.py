@@ -442,6 +442,7 @@ class CollisionWorld:
         self._account(int(status[ws.S_STEPS_DONE]), seconds)
         if status[ws.S_KIND] != ws.OK:
             raise self._error()
+        self._store.check_turns(self._rows)  # a TurnWarning, as the bodies' own steps give
 
     @property
     def last_solve_energy(self) -> tuple[float, float]:
