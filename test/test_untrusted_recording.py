@@ -17,21 +17,18 @@ import tracemalloc
 from unittest import mock
 
 from hypothesis import given, HealthCheck, settings, strategies as st
-from mcap.reader import make_reader
 from mcap.writer import Writer
 import pytest
-from rclpy.serialization import serialize_message
 from rosbags.highlevel import AnyReader
-from std_msgs.msg import String
 
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.ros import node_params, replay
-from rb_sim_ros.ros.node_recorder import NodeRecorder, OUTPUTS, RUN_DEFINITION
+from rb_sim_ros.ros.node_recorder import NodeRecorder, OUTPUTS
 from rb_sim_ros.ros.ros_messages import fill_tf, OutputMessages, tf_message
 from rb_sim_ros.sim.simulation import (BodySpec, Config, Delete, SetWrench, Simulation,
                                        Spawn)
-from recordings import mcap_parts, record_offline
+from recordings import mcap_parts, record_offline, rewrite, topic_parts
 from test_recording import disk_full_after
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
@@ -313,31 +310,7 @@ def test_non_finite_recorded_outputs_fail(tmp_path):
     assert 'identical' not in out
 
 
-def _parts(path):
-    """(schemas, channels, [(topic, message record)], rb_sim_ros metadata), read by mcap."""
-    with open(path, 'rb') as fh:
-        reader = make_reader(fh)
-        summary = reader.get_summary()
-        messages = [(c.topic, m) for _s, c, m in reader.iter_messages()]
-        meta = next(dict(m.metadata) for m in reader.iter_metadata() if m.name == 'rb_sim_ros')
-    return summary.schemas, summary.channels, messages, meta
-
-
-def _write(path, schemas, channels, messages, meta):
-    with open(path, 'wb') as f:
-        w = Writer(f)
-        w.start(profile='ros2', library='test')
-        sids = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in schemas.items()}
-        cids = {c.topic: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id],
-                                            dict(c.metadata)) for c in channels.values()}
-        for topic, m in messages:
-            data = m.data
-            if topic == RUN_DEFINITION:  # the definition message says what the metadata says
-                data = serialize_message(String(data=json.dumps(meta, sort_keys=True)))
-            w.add_message(cids[topic], m.log_time, data, m.publish_time, m.sequence)
-        w.add_metadata('rb_sim_ros', meta)
-        w.finish()
-    return path
+_parts, _write = topic_parts, rewrite
 
 
 def test_an_offline_run_verifies_and_other_inputs_do_not(tmp_path):

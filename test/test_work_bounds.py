@@ -70,42 +70,17 @@ def _load_edited_recording(tmp_path, change):
     """replay.load of a recording made offline (two bodies, no colliders) whose config
     ``change`` (a function of the decoded config) edited, as an attacker would."""
     pytest.importorskip('mcap')
-    from mcap.reader import make_reader
-    from mcap.writer import Writer
-    from rclpy.serialization import serialize_message
-    from recordings import record_offline
-    from std_msgs.msg import String
+    from recordings import record_offline, rewrite, topic_parts
 
     from rb_sim_ros.ros import replay
-    from rb_sim_ros.ros.node_recorder import RUN_DEFINITION
 
     good = tmp_path / 'good.mcap'
     record_offline(good, Config(bodies=(BodySpec('one'), BodySpec('two'))), periods=2)
-    with open(good, 'rb') as f:
-        reader = make_reader(f)
-        summary = reader.get_summary()
-        messages = [(c.topic, m) for _s, c, m in reader.iter_messages()]
-        meta = next(dict(m.metadata) for m in reader.iter_metadata() if m.name == 'rb_sim_ros')
+    schemas, channels, messages, meta = topic_parts(good)
     config = json.loads(meta['config'])
     change(config)
     meta = {**meta, 'config': json.dumps(config)}
-    bad = tmp_path / 'bad.mcap'
-    with open(bad, 'wb') as f:
-        w = Writer(f)
-        w.start(profile='ros2', library='test')
-        sids = {i: w.register_schema(s.name, s.encoding, s.data)
-                for i, s in summary.schemas.items()}
-        cids = {c.topic: w.register_channel(c.topic, c.message_encoding, sids[c.schema_id],
-                                            dict(c.metadata))
-                for c in summary.channels.values()}
-        for topic, m in messages:
-            data = m.data
-            if topic == RUN_DEFINITION:  # the definition message says what the metadata says
-                data = serialize_message(String(data=json.dumps(meta, sort_keys=True)))
-            w.add_message(cids[topic], m.log_time, data, m.publish_time, m.sequence)
-        w.add_metadata('rb_sim_ros', meta)
-        w.finish()
-    return replay.load(str(bad))
+    return replay.load(str(rewrite(tmp_path / 'bad.mcap', schemas, channels, messages, meta)))
 
 
 def test_a_recording_whose_config_has_too_many_colliders_is_refused_by_load(tmp_path):
