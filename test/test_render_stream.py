@@ -59,8 +59,9 @@ def test_the_memory_a_gif_needs_does_not_grow_with_its_frames(tmp_path):
     # the same few blocks however long the run.
     assert blocks1 <= 6 and blocks4 <= blocks1, (blocks1, blocks4)
     # and the Python heap grows far less than the frames: 75 more frames of 320x240 held as
-    # bytes would be 5.8 MB; only the timeline's floats grow (a few kB).
-    assert peak4 - peak1 < 0.05 * 75 * SIZE[0] * SIZE[1], (peak1, peak4)
+    # bytes would be 5.8 MB; what grows is the timeline's floats and the recording's reader
+    # (a chunk of messages, some 300 kB here, bounded by the chunk size, not the length).
+    assert peak4 - peak1 < 0.2 * 75 * SIZE[0] * SIZE[1], (peak1, peak4)
 
 
 def test_the_gif_read_back_shows_the_frames_drawn_with_their_delays(tmp_path):
