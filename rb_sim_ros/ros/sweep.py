@@ -480,9 +480,33 @@ _SIGNALS = []  # those main's handler took: Ray turns what a handler raises into
 # KeyboardInterrupt (its waits check for signals), so the signal is kept here too
 
 
+_DEFERRING = [False]  # True while the driver waits inside the pool (it holds its locks)
+_PENDING = []  # signals that came then, raised once the wait is left
+
+
 def _on_signal(signum, _frame) -> None:
     _SIGNALS.append(signum)
+    if _DEFERRING[0]:  # raised inside concurrent.futures.wait, it could leave a future's lock
+        _PENDING.append(signum)  # held and the pool's shutdown would wait for ever
+        return
     raise Interrupted(signum)
+
+
+def _wait_first(running) -> set:
+    """The futures of ``running`` done first (``wait``, FIRST_COMPLETED), in slices: a signal
+    that comes meanwhile is raised between two slices, when no lock of the pool is held."""
+    while True:
+        _DEFERRING[0] = True
+        try:
+            done = wait(running, timeout=0.2, return_when=FIRST_COMPLETED)[0]
+        finally:
+            _DEFERRING[0] = False
+        if _PENDING:
+            signum = _PENDING[-1]
+            _PENDING.clear()
+            raise Interrupted(signum)
+        if done:
+            return done
 
 
 def _hold_signals() -> None:
@@ -583,8 +607,7 @@ class LocalEngine:
             except BrokenProcessPool:
                 broken = True
             failed = []
-            for future in (wait(running, return_when=FIRST_COMPLETED)[0]
-                           if running and not broken else ()):
+            for future in (_wait_first(running) if running and not broken else ()):
                 i = running.pop(future)
                 try:
                     result = future.result()
