@@ -66,7 +66,7 @@ def test_a_tier_rebinds_every_global_naming_a_kernel():
     compiled, interpreted = _kernel_globals()
     assert not interpreted and len(compiled) > 50  # kernels made at import are compiled
     assert ('rb_sim_ros.contact.world_step', 'world_steps') in compiled
-    assert ('rb_sim_ros.core.step_kernel', 'advance') in compiled
+    assert ('rb_sim_ros.core.step_kernel', 'advance_bodies') in compiled
     jit.run_interpreted()
     assert jit.interpreted()
     assert _kernel_globals() == (set(), compiled)
@@ -128,17 +128,18 @@ def test_batch_lanes_keep_their_bits_across_tiers():
 
 def test_the_precompiled_marker_names_these_sources(monkeypatch, tmp_path):
     """precompile's marker is per cache, source text and numba: another cache or a changed
-    source is not precompiled."""
+    source is not precompiled; nor is a part that was not marked."""
     monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path / 'a'))
-    assert not jit.precompiled()
-    jit.mark_precompiled()
-    assert jit.precompiled()
+    assert not jit.precompiled(['bodies-two-step'])
+    jit.mark_precompiled('bodies-two-step')
+    assert jit.precompiled(['bodies-two-step'])
+    assert not jit.precompiled(['bodies-two-step', 'contact-two-step'])
     monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path / 'b'))
-    assert not jit.precompiled()
+    assert not jit.precompiled(['bodies-two-step'])
     monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path / 'a'))
     jit.process_stamp()
     monkeypatch.setattr(jit, '_stamp', 'an edited source')
-    assert not jit.precompiled()
+    assert not jit.precompiled(['bodies-two-step'])
 
 
 def test_a_background_compile_is_done_only_with_the_marker(monkeypatch, tmp_path):
@@ -146,15 +147,20 @@ def test_a_background_compile_is_done_only_with_the_marker(monkeypatch, tmp_path
     (here the child is /bin/false or /bin/true, which compile nothing)."""
     monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path))
     monkeypatch.setattr(precompile.sys, 'executable', '/bin/false')
-    child = precompile.Background()
+    parts = ['bodies-k-step', 'contact-k-step']
+    child = precompile.Background(parts)
     assert child.wait() == 'the compiling process exited with 1'
     child.stop()
     monkeypatch.setattr(precompile.sys, 'executable', '/bin/true')
-    child = precompile.Background()
+    child = precompile.Background(parts)
     assert child.wait() == f'the compiling process left no marker in {tmp_path}/rb_sim_ros'
     child.stop()
-    jit.mark_precompiled()
-    child = precompile.Background()
+    jit.mark_precompiled(parts[0])
+    child = precompile.Background(parts)
+    assert child.wait() == f'the compiling process left no marker in {tmp_path}/rb_sim_ros'
+    child.stop()
+    jit.mark_precompiled(parts[1])
+    child = precompile.Background(parts)
     assert child.wait() == ''
     child.stop()
 

@@ -124,7 +124,7 @@ def test_the_cache_moves_to_the_user_directory_where_the_package_is_read_only(
         tmp_path, monkeypatch):
     unwritable = Path('/dev/null/numba')  # under a file: mkdir fails, as in a read-only tree
     monkeypatch.setattr(jit, 'cache_directories', lambda: [unwritable, tmp_path / 'user'])
-    function = getattr(K.advance, 'py_func', K.advance)
+    function = getattr(K.advance_bodies, 'py_func', K.advance_bodies)
     locator = jit._SourceHashLocator.from_function(function, K.__file__)
     assert locator is not None and Path(locator.get_cache_path()) == tmp_path / 'user'
     # Functions outside the package are left to numba's own locators.
@@ -200,7 +200,7 @@ def test_a_block_of_lanes_gives_each_body_the_bits_of_its_own_steps():
         status, taken = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
         bad = np.zeros((n, 3))
         if blocked:
-            assert K._blocked(b._coefficients, bodies, 40, False)
+            assert K.blocked(b._coefficients, len(bodies), 40, False)
             K.advance(state, dst, b._params, b._coefficients, bodies, 40, False, status, taken,
                       bad, work)
         else:

@@ -112,13 +112,13 @@ def test_the_install_compiles_the_kernels_into_its_own_tree(installed, tmp_path)
     cache's marker says so to a node (which then does not start in the interpreter)."""
     site = ros_harness.site_packages(installed)
     cache = site / 'rb_sim_ros' / '__pycache__' / 'numba'
-    for kernel in ('step_kernel.advance-', 'world_step.world_steps-'):
+    for kernel in ('step_kernel.advance_bodies-', 'world_step.world_steps-'):
         assert any(f.name.startswith(kernel) for f in cache.glob('*.nbi')), kernel
     code = ('from numba.core import event\n'
             'import rb_sim_ros\n'
             'from rb_sim_ros.core import jit\n'
-            'from rb_sim_ros.sim.precompile import precompile\n'
-            'marked = jit.precompiled()\n'
+            'from rb_sim_ros.sim.precompile import PARTS, precompile\n'
+            'marked = jit.precompiled(PARTS)\n'
             "with event.install_recorder('numba:compile') as compiled:\n"
             '    precompile()\n'
             'print(rb_sim_ros.__file__, len(compiled.buffer), marked)\n')

@@ -64,6 +64,7 @@ from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.contact import world_step as ws
 from rb_sim_ros.contact.bodies import BodySpec, make_steppers
 from rb_sim_ros.contact.collision_shapes import Plane, Shape
+from rb_sim_ros.core import step_kernel as K
 from rb_sim_ros.core.rigid_body import finite_floats, non_negative, State
 from rb_sim_ros.core.step_count import check_steps
 from rb_sim_ros.core.stepper import carry_over, IntegrationError, step_all
@@ -465,7 +466,7 @@ class CollisionWorld:
         self._status[ws.S_STEP] = self._step_count
         self._status[ws.S_UNCHECKED] = int(self._unchecked)
         return ws.world_steps(self._world(), n, self._warm_keys, self._warm_normal,
-                              self._warm_tangent)
+                              self._warm_tangent, K.family(self._store.coefficients))
 
     def _world(self) -> tuple:
         """The world's arrays for the step kernel (the store's, as they are now), in the order

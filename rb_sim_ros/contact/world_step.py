@@ -6,7 +6,7 @@
 built by ``collision_world.CollisionWorld`` for each call) through ``n`` steps of the order
 written in ``collision_world``'s module docstring:
 
-1. the awake bodies take one step of the step kernel (``step_kernel.advance_body``), the ones
+1. the awake bodies take one step of the step kernel (``step_kernel.body_step``), the ones
    without colliders too;
 2. the colliders are placed, and paired: sweep and prune on their AABBs (sleepers pair like
    static colliders; an awake body that reaches a sleeper wakes it, and its whole pile, in this
@@ -37,7 +37,7 @@ import numpy as np
 from rb_sim_ros.contact import broad_phase as bp, narrow_kernels as nk, solver_kernels as sk
 from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.core import step_kernel as K
-from rb_sim_ros.core.jit import inline_kernel, kernel
+from rb_sim_ros.core.jit import inline_kernel, kernel, literally
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
 FEATURE_BITS = 12
@@ -90,13 +90,15 @@ World = namedtuple('World', [
 
 
 @kernel
-def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
+def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent, family):
     """``n`` steps of the world (see the module doc) of ``arrays``, a World's arrays as a plain
     tuple in its order (one crosses from Python in two thirds of the time of a named tuple).
     Returns the warm-start arrays and the last step's contacts: (warm_keys, warm_normal,
     warm_tangent, point, normal, depth, normal_impulse, collider_a, collider_b);
     w.status[S_COLLIDED] says whether a contact pass ran in this call (else the contacts
-    returned are not the last step's)."""
+    returned are not the last step's). ``family``: the bodies' method's
+    (``step_kernel.family``), compiled for its value alone."""
+    f = literally(family)
     w = World(*arrays)
     point, normal = np.zeros((0, 3)), np.zeros((0, 3))
     depth, impulse = np.zeros(0), np.zeros(0)
@@ -111,7 +113,7 @@ def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
         # again. (One call site of each stage: they are compiled inline.)
         integrated = w.status[S_UNCHECKED] == 0
         if integrated:
-            row = _integrate(w.step_rows, w.body_of_row, w.asleep, w.state, w.spare,
+            row = _integrate(f, w.step_rows, w.body_of_row, w.asleep, w.state, w.spare,
                              w.params, w.coefficients, w.kstatus, w.taken, w.bad, w.work,
                              w.clock)
             w.status[S_STEP] += 1
@@ -166,7 +168,7 @@ def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
                 # fails, the others still take it; the step stops there.
                 failed = -1
                 for k in range(nb):
-                    if woken[k] and _advance_row(w.state, w.spare, w.params, w.coefficients,
+                    if woken[k] and _advance_row(f, w.state, w.spare, w.params, w.coefficients,
                                                  w.kstatus, w.taken, w.bad, w.work, w.clock,
                                                  w.rows[k]) and failed < 0:
                         failed = w.rows[k]
@@ -335,16 +337,17 @@ def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
 
 
 @inline_kernel
-def _advance_row(state, spare, params, coefficients, kstatus, taken, bad, work, clock, row):
+def _advance_row(f, state, spare, params, coefficients, kstatus, taken, bad, work, clock,
+                 row):
     """One step of store row ``row``; True if it failed (then it stays at its state before;
     the reason in kstatus)."""
     one = int(1)
-    K.advance_body(state, spare, params, coefficients, row, one, bool(False), kstatus, taken,
-                   bad, work)
+    K.body_step(f, state, spare, params, coefficients, row, one, bool(False), kstatus, taken,
+                bad, work)
     failed = kstatus[row] != K.STATUS_OK
     if failed:
-        K.advance_body(state, spare, params, coefficients, row, one, bool(True), kstatus,
-                       taken, bad, work)
+        K.body_step(f, state, spare, params, coefficients, row, one, bool(True), kstatus,
+                    taken, bad, work)
     for c in range(state.shape[1]):
         state[row, c] = spare[row, c]
     clock[row] += taken[row]
@@ -352,7 +355,7 @@ def _advance_row(state, spare, params, coefficients, kstatus, taken, bad, work, 
 
 
 @inline_kernel
-def _integrate(step_rows, body_of_row, asleep, state, spare, params, coefficients, kstatus,
+def _integrate(f, step_rows, body_of_row, asleep, state, spare, params, coefficients, kstatus,
                taken, bad, work, clock):
     """Every awake body one step, in row order; the first row that failed, or -1 (the others
     still take their step)."""
@@ -362,8 +365,8 @@ def _integrate(step_rows, body_of_row, asleep, state, spare, params, coefficient
         k = body_of_row[row]
         if k >= 0 and asleep[k]:
             continue
-        if _advance_row(state, spare, params, coefficients, kstatus, taken, bad, work, clock,
-                        row) and first < 0:
+        if _advance_row(f, state, spare, params, coefficients, kstatus, taken, bad, work,
+                        clock, row) and first < 0:
             first = row
     return first
 

@@ -541,9 +541,9 @@ class BatchStepper(FixedStep):
             'no body took that step')
 
     def _advance(self, bodies: np.ndarray, n: int, checked: bool) -> None:
-        run = K.advance_parallel if bodies.size >= self._chunk_size else K.advance
-        run(self._state, self._spare, self._params, self._coefficients, bodies, n, checked,
-            self._status, self._taken, self._bad, self._work)
+        K.advance(self._state, self._spare, self._params, self._coefficients, bodies, n,
+                  checked, self._status, self._taken, self._bad, self._work,
+                  parallel=bodies.size >= self._chunk_size)
 
     def _check_turns(self) -> None:
         """A TurnWarning, once for the batch, naming the bodies that now turn faster than

@@ -22,11 +22,14 @@ and go back to the compiled ones (``run_compiled``): the node does so on a first
 child process compiles (``sim/precompile.py``). It swaps each module global of the package that
 names a kernel for the kernel's own Python function (as NUMBA_DISABLE_JIT=1 does at import), so
 the bits are the same in either tier, and nothing compiles in this process meanwhile.
-``precompile`` leaves a marker in the cache (``precompiled``) once every kernel is there.
+``precompile`` leaves a marker in the cache (``precompiled``) for each part of the kernels
+(a family of methods, with or without contact) once that part is there; a kernel is compiled
+the first time a run calls it, so a run compiles what it uses and nothing else.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 from pathlib import Path
@@ -40,8 +43,9 @@ import threading
 os.environ.setdefault('NUMBA_DISABLE_INTEL_SVML', '1')
 
 import numba  # noqa: E402
-from numba.core import caching  # noqa: E402
+from numba.core import caching, errors, types  # noqa: E402
 from numba.core.registry import cpu_target  # noqa: E402
+from numba.extending import overload  # noqa: E402
 
 PACKAGE = Path(__file__).resolve().parent.parent
 # The layers whose modules hold kernels: the text of every module in them is the cache's stamp.
@@ -131,6 +135,35 @@ def _swap(by: dict) -> None:
 
 prange = numba.prange
 
+# ``literally(x)`` in a kernel: compile it for the value of its argument x (an int), as a
+# constant, so that ``literal_switch`` functions it calls compile the one case x chooses.
+literally = numba.literally
+
+
+def literal_switch(cases: dict):
+    """Make a plain Python function ``f(choice, ...)`` one that kernels call with a constant
+    ``choice`` (an int literal: a global, or ``literally`` of an argument): there the call
+    compiles ``cases[choice]`` alone (a function of the same signature, compiled into the
+    caller), not every case ``f`` would run. In the interpreter ``f`` itself runs, which must
+    do what ``cases[choice]`` does."""
+    def decorate(function):
+        name = function.__name__
+
+        @functools.wraps(function)  # numba reads the overload's signature through it
+        def typer(choice, *args):
+            if not isinstance(choice, types.IntegerLiteral):
+                raise errors.TypingError(f'{name}: its first argument must be an int constant '
+                                         f'(a global or jit.literally), got {choice}')
+            case = cases.get(choice.literal_value)
+            if case is None:
+                raise errors.TypingError(f'{name}: no case {choice.literal_value}')
+            return case
+
+        overload(function, jit_options=dict(fastmath=False, error_model='python'))(typer)
+        return function
+    return decorate
+
+
 # A constant passed from one kernel to another is typed as a literal, and numba compiles the
 # callee once more for every literal value it meets (a big kernel twice, for True and False):
 # kernels pass bool(True), int(1), float(0.0) instead, which are typed as plain values.
@@ -184,9 +217,10 @@ def cache_directory() -> Path | None:
     return None
 
 
-def _marker() -> Path | None:
-    """The file ``precompile`` leaves once every kernel is in the cache: named after what
-    keys numba's cache (this source, numba's and Python's versions, this machine's CPU)."""
+def _marker(part: str) -> Path | None:
+    """The file ``precompile`` leaves once the kernels of ``part`` (a name it chooses: a
+    family of methods, with or without contact) are in the cache: named after the part and
+    what keys numba's cache (this source, numba's and Python's versions, this machine's CPU)."""
     where = cache_directory()
     if where is None:
         return None
@@ -194,19 +228,19 @@ def _marker() -> Path | None:
     machine = repr(cpu_target.target_context.codegen().magic_tuple())
     key = hashlib.sha256(f'{process_stamp()} {numba.__version__} {sys.implementation.cache_tag} '
                          f'{machine}'.encode())
-    return where / f'precompiled-{key.hexdigest()[:20]}'
+    return where / f'precompiled-{part}-{key.hexdigest()[:20]}'
 
 
-def precompiled() -> bool:
-    """Whether ``mark_precompiled`` ran for these sources, this numba and this machine, in the
-    cache this process uses: its kernels load rather than compile."""
-    marker = _marker()
-    return marker is not None and marker.is_file()
+def precompiled(parts) -> bool:
+    """Whether ``mark_precompiled`` ran for each of ``parts``, for these sources, this numba
+    and this machine, in the cache this process uses: their kernels load rather than compile."""
+    markers = [_marker(part) for part in parts]
+    return all(m is not None and m.is_file() for m in markers)
 
 
-def mark_precompiled() -> None:
-    """Say that every kernel is in the cache (``precompile``, once they all are)."""
-    marker = _marker()
+def mark_precompiled(part: str) -> None:
+    """Say that the kernels of ``part`` are in the cache (``precompile``, once they are)."""
+    marker = _marker(part)
     if marker is not None:
         marker.write_text(f'numba {numba.__version__}\n')
 

@@ -43,7 +43,8 @@ import math
 import numpy as np
 
 from rb_sim_ros.core.free_flow import flow_advance, flow_start, free_flow, invariants
-from rb_sim_ros.core.jit import inline_kernel, kernel, parallel_kernel, prange
+from rb_sim_ros.core.jit import (
+    inline_kernel, kernel, literal_switch, literally, parallel_kernel, prange)
 from rb_sim_ros.core.rotation_kernels import (
     exp_so3, exp_so3_small, mul33, orthonormalize, SMALL_ANGLE_SQ)
 
@@ -304,14 +305,8 @@ def _step_status(nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12, q20
 
 
 @kernel
-def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
-    """n steps of body i from row i of ``src`` into row i of ``dst`` (see the module)."""
-    if c[STEPS] > 2.0:
-        advance_body_k(src, dst, p, c, i, n, checked, status, taken, bad, work)
-        return
-    if c[STEPS] == 1.0:
-        advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work)
-        return
+def advance_body_2(src, dst, p, c, i, n, checked, status, taken, bad, work):
+    """``advance_body`` for a two-step method of eq. (27)'s form (c[STEPS] = 2)."""
     dt, vn, vp, pn, pp = float(c[0]), float(c[1]), float(c[2]), float(c[3]), float(c[4])
     rn, rp, rc = float(c[5]), float(c[6]), float(c[7])
     tiny, every = float(c[16]), int(c[17])
@@ -876,6 +871,61 @@ def advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work):
 # is skipped, a checked run, a method other than a two-step one. A step whose lanes all have a
 # rotation vector below SMALL_ANGLE_SQ and no orthonormalisation due is taken branch-free
 # (``_lanes_fast``); any other step takes the lanes one by one with the full branches.
+# -- one body, by family -----------------------------------------------------------------------
+# A method's family is the body step it takes: FAMILY_TWO (eq. (27)'s form), FAMILY_K (k > 2
+# accelerations) or FAMILY_SPLIT (a splitting). A kernel that steps bodies takes the family as a
+# compile-time constant (``body_step``), so that a run compiles its own family's step only.
+FAMILY_SPLIT, FAMILY_TWO, FAMILY_K = 1, 2, 3
+FAMILIES = (FAMILY_TWO, FAMILY_K, FAMILY_SPLIT)
+
+
+def family_of(steps: int) -> int:
+    """The family of a method of ``steps`` accelerations a step (1: a splitting)."""
+    return FAMILY_K if steps > 2 else FAMILY_SPLIT if steps == 1 else FAMILY_TWO
+
+
+def family(coefficients) -> int:
+    """The family of the method whose ``coefficients`` these are."""
+    return family_of(int(coefficients[STEPS]))
+
+
+@kernel
+def advance_body(src, dst, p, c, i, n, checked, status, taken, bad, work):
+    """n steps of body i from row i of ``src`` into row i of ``dst`` (see the module), its
+    family read from ``c`` as it runs (it compiles every family's step: for tests and tools;
+    the stepping kernels use ``body_step``)."""
+    if c[STEPS] > 2.0:
+        advance_body_k(src, dst, p, c, i, n, checked, status, taken, bad, work)
+    elif c[STEPS] == 1.0:
+        advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work)
+    else:
+        advance_body_2(src, dst, p, c, i, n, checked, status, taken, bad, work)
+
+
+def _two_step(family, src, dst, p, c, i, n, checked, status, taken, bad, work):
+    advance_body_2(src, dst, p, c, i, n, checked, status, taken, bad, work)
+
+
+def _k_step(family, src, dst, p, c, i, n, checked, status, taken, bad, work):
+    advance_body_k(src, dst, p, c, i, n, checked, status, taken, bad, work)
+
+
+def _split_step(family, src, dst, p, c, i, n, checked, status, taken, bad, work):
+    advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work)
+
+
+@literal_switch({FAMILY_TWO: _two_step, FAMILY_K: _k_step, FAMILY_SPLIT: _split_step})
+def body_step(family, src, dst, p, c, i, n, checked, status, taken, bad, work):
+    """``advance_body`` of a body of ``family`` (a compile-time constant in a kernel:
+    ``jit.literally``), which compiles that family's step alone."""
+    if family == FAMILY_K:
+        advance_body_k(src, dst, p, c, i, n, checked, status, taken, bad, work)
+    elif family == FAMILY_SPLIT:
+        advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work)
+    else:
+        advance_body_2(src, dst, p, c, i, n, checked, status, taken, bad, work)
+
+
 BLOCK = 32
 BLOCK_MIN = 4  # fewer bodies: one by one
 L_X, L_A, L_B, L_AP, L_BP, L_COUNTDOWN, L_XP = 0, 18, 21, 24, 27, 30, 31  # L_X .. : as X ..
@@ -985,7 +1035,7 @@ def _advance_block(src, dst, p, c, bodies, start, stop, n, status, taken, bad, w
     for j in range(start, stop):
         i = bodies[j]
         if not _lane_ready(src, p, i):
-            advance_body(src, dst, p, c, i, n, bool(False), status, taken, bad, work)
+            advance_body_2(src, dst, p, c, i, n, bool(False), status, taken, bad, work)
             continue
         for f in range(L_AP):  # x, v, R, omega, a, beta
             S[f * BLOCK + m] = src[i, X + f]
@@ -1033,38 +1083,60 @@ def _advance_block(src, dst, p, c, bodies, start, stop, n, status, taken, bad, w
             status[i] = STATUS_NON_FINITE  # somewhere in the run: a checked run finds where
 
 
-@kernel
-def _blocked(coefficients, bodies, n, checked):
-    """Whether ``advance`` takes these bodies in blocks."""
-    return (not checked and n >= 1 and coefficients[STEPS] == 2.0
-            and bodies.shape[0] >= BLOCK_MIN)
+def blocked(coefficients, count: int, n: int, checked: bool) -> bool:
+    """Whether ``advance`` takes ``count`` bodies in blocks (BLOCK)."""
+    return (not checked and n >= 1 and float(coefficients[STEPS]) == 2.0
+            and count >= BLOCK_MIN)
 
 
-@kernel
-def advance(src, dst, params, coefficients, bodies, n, checked, status, taken, bad, work):
+def advance(src, dst, params, coefficients, bodies, n, checked, status, taken, bad, work,
+            parallel=False):
     """n steps of each body listed in ``bodies`` (int64 indices), one after the other, or a
-    block after the other (BLOCK)."""
+    block after the other (BLOCK); ``parallel``: shared among the cores (the bodies are
+    independent). The kernel it calls compiles the method's family only."""
+    args = (src, dst, params, coefficients, bodies, n)
+    out = (status, taken, bad, work)
+    if blocked(coefficients, bodies.shape[0], n, checked):
+        (advance_blocks_parallel if parallel else advance_blocks)(*args, *out)
+    else:
+        (advance_bodies_parallel if parallel else advance_bodies)(
+            *args, checked, *out, family(coefficients))
+
+
+@kernel
+def advance_bodies(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
+                   work, family):
+    """n steps of each body of ``bodies``, one after the other, of a method of ``family``."""
+    f = literally(family)
+    for k in range(bodies.shape[0]):
+        body_step(f, src, dst, params, coefficients, bodies[k], n, checked, status, taken, bad,
+                  work)
+
+
+@parallel_kernel
+def advance_bodies_parallel(src, dst, params, coefficients, bodies, n, checked, status, taken,
+                            bad, work, family):
+    """``advance_bodies`` with the bodies shared among the cores."""
+    f = literally(family)
+    for k in prange(bodies.shape[0]):
+        body_step(f, src, dst, params, coefficients, bodies[k], n, checked, status, taken, bad,
+                  work)
+
+
+@kernel
+def advance_blocks(src, dst, params, coefficients, bodies, n, status, taken, bad, work):
+    """n >= 1 unchecked steps of a two-step method's ``bodies``, a block after the other."""
     count = bodies.shape[0]
-    if not _blocked(coefficients, bodies, n, checked):
-        for k in range(count):
-            advance_body(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
-                         bad, work)
-        return
     for start in range(0, count, BLOCK):
         _advance_block(src, dst, params, coefficients, bodies, start, min(start + BLOCK, count),
                        n, status, taken, bad, work)
 
 
 @parallel_kernel
-def advance_parallel(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
-                     work):
-    """``advance`` with the bodies shared among the cores (they are independent)."""
+def advance_blocks_parallel(src, dst, params, coefficients, bodies, n, status, taken, bad,
+                            work):
+    """``advance_blocks`` with the blocks shared among the cores."""
     count = bodies.shape[0]
-    if not _blocked(coefficients, bodies, n, checked):
-        for k in prange(count):
-            advance_body(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
-                         bad, work)
-        return
     for b in prange((count + BLOCK - 1) // BLOCK):
         start = b * BLOCK
         _advance_block(src, dst, params, coefficients, bodies, start, min(start + BLOCK, count),

@@ -192,8 +192,12 @@ class BodyStore:
         kernel takes (an enabled collision world's ``world_steps``)."""
         rows = np.zeros(0, dtype=np.int64)
         if stepping:
+            out = (self.status, self.taken, self.bad, self.work)
             K.advance(self.state, self.spare, self.params, self.coefficients, rows, 0, False,
-                      self.status, self.taken, self.bad, self.work)
+                      *out)
+            if K.blocked(self.coefficients, len(self.clock), 1, False):  # a step of them all
+                K.advance_blocks(self.state, self.spare, self.params, self.coefficients, rows,
+                                 1, *out)
         K.copy_rows(self.state, self.spare, rows)
         if len(self.clock):
             K.evaluate_bodies(self.state, self.params, rows)

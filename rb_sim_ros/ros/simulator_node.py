@@ -177,20 +177,21 @@ class SimulatorNode(Node):
         self.config = config_from(values, self._scene)
         self.diagnostics = Diagnostics()
         self._compiling = None
-        # A first start (the kernels not in a writable cache yet): a child compiles them
-        # while this process steps in the interpreter.
+        # A first start (the kernels this scene steps with not in a writable cache yet): a
+        # child compiles them while this process steps in the interpreter.
+        parts = precompile.parts_of(self.config)
         first = (values['compile_in_background'] and jit.compiling() and
-                 jit.cache_directory() is not None and not jit.precompiled())
+                 jit.cache_directory() is not None and not jit.precompiled(parts))
         if first:
             jit.run_interpreted()
         self.sim = Simulation(self.config)
         if first:
-            self._compiling = precompile.Background()
+            self._compiling = precompile.Background(parts)
             self.diagnostics.compiling = f'process {self._compiling.pid} compiles them'
             self.get_logger().info(
                 'the kernels are not compiled yet: stepping in the interpreter (the same bits, '
-                f'slower) while process {self._compiling.pid} compiles them (a minute or two, '
-                'once)')
+                f'slower) while process {self._compiling.pid} compiles {", ".join(parts)} '
+                '(seconds to a minute, once)')
         # Compiles (or loads) the kernels: before the clock, not in a period. Interpreted:
         # nothing to do.
         self.sim.warm_up()

@@ -2,19 +2,21 @@
 # Licensed under the Apache License, Version 2.0
 """Compile the kernels a simulator run needs into the compilation cache, ahead of its start.
 
-    python -m rb_sim_ros.sim.precompile
+    python -m rb_sim_ros.sim.precompile [--integrator NAME ...] [--no-contact]
 
-A run of a scene without colliders needs the step kernel (``step_kernel.advance``); a run with
-colliders, or a spawn of the first one, needs the collision world's step
-(``world_step.world_steps``). Both are compiled here, for every integrator (one kernel serves
-them all), and cached where the package caches them (``core/jit.py``): a later start of the
-node, ``replay`` or ``sweep`` loads them instead of compiling, and a marker in the cache says
-they are all there (``jit.precompiled``). ``setup.py``'s install (what ``colcon build`` runs)
+The kernels come in parts (``PARTS``): the step of a family of integrators (``step_kernel``:
+two-step, k-step, splitting) for bodies without colliders, and the collision world's step
+(``world_step.world_steps``) with that family's body step inside. A kernel is compiled the
+first time a run calls it, so a run compiles its parts only; this compiles the parts asked
+for (by default all of them) and caches them where the package caches them (``core/jit.py``),
+leaving a marker for each (``jit.precompiled``): a later start of the node, ``replay`` or
+``sweep`` loads them instead of compiling. ``setup.py``'s install (what ``colcon build`` runs)
 calls this for the tree it installed; set RB_SIM_ROS_PRECOMPILE=0 to skip it there.
 
-A node that finds no marker (a first start from a source checkout or a wheel) runs this in a
-child process (``Background``) and steps in the interpreter meanwhile (``jit.run_interpreted``):
-its first poses come within seconds instead of after the compilation. No ROS here.
+A node that finds the markers of its own parts missing (a first start from a source checkout
+or a wheel) runs this for those parts in a child process (``Background``) and steps in the
+interpreter meanwhile (``jit.run_interpreted``): its first poses come within seconds instead of
+after the compilation. No ROS here.
 """
 
 from __future__ import annotations
@@ -27,26 +29,59 @@ import tempfile
 import threading
 import time
 
-from rb_sim_ros.core import jit
+from rb_sim_ros.core import jit, multistep, step_kernel as K
 from rb_sim_ros.sim.simulation import Config, warm_up_bodies, warm_up_contacts
 
 
-def precompile() -> float:
-    """Compile (or load) the kernels of a run without colliders and of one with them: the
-    seconds it took."""
-    start = time.perf_counter()
-    config = Config()
-    warm_up_bodies(config)
-    warm_up_contacts(config)
-    jit.mark_precompiled()
-    return time.perf_counter() - start
+# One integrator of each family of the step kernel: the kernels compiled for it serve the
+# family's others (lie3 and lie4, eq27 and taylor1, flow2 and flow4).
+FAMILY_METHODS = {K.FAMILY_TWO: multistep.EQ27.name, K.FAMILY_K: multistep.LIE4.name,
+                  K.FAMILY_SPLIT: multistep.FLOW4.name}
+FAMILY_NAMES = {K.FAMILY_TWO: 'two-step', K.FAMILY_K: 'k-step', K.FAMILY_SPLIT: 'splitting'}
+PARTS = tuple(f'{kind}-{FAMILY_NAMES[f]}' for kind in ('bodies', 'contact')
+              for f in K.FAMILIES)
+
+
+def parts(integrators=None, contact: bool = True) -> list[str]:
+    """The parts for runs with these integrators (names; None: every family), with colliders
+    too when ``contact``."""
+    families = (K.FAMILIES if integrators is None else
+                sorted({K.family_of(multistep.method_by_name(i).steps) for i in integrators}))
+    kinds = ('bodies', 'contact') if contact else ('bodies',)
+    return [f'{kind}-{FAMILY_NAMES[f]}' for kind in kinds for f in families]
+
+
+def parts_of(config: Config) -> list[str]:
+    """The parts a run of ``config`` calls: its family's body step, and the collision world's
+    when it has colliders (a run without them needs it only once a collider is spawned)."""
+    return parts([config.integrator], config.collides)
+
+
+def precompile(names=None, progress=None) -> dict[str, float]:
+    """Compile (or load) the kernels of the parts ``names`` (None: all of ``PARTS``), marking
+    each once it is cached: the seconds each took. ``progress(part, seconds)`` after each."""
+    took = {}
+    for part in PARTS if names is None else names:
+        if part not in PARTS:
+            raise ValueError(f'no kernel part {part!r}: one of {", ".join(PARTS)}')
+        kind, family_name = part.split('-', 1)
+        family = next(f for f, n in FAMILY_NAMES.items() if n == family_name)
+        start = time.perf_counter()
+        config = Config(integrator=FAMILY_METHODS[family])
+        (warm_up_bodies if kind == 'bodies' else warm_up_contacts)(config)
+        jit.mark_precompiled(part)
+        took[part] = time.perf_counter() - start
+        if progress is not None:
+            progress(part, took[part])
+    return took
 
 
 class Background:
     """``python -m rb_sim_ros.sim.precompile`` in a child process (same interpreter,
     environment and cache), its output kept for a failure's message."""
 
-    def __init__(self) -> None:
+    def __init__(self, names) -> None:
+        self.parts = list(names)
         self.started = time.monotonic()
         self._out = tempfile.TemporaryFile()
         # This very package: run from the directory holding it (python -m puts the working
@@ -55,7 +90,8 @@ class Background:
         path = os.pathsep.join([here] + ([os.environ['PYTHONPATH']]
                                          if os.environ.get('PYTHONPATH') else []))
         self._child = subprocess.Popen(
-            [sys.executable, '-m', 'rb_sim_ros.sim.precompile', '--parent', str(os.getpid())],
+            [sys.executable, '-m', 'rb_sim_ros.sim.precompile', '--parent', str(os.getpid()),
+             '--part', *self.parts],
             cwd=here, stdin=subprocess.DEVNULL, stdout=self._out, stderr=subprocess.STDOUT,
             env=dict(os.environ, PYTHONPATH=path))
         self.pid = self._child.pid
@@ -66,7 +102,7 @@ class Background:
         code = self._child.poll()
         if code is None:
             return None
-        if code == 0 and jit.precompiled():
+        if code == 0 and jit.precompiled(self.parts):
             return ''
         if code == 0:
             return f'the compiling process left no marker in {jit.cache_directory()}'
@@ -108,15 +144,25 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--parent', type=int, default=0, metavar='PID',
                         help='exit when the process PID is gone (a node compiling in the '
                              'background)')
+    parser.add_argument('--integrator', nargs='+', metavar='NAME',
+                        choices=sorted(multistep.METHODS),
+                        help='only the kernels of these integrators (default: every family)')
+    parser.add_argument('--no-contact', action='store_true',
+                        help='not the collision world (a run without colliders)')
+    parser.add_argument('--part', nargs='+', choices=PARTS, metavar='PART',
+                        help=f'exactly these parts: {", ".join(PARTS)}')
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
     if args.parent and args.parent != os.getppid():
         parser.error(f'--parent: process {args.parent} is not the parent of this one')
     if args.parent:
         threading.Thread(target=_exit_with, args=(args.parent,), daemon=True).start()
+    names = args.part or parts(args.integrator, not args.no_contact)
     where = jit.cache_directories()
-    seconds = precompile()
-    print(f'rb_sim_ros: kernels compiled or loaded in {seconds:.1f} s (cache: the first '
-          f'writable of {", ".join(str(w) for w in where)})')
+    print(f'rb_sim_ros: compiling {len(names)} kernel parts into the first writable of '
+          f'{", ".join(str(w) for w in where)}', flush=True)
+    took = precompile(names, lambda part, s: print(
+        f'rb_sim_ros: {part}: compiled or loaded in {s:.1f} s', flush=True))
+    print(f'rb_sim_ros: kernels compiled or loaded in {sum(took.values()):.1f} s', flush=True)
     return 0
 
 
