@@ -41,7 +41,7 @@ DECORATORS = {'kernel', 'inline_kernel', 'parallel_kernel'}
 
 # A case's program prints one JSON line: {'seconds': ..., 'compiled': [names]}, the names of
 # the package's kernels compiled (numba's own overloads they pull in are not counted).
-STEPPER = '''
+STEPPER = """
 import json, sys, time
 start = time.perf_counter()
 from numba.core import event
@@ -57,9 +57,9 @@ funcs = [e.data['dispatcher'].py_func for _, e in rec.buffer if e.is_start]
 names = [f.__module__.rsplit('.', 1)[-1] + '.' + f.__qualname__ for f in funcs
          if f.__module__.startswith('rb_sim_ros.')]
 print(json.dumps({'seconds': seconds, 'compiled': names}))
-'''
+"""
 
-NODE = '''
+NODE = """
 import json, sys, time
 start = time.perf_counter()
 from numba.core import event
@@ -81,7 +81,7 @@ funcs = [e.data['dispatcher'].py_func for _, e in rec.buffer if e.is_start]
 names = [f.__module__.rsplit('.', 1)[-1] + '.' + f.__qualname__ for f in funcs
          if f.__module__.startswith('rb_sim_ros.')]
 print(json.dumps({'seconds': seconds, 'compiled': names, 'parts': took}))
-'''
+"""
 
 CASES = {
     'stepper eq27': (STEPPER, 'eq27'),

@@ -52,9 +52,11 @@ def pytest_pycollect_makemodule(module_path, parent):
 
 
 @pytest.fixture(scope='session')
-def installed(tmp_path_factory):
-    """The package installed into a temporary prefix, colcon-style (lib/rb_sim_ros/...)."""
-    return ros_harness.install(tmp_path_factory.mktemp('ws') / 'install')
+def installed():
+    """The package installed into a prefix colcon-style (lib/rb_sim_ros/...), its kernels
+    compiled into the installed tree: made once for these sources and shared
+    (``ros_harness.shared_install``), by a parallel run's workers and by later runs."""
+    return ros_harness.shared_install()
 
 
 @pytest.fixture

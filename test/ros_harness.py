@@ -12,9 +12,11 @@ sleeps.
 from __future__ import annotations
 
 import fcntl
+import hashlib
 import os
 from pathlib import Path
 import random
+import shutil
 import signal
 import subprocess
 import sys
@@ -41,6 +43,44 @@ def install(prefix: Path) -> Path:
                    env={k: v for k, v in os.environ.items()
                         if k not in ('NUMBA_CACHE_DIR', 'NUMBA_DISABLE_JIT')})
     return prefix
+
+
+# What setup.py installs: a change to any of these is a new install.
+INSTALLED_SOURCES = ('rb_sim_ros', 'setup.py', 'setup.cfg', 'package.xml', 'resource', 'scenes',
+                     'launch', 'config', 'rviz', 'foxglove', 'examples', 'LICENSE')
+
+
+def install_key() -> str:
+    """A hash of every file setup.py installs (names and bytes), this interpreter and numba:
+    an install made from the same key is the same install."""
+    import numba
+    digest = hashlib.sha256(f'{sys.executable} {numba.__version__}'.encode())
+    for name in INSTALLED_SOURCES:
+        top = ROOT / name
+        files = [top] if top.is_file() else sorted(
+            f for f in top.rglob('*') if f.is_file() and '__pycache__' not in f.parts)
+        for f in files:
+            digest.update(str(f.relative_to(ROOT)).encode() + b'\0' + f.read_bytes())
+    return digest.hexdigest()[:20]
+
+
+def shared_install(base: Path | None = None) -> Path:
+    """``install`` of these sources, made once and shared: by the workers of a parallel run
+    and by later runs while the sources are unchanged (a focused run pays no install). Under
+    ``base`` (default: RB_SIM_ROS_TEST_INSTALLS or the temporary directory), keyed by
+    ``install_key``; the first process to need it installs it while the others wait on a lock."""
+    base = Path(base or os.environ.get('RB_SIM_ROS_TEST_INSTALLS')
+                or Path(tempfile.gettempdir()) / f'rb_sim_ros_test_installs-{os.getuid()}')
+    base.mkdir(parents=True, exist_ok=True)
+    key = install_key()
+    where, done = base / key, base / f'{key}.done'
+    with open(base / f'{key}.lock', 'a') as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not done.is_file():
+            shutil.rmtree(where, ignore_errors=True)  # a half install, interrupted
+            install(where / 'install')
+            done.write_text('installed\n')
+    return where / 'install'
 
 
 def site_packages(prefix: Path) -> Path:

@@ -1,7 +1,8 @@
-# Sourced by tools/test.sh after the test suite: the ROS user's path, with colcon from PyPI.
-# Builds this package in a colcon workspace (--symlink-install), sources install/setup.bash,
-# starts lib/rb_sim_ros/simulator from the install tree and waits for its first pose, then
-# runs `colcon test` and `colcon test-result --verbose`. Needs $venv, $root and $PY (venv.sh).
+# Sourced by tools/test.sh: the ROS user's path, with colcon from PyPI. Builds this package in
+# a colcon workspace (--symlink-install), sources install/setup.bash, starts
+# lib/rb_sim_ros/simulator from the install tree and waits for its first pose, then runs the
+# whole suite once with `colcon test` (on ${RB_SIM_ROS_TEST_WORKERS:-2} pytest-xdist workers)
+# and reports it with `colcon test-result --verbose`. Needs $venv, $root and $PY (venv.sh).
 ws=$(mktemp -d "${TMPDIR:-/tmp}/rb_sim_ros_ws.XXXXXX")
 trap 'rm -rf "$ws"' EXIT
 mkdir -p "$ws/src"
@@ -18,6 +19,6 @@ echo "[rb_sim_ros] colcon build in $ws" >&2
     install/rb_sim_ros/lib/rb_sim_ros/simulator
   echo "[rb_sim_ros] colcon test" >&2
   colcon --log-base log test --packages-select rb_sim_ros --event-handlers console_direct+ \
-    --pytest-args -p no:cacheprovider
+    --pytest-args -p no:cacheprovider -n "${RB_SIM_ROS_TEST_WORKERS:-2}"
   colcon --log-base log test-result --verbose
 )

@@ -1,12 +1,17 @@
 #!/usr/bin/env bash
-# Run the whole test suite (creates or reuses .venv first). Extra arguments go to pytest.
-# Without them, the ROS user's path is checked after it too (tools/colcon_check.sh): colcon
-# build, the installed simulator, colcon test.
+# Run the test suite (creates or reuses .venv first).
+#   ./tools/test.sh           the ROS user's path (tools/colcon_check.sh): colcon build, the
+#                             installed simulator publishing, then the whole suite once, by
+#                             `colcon test` on both cores (pytest-xdist), and colcon test-result
+#   ./tools/test.sh ARGS...   pytest ARGS on the suite, here (e.g. -k convergence, -m 'not slow')
+# Compiled kernels are cached in $NUMBA_CACHE_DIR (default .venv/numba-cache), so a later run
+# of unchanged sources loads them; the installed package the node tests start is shared too
+# (test/ros_harness.py shared_install).
 set -euo pipefail
 . "$(dirname "$0")/venv.sh" requirements-test.txt
 cd "$root"
+export NUMBA_CACHE_DIR=${NUMBA_CACHE_DIR:-$venv/numba-cache}
 if [ $# -gt 0 ]; then
   exec "$PY" -m pytest -q "$@" test
 fi
-"$PY" -m pytest -q test
 . "$root/tools/colcon_check.sh"
