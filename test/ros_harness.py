@@ -177,14 +177,15 @@ class Probe:
         self.node.create_subscription(msg_type, topic, got.append, qos)
         return got
 
-    def wait_for(self, predicate, timeout: float = 120.0, what: str = 'condition') -> None:
+    # Generous: a node's start on a machine whose cores other jobs keep busy takes minutes.
+    def wait_for(self, predicate, timeout: float = 300.0, what: str = 'condition') -> None:
         end = time.monotonic() + timeout
         while not predicate():
             if time.monotonic() > end:
                 raise TimeoutError(f'timed out after {timeout} s waiting for {what}')
             self.executor.spin_once(timeout_sec=0.02)
 
-    def call(self, srv_type, name: str, request, timeout: float = 120.0):
+    def call(self, srv_type, name: str, request, timeout: float = 300.0):
         client = self.node.create_client(srv_type, name)
         self.wait_for(client.service_is_ready, timeout, f'service {name}')
         future = client.call_async(request)

@@ -8,27 +8,38 @@ msgs_want=$(cd "$root" && cat requirements-msgs.txt $(find tools/msgs -type f | 
 if [ "$(cat "$msgs_stamp" 2>/dev/null || true)" != "$msgs_want" ]; then
   msgs_log="$venv/.rb_sim_ros-msgs.log"
   echo "[rb_sim_ros] building the message packages of tools/msgs into $venv, once" \
-    "(about 2-5 min; log: $msgs_log)" >&2
+    "(about 1-2 min; log: $msgs_log)" >&2
   msgs_ok=yes
   # Each step ends the build on failure: errexit does not hold in a subshell tested by ||.
   # Its output goes to the log; fd 3 is the terminal, for one line per step.
   (
     echo "[rb_sim_ros]   installing the rosidl generator wheels (about 30 s)" >&3
-    "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
+    "$venv/bin/python" -m pip install --disable-pip-version-check \
       -r "$root/requirements-msgs.txt" || exit 1
-    command -v cmake >/dev/null || "$venv/bin/python" -m pip install --quiet \
+    command -v cmake >/dev/null || "$venv/bin/python" -m pip install \
       --disable-pip-version-check cmake || exit 1
+    # The packages build side by side (one core each): configuring and generating are
+    # single-threaded, and take half the time.
+    pids=()
     for pkg in "$root"/tools/msgs/*/; do
       name=$(basename "$pkg")
-      echo "[rb_sim_ros]   generating and compiling $name (about 1-2 min)" >&3
+      echo "[rb_sim_ros]   generating and compiling $name (about 1 min; log:" \
+        "$venv/.rb_sim_ros-msgs-$name.log)" >&3
       build="$venv/.rb_sim_ros-build/$name"
-      rm -rf "$build"
-      PATH="$venv/bin:$PATH" AMENT_PREFIX_PATH="$venv" CMAKE_PREFIX_PATH="$venv" \
-        cmake -S "$pkg" -B "$build" -DCMAKE_INSTALL_PREFIX="$venv" -DBUILD_TESTING=OFF \
-        -DPython3_EXECUTABLE="$venv/bin/python" -DCMAKE_BUILD_TYPE=Release || exit 1
-      PATH="$venv/bin:$PATH" cmake --build "$build" -j 2 || exit 1
-      PATH="$venv/bin:$PATH" cmake --install "$build" || exit 1
+      (
+        rm -rf "$build"
+        PATH="$venv/bin:$PATH" AMENT_PREFIX_PATH="$venv" CMAKE_PREFIX_PATH="$venv" \
+          cmake -S "$pkg" -B "$build" -DCMAKE_INSTALL_PREFIX="$venv" -DBUILD_TESTING=OFF \
+          -DPython3_EXECUTABLE="$venv/bin/python" -DCMAKE_BUILD_TYPE=Release || exit 1
+        PATH="$venv/bin:$PATH" cmake --build "$build" -j 1 || exit 1
+        PATH="$venv/bin:$PATH" cmake --install "$build" || exit 1
+      ) >"$venv/.rb_sim_ros-msgs-$name.log" 2>&1 &
+      pids+=($!)
     done
+    failed=0
+    for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
+    cat "$venv"/.rb_sim_ros-msgs-*.log
+    [ "$failed" = 0 ] || exit 1
   ) 3>&2 >"$msgs_log" 2>&1 || msgs_ok=no
   if [ "$msgs_ok" = yes ]; then
     echo "$msgs_want" > "$msgs_stamp"

@@ -11,9 +11,18 @@ mkdir -p "$venv"
 exec {rb_sim_lock}>"$venv/.rb_sim_ros.lock"
 flock "$rb_sim_lock"
 if [ ! -x "$venv/bin/python" ]; then
-  echo "[rb_sim_ros] creating $venv" >&2
+  echo "[rb_sim_ros] creating $venv (a few seconds)" >&2
   python3 -m venv "$venv"
 fi
+# pip's output goes to its log only; on a failure its last lines are shown, and where the rest is.
+rb_sim_pip() {
+  if ! "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
+      --log "$venv/.rb_sim_ros-pip.log" "$@" >"$venv/.rb_sim_ros-pip.out" 2>&1; then
+    tail -n 15 "$venv/.rb_sim_ros-pip.out" >&2
+    echo "[rb_sim_ros] pip install $* failed (its log: $venv/.rb_sim_ros-pip.log)" >&2
+    return 1
+  fi
+}
 stamp="$venv/.rb_sim_ros-$(basename "$req").stamp"
 want=$(cat "$root"/requirements*.txt "$root/setup.py" "$root/setup.cfg" | sha256sum | cut -c1-16)
 # A file whose requirements include $req (test > bench > runtime) satisfies it too.
@@ -32,12 +41,14 @@ rb_sim_current() {
   return 1
 }
 if ! rb_sim_current; then
-  echo "[rb_sim_ros] installing $req into $venv (about 1 min the first time;" \
-    "pip's log: $venv/.rb_sim_ros-pip.log)" >&2
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
-    --log "$venv/.rb_sim_ros-pip.log" -r "$root/$req"
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
-    --log "$venv/.rb_sim_ros-pip.log" --no-deps -e "$root"
+  case "$(basename "$req")" in
+    requirements-test.txt) took="about 3 min the first time" ;;
+    *) took="about 1 min the first time" ;;
+  esac
+  echo "[rb_sim_ros] installing $req into $venv ($took; pip's log:" \
+    "$venv/.rb_sim_ros-pip.log)" >&2
+  rb_sim_pip -r "$root/$req"
+  rb_sim_pip --no-deps -e "$root"
   echo "$want" > "$stamp"
 fi
 . "$root/tools/build_msgs.sh"
