@@ -51,6 +51,18 @@ def pytest_pycollect_makemodule(module_path, parent):
     return None
 
 
+def pytest_configure(config):
+    config.addinivalue_line(
+        'markers', 'slow: seconds to minutes each: a real node over DDS (every test that uses '
+        'the installed package), a benchmark or a long search; the fast set is -m "not slow"')
+
+
+def pytest_collection_modifyitems(items):
+    for item in items:
+        if 'installed' in getattr(item, 'fixturenames', ()):
+            item.add_marker(pytest.mark.slow)
+
+
 @pytest.fixture(scope='session')
 def installed():
     """The package installed into a prefix colcon-style (lib/rb_sim_ros/...), its kernels

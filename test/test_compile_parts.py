@@ -1,0 +1,95 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""A run compiles the kernels it uses and no others (core/jit.py, step_kernel.body_step):
+counted by numba's own compile events in a new process on an empty cache."""
+
+import json
+import os
+from pathlib import Path
+import subprocess
+import sys
+
+import pytest
+
+from rb_sim_ros.core import jit, step_kernel as K
+from rb_sim_ros.sim import precompile
+from rb_sim_ros.sim.scene import load_scene
+from rb_sim_ros.sim.simulation import Config
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# Steps one free body of each integrator named on the command line, printing for each the
+# package's kernels that its first step compiled (and the state, to compare tiers).
+FIRST_STEPS = """
+import json, sys
+from numba.core import event
+from rb_sim_ros import RigidBody, State, Stepper, Wrench
+for method in sys.argv[1:]:
+    with event.install_recorder('numba:compile') as rec:
+        body = RigidBody(mass=2.0, inertia=[[0.2, 0.01, 0], [0.01, 0.3, 0], [0, 0, 0.4]])
+        sim = Stepper(body, dt=1e-3, state=State(angular_velocity=[0, 0.1, 3.0]),
+                      method=method)
+        sim.set_wrench(Wrench(torque=[0, 0, 0.01], frame='body'))
+        sim.step(10)
+    funcs = [e.data['dispatcher'].py_func for _, e in rec.buffer if e.is_start]
+    print(json.dumps([method, sorted({f.__qualname__ for f in funcs
+                                      if f.__module__.startswith('rb_sim_ros.')}),
+                      [float(c) for v in (sim.state.position, sim.state.angular_velocity)
+                       for c in v]]))
+"""
+
+
+def _first_steps(methods, tmp_path, **env):
+    out = subprocess.run([sys.executable, '-c', FIRST_STEPS, *methods], cwd=tmp_path,
+                         env={**os.environ, 'NUMBA_CACHE_DIR': str(tmp_path / 'cache'), **env},
+                         capture_output=True, text=True, timeout=1800)
+    assert out.returncode == 0, out.stderr[-3000:]
+    return [json.loads(line) for line in out.stdout.splitlines()]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not jit.compiling(), reason='NUMBA_DISABLE_JIT=1: nothing compiles')
+def test_a_free_body_compiles_its_own_family_only(tmp_path):
+    """eq27 compiles the two-step body step and nothing of the k-step or splitting families
+    nor of contact; lie4 then compiles the k-step one and no two-step or splitting one; the
+    bits are those of the interpreter."""
+    (eq27, first), (lie4, then) = [(m, set(c)) for m, c, _ in
+                                   _first_steps(['eq27', 'lie4'], tmp_path)]
+    assert {'advance_bodies', 'advance_body_2', 'multistep_step'} <= first
+    assert not first & {'advance_body', 'advance_body_k', 'advance_body_split', 'free_flow',
+                        'world_steps', '_lanes_step', 'advance_blocks'}
+    assert 'advance_body_k' in then
+    assert not then & {'advance_body_2', 'advance_body_split', 'world_steps', 'advance_body'}
+    compiled = _first_steps(['eq27', 'lie4', 'flow4'], tmp_path)
+    interpreted = _first_steps(['eq27', 'lie4', 'flow4'], tmp_path, NUMBA_DISABLE_JIT='1')
+    assert [s for *_, s in compiled] == [s for *_, s in interpreted]
+    assert interpreted[0][1] == []
+
+
+def test_a_scene_names_the_parts_it_steps_with():
+    assert precompile.parts_of(Config()) == ['bodies-two-step']
+    assert precompile.parts_of(Config(integrator='lie3')) == ['bodies-k-step']
+    gravity, bodies, contact = load_scene(str(ROOT / 'scenes' / 'collisions.yaml'))[:3]
+    demo = Config(gravity=gravity, bodies=tuple(bodies), contact=contact, integrator='flow2')
+    assert precompile.parts_of(demo) == ['bodies-splitting', 'contact-splitting']
+    assert sorted(precompile.parts()) == sorted(precompile.PARTS) and len(precompile.PARTS) == 6
+    assert precompile.parts(['eq27', 'taylor1', 'lie4'], False) == [
+        'bodies-two-step', 'bodies-k-step']
+
+
+def test_every_integrator_has_a_family_and_a_part():
+    from rb_sim_ros.core import multistep
+    for name, method in multistep.METHODS.items():
+        family = K.family_of(method.steps)
+        assert family in K.FAMILIES, name
+        stands_for = multistep.METHODS[precompile.FAMILY_METHODS[family]]
+        assert K.family_of(stands_for.steps) == family, name
+
+
+def test_precompile_refuses_an_unknown_part(capsys):
+    with pytest.raises(ValueError, match="no kernel part 'bodies-three-step'"):
+        precompile.precompile(['bodies-three-step'])
+    with pytest.raises(SystemExit) as e:
+        precompile.main(['--part', 'contact'])
+    assert e.value.code == 2
+    assert "invalid choice: 'contact'" in capsys.readouterr().err
