@@ -9,12 +9,16 @@ from pathlib import Path
 import subprocess
 import sys
 
+from numba.core import event
 import pytest
 
+from rb_sim_ros import RigidBody, State, Stepper
+from rb_sim_ros.contact.collision_shapes import Plane, Sphere
+from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import jit, step_kernel as K
 from rb_sim_ros.sim import precompile
 from rb_sim_ros.sim.scene import load_scene
-from rb_sim_ros.sim.simulation import Config
+from rb_sim_ros.sim.simulation import BodySpec, Config
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -93,3 +97,28 @@ def test_precompile_refuses_an_unknown_part(capsys):
         precompile.main(['--part', 'contact'])
     assert e.value.code == 2
     assert "invalid choice: 'contact'" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not jit.compiling(), reason='NUMBA_DISABLE_JIT=1: nothing compiles')
+@pytest.mark.parametrize('method', ['eq27', 'lie4', 'flow4'])
+def test_a_later_call_compiles_nothing(method):
+    """Once a run's first call has compiled (or loaded) its kernels, a call from Python finds
+    them: no compile event, for free bodies, a block of them and a collision world. (A kernel
+    given its family as an argument from Python never matched the one compiled for the
+    family's value, and entered numba's compiler at every call: 15 ms a step.)"""
+    def steppers():
+        one = Stepper(RigidBody(1.0, [0.2, 0.3, 0.4]), dt=1e-3, method=method,
+                      state=State(angular_velocity=[0.0, 0.1, 3.0]))
+        spheres = [BodySpec(f'b{i}', 1.0, (0.004,) * 3, initial_position=(3.0 * i, 0.0, 0.2),
+                            colliders=(Sphere(0.1),)) for i in range(5)]
+        world = CollisionWorld(spheres, 1e-3, (0.0, 0.0, -9.81), planes=(Plane(),),
+                               integrator=method)
+        return one.step, world.step
+
+    for run in steppers():
+        run(1)  # compiles or loads
+        with event.install_recorder('numba:compile') as rec:
+            for _ in range(3):
+                run(1)
+                run(7)
+        assert [e.data['dispatcher'].py_func.__qualname__ for _, e in rec.buffer] == []

@@ -465,8 +465,8 @@ class CollisionWorld:
         """``world_steps`` for n steps from the world's clock and arrays as they are now."""
         self._status[ws.S_STEP] = self._step_count
         self._status[ws.S_UNCHECKED] = int(self._unchecked)
-        return ws.world_steps(self._world(), n, self._warm_keys, self._warm_normal,
-                              self._warm_tangent, K.family(self._store.coefficients))
+        return ws.steps(self._world(), n, self._warm_keys, self._warm_normal,
+                        self._warm_tangent, K.family(self._store.coefficients))
 
     def _world(self) -> tuple:
         """The world's arrays for the step kernel (the store's, as they are now), in the order

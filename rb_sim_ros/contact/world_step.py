@@ -328,6 +328,41 @@ def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent, family):
     return warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca, cbb
 
 
+# The entries from Python, one a family, each passing its family as a constant (a family
+# passed from Python would enter numba's compiler at every call: see step_kernel's
+# ``ADVANCE_BODIES``).
+
+
+# (module constants: numba types a global int as its value, a module's attribute as an int)
+FAMILY_TWO, FAMILY_K, FAMILY_SPLIT = K.FAMILY_TWO, K.FAMILY_K, K.FAMILY_SPLIT
+
+
+@kernel
+def world_steps_two(arrays, n, warm_keys, warm_normal, warm_tangent):
+    return world_steps(arrays, n, warm_keys, warm_normal, warm_tangent, FAMILY_TWO)
+
+
+@kernel
+def world_steps_k(arrays, n, warm_keys, warm_normal, warm_tangent):
+    return world_steps(arrays, n, warm_keys, warm_normal, warm_tangent, FAMILY_K)
+
+
+@kernel
+def world_steps_split(arrays, n, warm_keys, warm_normal, warm_tangent):
+    return world_steps(arrays, n, warm_keys, warm_normal, warm_tangent, FAMILY_SPLIT)
+
+
+# family -> the name of its entry (looked up in the module's globals at each call, which
+# ``jit.run_interpreted`` rebinds).
+WORLD_STEPS = {K.FAMILY_TWO: 'world_steps_two', K.FAMILY_K: 'world_steps_k',
+               K.FAMILY_SPLIT: 'world_steps_split'}
+
+
+def steps(arrays, n, warm_keys, warm_normal, warm_tangent, family):
+    """``world_steps`` from Python: its family's entry."""
+    return globals()[WORLD_STEPS[family]](arrays, n, warm_keys, warm_normal, warm_tangent)
+
+
 # The stages take the arrays they use, never ``w``, and steps 2 - 5 are written out in
 # ``world_steps`` (a call of more than 29 arguments cannot be inlined): numba increfs every
 # array of a named tuple argument on entry and decrefs it on exit, and with a call in between

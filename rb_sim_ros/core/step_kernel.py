@@ -1099,14 +1099,14 @@ def advance(src, dst, params, coefficients, bodies, n, checked, status, taken, b
     if blocked(coefficients, bodies.shape[0], n, checked):
         (advance_blocks_parallel if parallel else advance_blocks)(*args, *out)
     else:
-        (advance_bodies_parallel if parallel else advance_bodies)(
-            *args, checked, *out, family(coefficients))
+        globals()[ADVANCE_BODIES[parallel, family(coefficients)]](*args, checked, *out)
 
 
 @kernel
 def advance_bodies(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
                    work, family):
-    """n steps of each body of ``bodies``, one after the other, of a method of ``family``."""
+    """n steps of each body of ``bodies``, one after the other, of a method of ``family``
+    (called from a kernel with a constant: from Python, ``ADVANCE_BODIES``)."""
     f = literally(family)
     for k in range(bodies.shape[0]):
         body_step(f, src, dst, params, coefficients, bodies[k], n, checked, status, taken, bad,
@@ -1121,6 +1121,60 @@ def advance_bodies_parallel(src, dst, params, coefficients, bodies, n, checked, 
     for k in prange(bodies.shape[0]):
         body_step(f, src, dst, params, coefficients, bodies[k], n, checked, status, taken, bad,
                   work)
+
+
+# The entries from Python, one a family, each passing its family as a constant. A call from
+# Python with the family as an argument would never match the kernel compiled for its literal
+# value: numba would enter its compiler at every call to learn that again (some 15 ms a call).
+
+
+@kernel
+def advance_bodies_two(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
+                       work):
+    advance_bodies(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
+                   work, FAMILY_TWO)
+
+
+@kernel
+def advance_bodies_k(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
+                     work):
+    advance_bodies(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
+                   work, FAMILY_K)
+
+
+@kernel
+def advance_bodies_split(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
+                         work):
+    advance_bodies(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
+                   work, FAMILY_SPLIT)
+
+
+@kernel
+def advance_bodies_parallel_two(src, dst, params, coefficients, bodies, n, checked, status,
+                                taken, bad, work):
+    advance_bodies_parallel(src, dst, params, coefficients, bodies, n, checked, status, taken,
+                            bad, work, FAMILY_TWO)
+
+
+@kernel
+def advance_bodies_parallel_k(src, dst, params, coefficients, bodies, n, checked, status,
+                              taken, bad, work):
+    advance_bodies_parallel(src, dst, params, coefficients, bodies, n, checked, status, taken,
+                            bad, work, FAMILY_K)
+
+
+@kernel
+def advance_bodies_parallel_split(src, dst, params, coefficients, bodies, n, checked, status,
+                                  taken, bad, work):
+    advance_bodies_parallel(src, dst, params, coefficients, bodies, n, checked, status, taken,
+                            bad, work, FAMILY_SPLIT)
+
+
+# (parallel, family) -> the name of the entry kernel: looked up in the module's globals at
+# each call, which ``jit.run_interpreted`` rebinds to the Python functions.
+ADVANCE_BODIES = {(parallel, f): f'advance_bodies{"_parallel" if parallel else ""}_{name}'
+                  for parallel in (False, True)
+                  for f, name in ((FAMILY_TWO, 'two'), (FAMILY_K, 'k'), (FAMILY_SPLIT, 'split'))}
 
 
 @kernel
