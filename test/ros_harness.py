@@ -32,9 +32,19 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def install(prefix: Path) -> Path:
     """Install the package into ``prefix`` as colcon's ament_python build does (which
-    compiles the kernels into the installed tree's own cache, whatever NUMBA_CACHE_DIR says)."""
+    compiles the kernels into the installed tree's own cache, whatever NUMBA_CACHE_DIR says).
+    The tree's cache is first seeded with the kernels this process's NUMBA_CACHE_DIR holds:
+    both are keyed by the same source text (``core/jit.py``), so the install's compile loads
+    those instead of compiling them a second time (and still marks the parts itself)."""
     build = prefix.parent / 'build'
     build.mkdir(parents=True, exist_ok=True)
+    seed = Path(os.environ.get('NUMBA_CACHE_DIR') or '/nonexistent') / 'rb_sim_ros'
+    if seed.is_dir():
+        tree_cache = site_packages(prefix) / 'rb_sim_ros' / '__pycache__' / 'numba'
+        tree_cache.mkdir(parents=True, exist_ok=True)
+        for f in seed.iterdir():
+            if f.suffix in ('.nbi', '.nbc'):
+                shutil.copy2(f, tree_cache / f.name)
     subprocess.run([sys.executable, 'setup.py', '-q', 'egg_info', '--egg-base', str(build),
                     'build', '--build-base', str(build), 'install', '--prefix', str(prefix),
                     '--record', str(build / 'install.log'),
