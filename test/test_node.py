@@ -513,7 +513,9 @@ def test_colliding_bodies_land_and_are_drawn(start_sim, probe, tmp_path):
     """A ball dropped on the ground comes to rest on it, and the markers show it there with
     its contact point on the ground; after sleep_time at rest it sleeps (/diagnostics). Any
     marker message received counts (a loaded probe may skip some, and the contact goes once
-    the ball sleeps)."""
+    the ball sleeps). The node starts paused and runs once a step has drawn markers to the
+    probe: on a loaded machine discovery took longer than the fall and the 2 s of rest, and
+    the probe saw only the sleeping ball, without a contact."""
     from diagnostic_msgs.msg import DiagnosticArray
     from visualization_msgs.msg import MarkerArray
     scene = tmp_path / 'scene.yaml'
@@ -521,9 +523,16 @@ def test_colliding_bodies_land_and_are_drawn(start_sim, probe, tmp_path):
                      '  - {name: ball, shape: sphere, radius: 0.1, density: 1000, '
                      'position: [0.5, 0, 0.3], colliders: shape}\n'
                      '  - {name: ground, static: true, colliders: [{type: plane}]}\n')
-    start_sim('-p', f'scene_file:={scene}')
+    start_sim('-p', f'scene_file:={scene}', '-p', 'start_paused:=true')
     markers = probe.collect(MarkerArray, 'collision_markers', 1)
     diagnostics = probe.collect(DiagnosticArray, '/diagnostics')
+    end = time.monotonic() + 300.0
+    while not markers:  # a step (10 ms) publishes them once the node has our subscription
+        assert time.monotonic() < end, 'no collision markers after steps for 300 s'
+        assert probe.call(Trigger, 'step', Trigger.Request()).success
+        for _ in range(10):
+            probe.executor.spin_once(timeout_sec=0.02)
+    assert probe.call(SetBool, 'pause', SetBool.Request(data=False)).success
 
     def drawn_resting(message):
         m = {(k.ns, k.id): k for k in message.markers}
