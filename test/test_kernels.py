@@ -124,7 +124,7 @@ def test_the_cache_moves_to_the_user_directory_where_the_package_is_read_only(
         tmp_path, monkeypatch):
     unwritable = Path('/dev/null/numba')  # under a file: mkdir fails, as in a read-only tree
     monkeypatch.setattr(jit, 'cache_directories', lambda: [unwritable, tmp_path / 'user'])
-    function = getattr(K.advance_bodies, 'py_func', K.advance_bodies)
+    function = getattr(K.advance_bodies_two, 'py_func', K.advance_bodies_two)
     locator = jit._SourceHashLocator.from_function(function, K.__file__)
     assert locator is not None and Path(locator.get_cache_path()) == tmp_path / 'user'
     # Functions outside the package are left to numba's own locators.

@@ -44,7 +44,7 @@ import numpy as np
 
 from rb_sim_ros.core.free_flow import flow_advance, flow_start, free_flow, invariants
 from rb_sim_ros.core.jit import (
-    inline_kernel, kernel, literal_switch, literally, parallel_kernel, prange)
+    inline_kernel, kernel, literal_switch, parallel_kernel, prange)
 from rb_sim_ros.core.rotation_kernels import (
     exp_so3, exp_so3_small, mul33, orthonormalize, SMALL_ANGLE_SQ)
 
@@ -304,6 +304,14 @@ def _step_status(nx0, nx1, nx2, nv0, nv1, nv2, q00, q01, q02, q10, q11, q12, q20
     return STATUS_OK
 
 
+@inline_kernel
+def _copy_row(dst, src, i):
+    """dst[i] = src[i], element by element: a slice assignment would compile numba's shape
+    check and its message (some 2 s of string code at a first start)."""
+    for c in range(dst.shape[1]):
+        dst[i, c] = src[i, c]
+
+
 @kernel
 def advance_body_2(src, dst, p, c, i, n, checked, status, taken, bad, work):
     """``advance_body`` for a two-step method of eq. (27)'s form (c[STEPS] = 2)."""
@@ -322,7 +330,7 @@ def advance_body_2(src, dst, p, c, i, n, checked, status, taken, bad, work):
     status[i] = STATUS_OK
     taken[i] = 0
     if n <= 0:
-        dst[i, :] = src[i, :]
+        _copy_row(dst, src, i)
         return
     # 1. The history a_{n-1}, beta_{n-1}.
     if history == HISTORY_NONE:
@@ -352,7 +360,7 @@ def advance_body_2(src, dst, p, c, i, n, checked, status, taken, bad, work):
         apx, apy, apz = float(s[i, AP]), float(s[i, AP + 1]), float(s[i, AP + 2])
         bpx, bpy, bpz = float(s[i, BP]), float(s[i, BP + 1]), float(s[i, BP + 2])
     if checked and not _finite(apx, apy, apz, bpx, bpy, bpz):
-        dst[i, :] = src[i, :]
+        _copy_row(dst, src, i)
         status[i] = STATUS_START_UP
         return
     # 2. The skips.
@@ -365,7 +373,7 @@ def advance_body_2(src, dst, p, c, i, n, checked, status, taken, bad, work):
                               and vz == 0.0 and ax == 0.0 and ay == 0.0 and az == 0.0
                               and apx == 0.0 and apy == 0.0 and apz == 0.0)
         if frozen_rotation and frozen_translation:  # at rest, unforced: nothing moves
-            dst[i, :] = src[i, :]
+            _copy_row(dst, src, i)
             for k in range(XP, XP + 24):
                 dst[i, k] = src[i, k - XP]  # the previous step is this one
             dst[i, HISTORY] = HISTORY_VALID
@@ -409,7 +417,7 @@ def advance_body_2(src, dst, p, c, i, n, checked, status, taken, bad, work):
         good += 1
     taken[i] = good
     if good == 0:  # the first step failed: none taken, the row as it was
-        dst[i, :] = src[i, :]
+        _copy_row(dst, src, i)
         return
     d = dst
     _put(d, i, X, xx, xy, xz, vx, vy, vz, r00, r01, r02, r10, r11, r12, r20, r21, r22, wx, wy, wz)
@@ -1099,79 +1107,72 @@ def advance(src, dst, params, coefficients, bodies, n, checked, status, taken, b
     if blocked(coefficients, bodies.shape[0], n, checked):
         (advance_blocks_parallel if parallel else advance_blocks)(*args, *out)
     else:
-        globals()[ADVANCE_BODIES[parallel, family(coefficients)]](*args, checked, *out)
+        kernel_of = globals()[ADVANCE_BODIES[parallel, family(coefficients)]]
+        kernel_of(*args, checked, *out)
 
 
-@kernel
-def advance_bodies(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
-                   work, family):
-    """n steps of each body of ``bodies``, one after the other, of a method of ``family``
-    (called from a kernel with a constant: from Python, ``ADVANCE_BODIES``)."""
-    f = literally(family)
-    for k in range(bodies.shape[0]):
-        body_step(f, src, dst, params, coefficients, bodies[k], n, checked, status, taken, bad,
-                  work)
-
-
-@parallel_kernel
-def advance_bodies_parallel(src, dst, params, coefficients, bodies, n, checked, status, taken,
-                            bad, work, family):
-    """``advance_bodies`` with the bodies shared among the cores."""
-    f = literally(family)
-    for k in prange(bodies.shape[0]):
-        body_step(f, src, dst, params, coefficients, bodies[k], n, checked, status, taken, bad,
-                  work)
-
-
-# The entries from Python, one a family, each passing its family as a constant. A call from
-# Python with the family as an argument would never match the kernel compiled for its literal
-# value: numba would enter its compiler at every call to learn that again (some 15 ms a call).
+# The stepping kernels of free bodies, one a family (the family is known where the kernel is
+# chosen, in Python: ``ADVANCE_BODIES``), so that a run compiles its own family's step only.
+# (One kernel taking the family as an argument would need it as a compile-time constant; from
+# Python it is not one, and numba would enter its compiler at every call: 15 ms a step.)
 
 
 @kernel
 def advance_bodies_two(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
                        work):
-    advance_bodies(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
-                   work, FAMILY_TWO)
+    """n steps of each body of ``bodies``, one after the other, of a two-step method."""
+    for k in range(bodies.shape[0]):
+        advance_body_2(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
+                       bad, work)
 
 
 @kernel
 def advance_bodies_k(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
                      work):
-    advance_bodies(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
-                   work, FAMILY_K)
+    """``advance_bodies_two`` for a method of k > 2 accelerations."""
+    for k in range(bodies.shape[0]):
+        advance_body_k(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
+                       bad, work)
 
 
 @kernel
 def advance_bodies_split(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
                          work):
-    advance_bodies(src, dst, params, coefficients, bodies, n, checked, status, taken, bad,
-                   work, FAMILY_SPLIT)
+    """``advance_bodies_two`` for a splitting method."""
+    for k in range(bodies.shape[0]):
+        advance_body_split(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
+                           bad, work)
 
 
-@kernel
+@parallel_kernel
 def advance_bodies_parallel_two(src, dst, params, coefficients, bodies, n, checked, status,
                                 taken, bad, work):
-    advance_bodies_parallel(src, dst, params, coefficients, bodies, n, checked, status, taken,
-                            bad, work, FAMILY_TWO)
+    """``advance_bodies_two`` with the bodies shared among the cores (they are independent)."""
+    for k in prange(bodies.shape[0]):
+        advance_body_2(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
+                       bad, work)
 
 
-@kernel
+@parallel_kernel
 def advance_bodies_parallel_k(src, dst, params, coefficients, bodies, n, checked, status,
                               taken, bad, work):
-    advance_bodies_parallel(src, dst, params, coefficients, bodies, n, checked, status, taken,
-                            bad, work, FAMILY_K)
+    """``advance_bodies_k`` with the bodies shared among the cores."""
+    for k in prange(bodies.shape[0]):
+        advance_body_k(src, dst, params, coefficients, bodies[k], n, checked, status, taken,
+                       bad, work)
 
 
-@kernel
+@parallel_kernel
 def advance_bodies_parallel_split(src, dst, params, coefficients, bodies, n, checked, status,
                                   taken, bad, work):
-    advance_bodies_parallel(src, dst, params, coefficients, bodies, n, checked, status, taken,
-                            bad, work, FAMILY_SPLIT)
+    """``advance_bodies_split`` with the bodies shared among the cores."""
+    for k in prange(bodies.shape[0]):
+        advance_body_split(src, dst, params, coefficients, bodies[k], n, checked, status,
+                           taken, bad, work)
 
 
-# (parallel, family) -> the name of the entry kernel: looked up in the module's globals at
-# each call, which ``jit.run_interpreted`` rebinds to the Python functions.
+# (parallel, family) -> the name of the kernel: looked up in the module's globals at each call,
+# which ``jit.run_interpreted`` rebinds to the Python functions.
 ADVANCE_BODIES = {(parallel, f): f'advance_bodies{"_parallel" if parallel else ""}_{name}'
                   for parallel in (False, True)
                   for f, name in ((FAMILY_TWO, 'two'), (FAMILY_K, 'k'), (FAMILY_SPLIT, 'split'))}
