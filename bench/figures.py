@@ -311,6 +311,16 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((readme, '#Many bodies',
               f'{big["mujoco_euler_all_cores_ns"] / big["batch_free_ns"]:.1f}x less than'))
     q.append((readme, '#Many bodies', f'{big["batch_free_one_step_per_call_ns"]:.0f} ns'))
+
+    compiled = {r['case']: r for r in load('compile_cost', folder)['rows']}
+    steppers = [compiled[f'stepper {m}'] for m in ('eq27', 'lie4', 'flow4')]
+    total = load('compile_cost', folder)['package_kernels']
+    q.append((readme, 'first use on an empty kernel cache',
+              ' / '.join(f'{r["seconds"]:.1f}' for r in steppers) + ' s ('
+              + ' / '.join(str(r['kernels_compiled']) for r in steppers) + f' of {total}); '
+              f'{compiled["node default scene"]["seconds"]:.0f} / '
+              f'{compiled["node collision demo"]["seconds"]:.0f} s; '
+              f'{compiled["all parts"]["seconds"]:.0f} s'))
     return q
 
 
