@@ -13,6 +13,8 @@ import re
 import subprocess
 import sys
 
+import pytest
+
 from rb_sim_ros import METHODS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -27,6 +29,7 @@ def _bench(name):
         sys.path.remove(str(ROOT / 'bench'))
 
 
+@pytest.mark.slow  # a benchmark
 def test_quick_benchmark_checks_orders_and_writes_its_report(tmp_path):
     result = subprocess.run([sys.executable, str(ROOT / 'bench' / 'run.py'), '--quick',
                              '--out', str(tmp_path)], capture_output=True, text=True,
@@ -110,6 +113,7 @@ def _quick(name: str, tmp_path: Path) -> dict:
     return figures
 
 
+@pytest.mark.slow  # a benchmark
 def test_collision_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
     """Their checks: both engines' heaps stay in the box and agree; the collision tests'
     scenarios stay within the bounds their tests assert; a resting floor of boxes stays put in
@@ -128,6 +132,7 @@ def test_collision_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
                                                 'tipping cube'}
 
 
+@pytest.mark.slow  # a benchmark
 def test_step_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
     """Every path agrees with its reference before it is timed, and every figure is sane."""
     step = _quick('step_cost', tmp_path)
@@ -138,6 +143,7 @@ def test_step_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
     assert batch['batch_vs_steppers'] < 1e-12
 
 
+@pytest.mark.slow  # a benchmark
 def test_node_timing_passes_its_checks_in_quick_mode(tmp_path):
     """The moving body's last pose matches an offline Stepper; the figures are plausible."""
     node = _quick('node_timing', tmp_path)
@@ -145,6 +151,7 @@ def test_node_timing_passes_its_checks_in_quick_mode(tmp_path):
     assert fastest['body'] == 'spinning, full tensor' and fastest['pose_error'] <= 1e-9
 
 
+@pytest.mark.slow  # a benchmark
 def test_node_lifecycle_passes_its_checks_in_quick_mode():
     """A 200-body scene starts and publishes all its poses; two stops by signal at full
     speed exit 0 without a traceback and leave recordings that verify."""

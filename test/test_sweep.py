@@ -110,6 +110,7 @@ def test_a_local_sweep_runs_every_variant_and_every_file_verifies(scene, tmp_pat
     assert not (out / 'summary.partial.jsonl').exists()
 
 
+@pytest.mark.slow  # a Ray cluster started and a worker killed
 def test_ray_gives_the_same_files_and_rows_and_a_dead_worker_loses_nothing(
         scene, tmp_path, monkeypatch):
     local = tmp_path / 'local'
