@@ -173,7 +173,12 @@ class SimulatorNode(Node):
         values = {p.name: self.get_parameter(p.name).value for p in node_params.PARAMS}
         for name, value in values.items():
             node_params.check(name, value)
-        self._scene = load_scene(values['scene_file']) if values['scene_file'] else None
+        self._scene = None
+        if values['scene_file']:
+            # Said first: a large scene takes seconds to read and check (the file is named
+            # once, by the start-up line or by the refusal).
+            self.get_logger().info('reading the scene (scene_file)')
+            self._scene = load_scene(values['scene_file'])
         self.config = config_from(values, self._scene)
         self.diagnostics = Diagnostics()
         self._compiling = None
