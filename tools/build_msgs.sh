@@ -18,8 +18,9 @@ if [ "$(cat "$msgs_stamp" 2>/dev/null || true)" != "$msgs_want" ]; then
       -r "$root/requirements-msgs.txt" || exit 1
     command -v cmake >/dev/null || "$venv/bin/python" -m pip install \
       --disable-pip-version-check cmake || exit 1
-    # The packages build side by side (one core each): configuring and generating are
-    # single-threaded, and take half the time.
+    # The packages build side by side: configuring and generating are single-threaded, and
+    # each compiles on every core (tf2_msgs is done in seconds, simulation_interfaces then has
+    # them all to itself).
     pids=()
     for pkg in "$root"/tools/msgs/*/; do
       name=$(basename "$pkg")
@@ -31,7 +32,7 @@ if [ "$(cat "$msgs_stamp" 2>/dev/null || true)" != "$msgs_want" ]; then
         PATH="$venv/bin:$PATH" AMENT_PREFIX_PATH="$venv" CMAKE_PREFIX_PATH="$venv" \
           cmake -S "$pkg" -B "$build" -DCMAKE_INSTALL_PREFIX="$venv" -DBUILD_TESTING=OFF \
           -DPython3_EXECUTABLE="$venv/bin/python" -DCMAKE_BUILD_TYPE=Release || exit 1
-        PATH="$venv/bin:$PATH" cmake --build "$build" -j 1 || exit 1
+        PATH="$venv/bin:$PATH" cmake --build "$build" -j "$(nproc)" || exit 1
         PATH="$venv/bin:$PATH" cmake --install "$build" || exit 1
       ) >"$venv/.rb_sim_ros-msgs-$name.log" 2>&1 &
       pids+=($!)
