@@ -27,6 +27,8 @@ import time
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 
+from rb_sim_ros.core import jit
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -38,8 +40,8 @@ def install(prefix: Path) -> Path:
     those instead of compiling them a second time (and still marks the parts itself)."""
     build = prefix.parent / 'build'
     build.mkdir(parents=True, exist_ok=True)
-    seed = Path(os.environ.get('NUMBA_CACHE_DIR') or '/nonexistent') / 'rb_sim_ros'
-    if seed.is_dir():
+    seed = jit.cache_directories()[0] if os.environ.get('NUMBA_CACHE_DIR') else None
+    if seed is not None and seed.is_dir():
         tree_cache = site_packages(prefix) / 'rb_sim_ros' / '__pycache__' / 'numba'
         tree_cache.mkdir(parents=True, exist_ok=True)
         for f in seed.iterdir():

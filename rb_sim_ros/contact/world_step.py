@@ -354,8 +354,8 @@ def world_steps_split(arrays, n, warm_keys, warm_normal, warm_tangent):
 
 # family -> the name of its entry (looked up in the module's globals at each call, which
 # ``jit.run_interpreted`` rebinds).
-WORLD_STEPS = {K.FAMILY_TWO: 'world_steps_two', K.FAMILY_K: 'world_steps_k',
-               K.FAMILY_SPLIT: 'world_steps_split'}
+WORLD_STEPS = {FAMILY_TWO: 'world_steps_two', FAMILY_K: 'world_steps_k',
+               FAMILY_SPLIT: 'world_steps_split'}
 
 
 def steps(arrays, n, warm_keys, warm_normal, warm_tangent, family):
