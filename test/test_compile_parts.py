@@ -71,12 +71,52 @@ def test_a_free_body_compiles_its_own_family_only(tmp_path):
     assert interpreted[0][1] == []
 
 
+CONTACT_PART = """
+import json, sys
+from numba.core import event
+from rb_sim_ros.sim import precompile
+with event.install_recorder('numba:compile') as rec:
+    precompile.precompile(['contact-two-step'])
+funcs = [e.data['dispatcher'].py_func for _, e in rec.buffer if e.is_start]
+print(json.dumps({'cores': precompile._cores(), 'compiled': [
+    f.__module__.rsplit('.', 1)[-1] + '.' + f.__qualname__ for f in funcs
+    if f.__module__.startswith('rb_sim_ros.')]}))
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not jit.compiling(), reason='NUMBA_DISABLE_JIT=1: nothing compiles')
+def test_a_collision_part_compiles_in_two_processes_and_each_kernel_once(tmp_path):
+    """On an empty cache, a child compiles the narrow phase and the sorts while this process
+    compiles the solver and the body step; world_steps then loads them all (compiled here
+    once, in the child not at all): the types world_step.compile_leaves gives them are the
+    ones world_steps calls them with."""
+    out = subprocess.run([sys.executable, '-c', CONTACT_PART], cwd=tmp_path,
+                         env={**os.environ, 'NUMBA_CACHE_DIR': str(tmp_path / 'cache')},
+                         capture_output=True, text=True, timeout=1800)
+    assert out.returncode == 0, out.stderr[-3000:]
+    found = json.loads(out.stdout.splitlines()[-1])
+    compiled = found['compiled']
+    assert 'world_step.world_steps_two' in compiled
+    for here in ('solver_kernels.solve_arrays', 'step_kernel.advance_body_2'):
+        assert compiled.count(here) == 1, here
+    if found['cores'] >= 2:
+        for child in ('narrow_kernels.collide_pairs', 'narrow_kernels.collide_pair',
+                      'broad_phase.stable_order', 'broad_phase.sorted_copy'):
+            assert child not in compiled, child
+
+
 def test_a_scene_names_the_parts_it_steps_with():
     assert precompile.parts_of(Config()) == ['bodies-two-step']
     assert precompile.parts_of(Config(integrator='lie3')) == ['bodies-k-step']
     gravity, bodies, contact = load_scene(str(ROOT / 'scenes' / 'collisions.yaml'))[:3]
     demo = Config(gravity=gravity, bodies=tuple(bodies), contact=contact, integrator='flow2')
-    assert precompile.parts_of(demo) == ['bodies-splitting', 'contact-splitting']
+    assert precompile.parts_of(demo) == ['contact-splitting']
+    # Colliders on static bodies only: no collision world runs (collision_world's enabled).
+    walls = Config(bodies=(BodySpec('ball'), BodySpec('wall', static=True,
+                                                      colliders=(Sphere(0.1),))))
+    assert precompile.parts_of(walls) == ['bodies-two-step']
+    assert CollisionWorld.from_config(walls).enabled is False
     assert sorted(precompile.parts()) == sorted(precompile.PARTS) and len(precompile.PARTS) == 6
     assert precompile.parts(['eq27', 'taylor1', 'lie4'], False) == [
         'bodies-two-step', 'bodies-k-step']

@@ -146,7 +146,7 @@ def test_help_lists_the_endpoints_the_node_has(installed, ros_env, start_sim, pr
     # wait for all that help lists, within a bound; a missing one is then named below.
     try:
         probe.wait_for(lambda: set(graph()) >= set(listed), timeout=120.0,
-                       what="every endpoint --help lists")
+                       what='every endpoint --help lists')
     except TimeoutError:
         pass
     ends = graph()

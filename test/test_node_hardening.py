@@ -316,6 +316,7 @@ def test_a_large_scene_gives_topics_to_the_first_bodies_and_poses_to_all(
     assert len(msg.poses) == 5 and msg.header.frame_id == 'world'
     for i, pose in enumerate(msg.poses):  # x = i, z = i t (no gravity): exact to rounding
         assert pose.position.x == i and abs(pose.position.z - i * t) < 1e-9 * (1 + i * t)
+
     def topics():
         return {name for name, _types in probe.node.get_topic_names_and_types()}
     probe.wait_for(lambda: {'/b0/pose', '/b1/wrench'} <= topics(),  # discovery: one by one

@@ -112,7 +112,7 @@ def test_the_install_compiles_the_kernels_into_its_own_tree(installed, tmp_path)
     cache's marker says so to a node (which then does not start in the interpreter)."""
     site = ros_harness.site_packages(installed)
     cache = site / 'rb_sim_ros' / '__pycache__' / 'numba'
-    for kernel in ('step_kernel.advance_bodies_two-', 'world_step.world_steps-'):
+    for kernel in ('step_kernel.advance_bodies_two-', 'world_step.world_steps_two-'):
         assert any(f.name.startswith(kernel) for f in cache.glob('*.nbi')), kernel
     code = ('from numba.core import event\n'
             'import rb_sim_ros\n'

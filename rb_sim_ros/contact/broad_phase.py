@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from rb_sim_ros.core.jit import inline_kernel
+from rb_sim_ros.core.jit import inline_kernel, kernel
 
 # The most pairs of colliders the broad phase finds in one step, and the most box tests its
 # sweep makes (each overlap on the sweep axis is one). Past either it stops and returns
@@ -32,6 +32,24 @@ MAX_PAIRS = 1 << 18
 MAX_SWEEP = 64 * MAX_PAIRS
 # What sweep_and_prune returns past its bounds: one pair (-1, -1).
 OVERFLOW = -1
+
+
+# The sorts of the world's step, as kernels of their own: numba compiles a sort (its
+# specialisation for the array's type) into every kernel that calls np.sort or np.argsort,
+# seconds each inside world_steps; a kernel is compiled once, cached, and compiled beside
+# world_steps (world_step.compile_leaves). numpy's own are the interpreted tier.
+
+
+@kernel
+def stable_order(keys):
+    """The indices that sort ``keys`` (1-D), equal keys in their order (a stable sort)."""
+    return np.argsort(keys, kind='mergesort')
+
+
+@kernel
+def sorted_copy(values):
+    """``values`` (1-D int64) sorted, as a new array."""
+    return np.sort(values)
 
 
 @inline_kernel
@@ -58,7 +76,7 @@ def sweep_and_prune(lower, upper, group, static, axis):
     keys = np.empty(count)
     for i in range(count):
         keys[i] = lower[i, axis]
-    order = np.argsort(keys, kind='mergesort')
+    order = stable_order(keys)
     found = 0
     tested = 0
     capacity = 4 * count
@@ -90,7 +108,7 @@ def sweep_and_prune(lower, upper, group, static, axis):
             found += 1
             if found > MAX_PAIRS:
                 return np.full((1, 2), OVERFLOW, dtype=np.int64)
-    keys_found = np.sort(pairs[:found])
+    keys_found = sorted_copy(pairs[:found])
     out = np.empty((found, 2), dtype=np.int64)
     for k in range(found):
         out[k, 0] = keys_found[k] // count

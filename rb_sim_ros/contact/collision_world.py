@@ -461,6 +461,12 @@ class CollisionWorld:
         if self.enabled:
             self._call(0)
 
+    def compile_leaves(self, group: str) -> None:
+        """Compile (or load) one group of the kernels ``world_steps`` calls
+        (``world_step.compile_leaves``), for another process to compile the rest beside it."""
+        if self.enabled:
+            ws.compile_leaves(self._world(), K.family(self._store.coefficients), group)
+
     def _call(self, n: int):
         """``world_steps`` for n steps from the world's clock and arrays as they are now."""
         self._status[ws.S_STEP] = self._step_count

@@ -2,9 +2,10 @@
 # Licensed under the Apache License, Version 2.0
 """The collision world's step as one compiled call: n steps of integrate, detect, solve, write.
 
-``world_steps(arrays, n)`` takes ``w = World(*arrays)`` (a named tuple of the world's arrays,
-built by ``collision_world.CollisionWorld`` for each call) through ``n`` steps of the order
-written in ``collision_world``'s module docstring:
+``world_steps(arrays, n, ...)`` (a kernel for each family of methods, ``world_steps_two``,
+``_k``, ``_split``; ``steps`` calls the one of a world's bodies) takes ``w = World(*arrays)`` (a
+named tuple of the world's arrays, built by ``collision_world.CollisionWorld`` for each call)
+through ``n`` steps of the order written in ``collision_world``'s module docstring:
 
 1. the awake bodies take one step of the step kernel (``step_kernel.body_step``), the ones
    without colliders too;
@@ -37,7 +38,7 @@ import numpy as np
 from rb_sim_ros.contact import broad_phase as bp, narrow_kernels as nk, solver_kernels as sk
 from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.core import step_kernel as K
-from rb_sim_ros.core.jit import inline_kernel, kernel, literally
+from rb_sim_ros.core.jit import compile_for, inline_kernel, kernel
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
 FEATURE_BITS = 12
@@ -89,267 +90,294 @@ World = namedtuple('World', [
     'settings', 'config', 'status', 'stats', 'flagged', 'energy'])
 
 
-@kernel
-def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent, family):
-    """``n`` steps of the world (see the module doc) of ``arrays``, a World's arrays as a plain
-    tuple in its order (one crosses from Python in two thirds of the time of a named tuple).
-    Returns the warm-start arrays and the last step's contacts: (warm_keys, warm_normal,
-    warm_tangent, point, normal, depth, normal_impulse, collider_a, collider_b);
-    w.status[S_COLLIDED] says whether a contact pass ran in this call (else the contacts
-    returned are not the last step's). ``family``: the bodies' method's
-    (``step_kernel.family``), compiled for its value alone."""
-    f = literally(family)
-    w = World(*arrays)
-    point, normal = np.zeros((0, 3)), np.zeros((0, 3))
-    depth, impulse = np.zeros(0), np.zeros(0)
-    ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    w.status[S_KIND] = OK
-    w.status[S_STEPS_DONE] = 0
-    w.status[S_COLLIDED] = 0
-    while w.status[S_STEPS_DONE] < n:
-        # The first step (or the first after a teleport) collides before it integrates: the
-        # contacts of the starting state, so that a speculative contact already holds for
-        # this step's integration. A pass that fails leaves it due: the next call checks
-        # again. (One call site of each stage: they are compiled inline.)
-        integrated = w.status[S_UNCHECKED] == 0
-        if integrated:
-            row = _integrate(f, w.step_rows, w.body_of_row, w.asleep, w.state, w.spare,
-                             w.params, w.coefficients, w.kstatus, w.taken, w.bad, w.work,
-                             w.clock)
-            w.status[S_STEP] += 1
-            w.status[S_STEPS_DONE] += 1
-            if row >= 0:
-                w.status[S_KIND], w.status[S_ROW] = INTEGRATION, row
-                w.status[S_ERROR_STEP] = w.status[S_STEP] - 1
-                break
-        # 2. - 5. on the bodies' current states (``integrated``: the awake bodies have taken
-        # this step's integration).
-        nb = w.rows.shape[0]
-        nc = w.cbody.shape[0]
-        step = w.status[S_STEP] - 1 if integrated else w.status[S_STEP]
-        static = np.empty(nc, dtype=np.bool_)
-        crowded = False
-        while True:
-            # x, R, v, omega and margins of the bodies; colliders placed (step 2's start).
-            wk.read_bodies(w.state, w.rows, w.q, w.has_q, w.x, w.rot, w.v, w.w)
-            wk.speculative_margins(w.v, w.w, w.reach, nb, float(w.config[C_DT]),
-                                   float(w.config[C_G]), w.config[C_SPECULATIVE] != 0.0, w.margin)
-            wk.place_colliders(w.dyn, w.cbody, w.x, w.rot, w.local_pos, w.local_rot, w.half,
-                               w.half_length, w.radius, w.margin, w.centres, w.rotations, w.lower,
-                               w.upper)
-            any_asleep = False
-            for c in range(nc):
-                static[c] = w.cstatic[c] or w.asleep[w.cbody[c]]
-            for k in range(nb):
-                any_asleep = any_asleep or w.asleep[k]
-            pairs = bp.sweep_and_prune(w.lower, w.upper, w.cowner, static, int(-1))
-            crowded = pairs.shape[0] == 1 and pairs[0, 0] == bp.OVERFLOW
-            if crowded or not any_asleep or pairs.shape[0] == 0:
-                break
-            woken = np.zeros(nb + 1, dtype=np.bool_)
-            found = False
-            for k in range(pairs.shape[0]):
-                a, b = w.cbody[pairs[k, 0]], w.cbody[pairs[k, 1]]
-                if w.asleep[a] and not w.asleep[b] and a < nb:
-                    woken[a], found = True, True
-                if w.asleep[b] and not w.asleep[a] and b < nb:
-                    woken[b], found = True, True
-            if not found:
-                break
-            clock = w.status[S_STEP] - (1 if integrated else 0)
-            for k in range(nb):
-                if woken[k]:
-                    w.asleep[k] = False
-                    w.slow_steps[k] = 0
-                    w.clock[w.rows[k]] = clock  # its clock stood still while asleep
+def _world_steps_of(family, name):
+    """``world_steps`` (below) compiled for the bodies' ``family`` (``step_kernel.family``), a
+    constant in it (from Python it could not be one: numba would enter its compiler at
+    every call, 15 ms); ``name``, its name and the name of its cache entry."""
+
+    def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
+        """``n`` steps of the world (see the module doc) of ``arrays``, a World's arrays as a plain
+        tuple in its order (one crosses from Python in two thirds of the time of a named tuple).
+        Returns the warm-start arrays and the last step's contacts: (warm_keys, warm_normal,
+        warm_tangent, point, normal, depth, normal_impulse, collider_a, collider_b);
+        w.status[S_COLLIDED] says whether a contact pass ran in this call (else the contacts
+        returned are not the last step's)."""
+        f = family
+        w = World(*arrays)
+        point, normal = np.zeros((0, 3)), np.zeros((0, 3))
+        depth, impulse = np.zeros(0), np.zeros(0)
+        ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        w.status[S_KIND] = OK
+        w.status[S_STEPS_DONE] = 0
+        w.status[S_COLLIDED] = 0
+        while w.status[S_STEPS_DONE] < n:
+            # The first step (or the first after a teleport) collides before it integrates: the
+            # contacts of the starting state, so that a speculative contact already holds for
+            # this step's integration. A pass that fails leaves it due: the next call checks
+            # again. (One call site of each stage: they are compiled inline.)
+            integrated = w.status[S_UNCHECKED] == 0
             if integrated:
-                # Asleep when (1) ran: take that step now, so that they meet the solve as an
-                # awake body would, with this step's gravity and wrench, and read again. If one
-                # fails, the others still take it; the step stops there.
-                failed = -1
-                for k in range(nb):
-                    if woken[k] and _advance_row(f, w.state, w.spare, w.params, w.coefficients,
-                                                 w.kstatus, w.taken, w.bad, w.work, w.clock,
-                                                 w.rows[k]) and failed < 0:
-                        failed = w.rows[k]
-                if failed >= 0:
-                    w.status[S_KIND], w.status[S_ROW] = INTEGRATION, failed
-                    w.status[S_ERROR_STEP] = w.clock[failed]
+                row = _integrate(f, w.step_rows, w.body_of_row, w.asleep, w.state, w.spare,
+                                 w.params, w.coefficients, w.kstatus, w.taken, w.bad, w.work,
+                                 w.clock)
+                w.status[S_STEP] += 1
+                w.status[S_STEPS_DONE] += 1
+                if row >= 0:
+                    w.status[S_KIND], w.status[S_ROW] = INTEGRATION, row
+                    w.status[S_ERROR_STEP] = w.status[S_STEP] - 1
                     break
-        if crowded and w.status[S_KIND] == OK:  # more pairs than the bounds: refused, and
-            # due again (the next call checks before it integrates: nothing moves on unsolved)
-            w.status[S_KIND], w.status[S_ERROR_STEP] = CROWDED, step
-            w.status[S_UNCHECKED] = 1
-            w.stats[CONTACTS] = 0  # none: the narrow phase did not run
-        if w.status[S_KIND] != OK:  # a woken body failed its step: the step stops there
-            point, normal = np.zeros((0, 3)), np.zeros((0, 3))
-            depth, impulse = np.zeros(0), np.zeros(0)
-            ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-            w.status[S_COLLIDED] = 1
-            break
-        # Planes: the awake moving colliders only.
-        awake = np.empty(w.dyn.shape[0], dtype=np.int64)
-        count = 0
-        for k in range(w.dyn.shape[0]):
-            if not w.asleep[w.cbody[w.dyn[k]]]:
-                awake[count] = w.dyn[k]
-                count += 1
-        planes = w.plane_normals.shape[0]
-        if planes:
-            plane_pairs = bp.plane_candidates(awake[:count], w.cbody, w.rotations, w.half,
-                                              w.half_length, w.radius, w.centres,
-                                              w.plane_normals, w.plane_points, w.margin)
-        else:
-            plane_pairs = np.zeros((0, 2), dtype=np.int64)
-        # 3. The narrow phase of every candidate: collider pairs, then (collider, plane).
-        p1, p2 = pairs.shape[0], plane_pairs.shape[0]
-        pair_a = np.empty(p1 + p2, dtype=np.int64)
-        pair_b = np.empty(p1 + p2, dtype=np.int64)
-        margins = np.empty(p1 + p2)
-        for k in range(p1):
-            pair_a[k], pair_b[k] = pairs[k, 0], pairs[k, 1]
-            margins[k] = w.margin[w.cbody[pairs[k, 0]]] + w.margin[w.cbody[pairs[k, 1]]]
-        for k in range(p2):
-            pair_a[p1 + k], pair_b[p1 + k] = plane_pairs[k, 0], nc + plane_pairs[k, 1]
-            margins[p1 + k] = w.margin[w.cbody[plane_pairs[k, 0]]]
-        rows = (p1 + p2) * nk.MAX_CONTACTS_PER_PAIR
-        point, normal = np.empty((rows, 3)), np.empty((rows, 3))
-        depth = np.empty(rows)
-        feature, source = np.empty(rows, dtype=np.int64), np.empty(rows, dtype=np.int64)
-        m = nk.collide_pairs(pair_a, pair_b, w.kinds, w.geoms, w.centres, w.rotations, margins,
-                             point, normal, depth, feature, source)
-        point, normal, depth = point[:m], normal[:m], depth[:m]
-        stats = w.stats
-        for k in range(8):
-            stats[k] = 0
-        stats[CANDIDATE_PAIRS], stats[PLANE_PAIRS], stats[CONTACTS] = p1, p2, m
-        if m > MAX_CONTACTS:  # more than the solve's bound: refused, and due again
-            w.status[S_KIND], w.status[S_ERROR_STEP] = CROWDED, step
-            w.status[S_UNCHECKED] = 1
-            point, normal = np.zeros((0, 3)), np.zeros((0, 3))
-            depth, impulse = np.zeros(0), np.zeros(0)
-            ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-            w.status[S_COLLIDED] = 1
-            break
-        ca = np.empty(m, dtype=np.int64)
-        cbb = np.empty(m, dtype=np.int64)
-        body_a = np.empty(m, dtype=np.int64)
-        body_b = np.empty(m, dtype=np.int64)
-        keys = np.empty(m, dtype=np.int64)
-        total = max(nc + planes, 1)
-        for k in range(m):
-            ca[k], cbb[k] = pair_a[source[k]], pair_b[source[k]]
-            body_a[k] = w.cbody[ca[k]]
-            body_b[k] = w.cbody[cbb[k]] if cbb[k] < nc else nb
-            keys[k] = (ca[k] * total + cbb[k]) * (1 << FEATURE_BITS) + (
-                feature[k] % (1 << FEATURE_BITS))
-        impulse = np.zeros(m)
-        w.energy[SOLVE_BEFORE] = w.energy[SOLVE_AFTER] = 0.0
-        if m == 0:
-            warm_keys, warm_normal, warm_tangent = _store_warm(
-                nb, w.cbody, w.plane_normals.shape[0], w.asleep, keys, impulse, np.zeros((0, 3)),
-                warm_keys, warm_normal, warm_tangent)
+            # 2. - 5. on the bodies' current states (``integrated``: the awake bodies have taken
+            # this step's integration).
+            nb = w.rows.shape[0]
+            nc = w.cbody.shape[0]
+            step = w.status[S_STEP] - 1 if integrated else w.status[S_STEP]
+            static = np.empty(nc, dtype=np.bool_)
+            crowded = False
+            while True:
+                # x, R, v, omega and margins of the bodies; colliders placed (step 2's start).
+                wk.read_bodies(w.state, w.rows, w.q, w.has_q, w.x, w.rot, w.v, w.w)
+                wk.speculative_margins(w.v, w.w, w.reach, nb, float(w.config[C_DT]),
+                                       float(w.config[C_G]), w.config[C_SPECULATIVE] != 0.0,
+                                       w.margin)
+                wk.place_colliders(w.dyn, w.cbody, w.x, w.rot, w.local_pos, w.local_rot, w.half,
+                                   w.half_length, w.radius, w.margin, w.centres, w.rotations,
+                                   w.lower, w.upper)
+                any_asleep = False
+                for c in range(nc):
+                    static[c] = w.cstatic[c] or w.asleep[w.cbody[c]]
+                for k in range(nb):
+                    any_asleep = any_asleep or w.asleep[k]
+                pairs = bp.sweep_and_prune(w.lower, w.upper, w.cowner, static, int(-1))
+                crowded = pairs.shape[0] == 1 and pairs[0, 0] == bp.OVERFLOW
+                if crowded or not any_asleep or pairs.shape[0] == 0:
+                    break
+                woken = np.zeros(nb + 1, dtype=np.bool_)
+                found = False
+                for k in range(pairs.shape[0]):
+                    a, b = w.cbody[pairs[k, 0]], w.cbody[pairs[k, 1]]
+                    if w.asleep[a] and not w.asleep[b] and a < nb:
+                        woken[a], found = True, True
+                    if w.asleep[b] and not w.asleep[a] and b < nb:
+                        woken[b], found = True, True
+                if not found:
+                    break
+                clock = w.status[S_STEP] - (1 if integrated else 0)
+                for k in range(nb):
+                    if woken[k]:
+                        w.asleep[k] = False
+                        w.slow_steps[k] = 0
+                        w.clock[w.rows[k]] = clock  # its clock stood still while asleep
+                if integrated:
+                    # Asleep when (1) ran: take that step now, so that they meet the solve as an
+                    # awake body would, with this step's gravity and wrench, and read again. If one
+                    # fails, the others still take it; the step stops there.
+                    failed = -1
+                    for k in range(nb):
+                        if woken[k] and _advance_row(f, w.state, w.spare, w.params, w.coefficients,
+                                                     w.kstatus, w.taken, w.bad, w.work, w.clock,
+                                                     w.rows[k]) and failed < 0:
+                            failed = w.rows[k]
+                    if failed >= 0:
+                        w.status[S_KIND], w.status[S_ROW] = INTEGRATION, failed
+                        w.status[S_ERROR_STEP] = w.clock[failed]
+                        break
+            if crowded and w.status[S_KIND] == OK:  # more pairs than the bounds: refused, and
+                # due again (the next call checks before it integrates: nothing moves on unsolved)
+                w.status[S_KIND], w.status[S_ERROR_STEP] = CROWDED, step
+                w.status[S_UNCHECKED] = 1
+                w.stats[CONTACTS] = 0  # none: the narrow phase did not run
+            if w.status[S_KIND] != OK:  # a woken body failed its step: the step stops there
+                point, normal = np.zeros((0, 3)), np.zeros((0, 3))
+                depth, impulse = np.zeros(0), np.zeros(0)
+                ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+                w.status[S_COLLIDED] = 1
+                break
+            # Planes: the awake moving colliders only.
+            awake = np.empty(w.dyn.shape[0], dtype=np.int64)
+            count = 0
+            for k in range(w.dyn.shape[0]):
+                if not w.asleep[w.cbody[w.dyn[k]]]:
+                    awake[count] = w.dyn[k]
+                    count += 1
+            planes = w.plane_normals.shape[0]
+            if planes:
+                plane_pairs = bp.plane_candidates(awake[:count], w.cbody, w.rotations, w.half,
+                                                  w.half_length, w.radius, w.centres,
+                                                  w.plane_normals, w.plane_points, w.margin)
+            else:
+                plane_pairs = np.zeros((0, 2), dtype=np.int64)
+            # 3. The narrow phase of every candidate: collider pairs, then (collider, plane).
+            p1, p2 = pairs.shape[0], plane_pairs.shape[0]
+            pair_a = np.empty(p1 + p2, dtype=np.int64)
+            pair_b = np.empty(p1 + p2, dtype=np.int64)
+            margins = np.empty(p1 + p2)
+            for k in range(p1):
+                pair_a[k], pair_b[k] = pairs[k, 0], pairs[k, 1]
+                margins[k] = w.margin[w.cbody[pairs[k, 0]]] + w.margin[w.cbody[pairs[k, 1]]]
+            for k in range(p2):
+                pair_a[p1 + k], pair_b[p1 + k] = plane_pairs[k, 0], nc + plane_pairs[k, 1]
+                margins[p1 + k] = w.margin[w.cbody[plane_pairs[k, 0]]]
+            rows = (p1 + p2) * nk.MAX_CONTACTS_PER_PAIR
+            point, normal = np.empty((rows, 3)), np.empty((rows, 3))
+            depth = np.empty(rows)
+            feature, source = np.empty(rows, dtype=np.int64), np.empty(rows, dtype=np.int64)
+            m = nk.collide_pairs(pair_a, pair_b, w.kinds, w.geoms, w.centres, w.rotations, margins,
+                                 point, normal, depth, feature, source)
+            point, normal, depth = point[:m], normal[:m], depth[:m]
+            stats = w.stats
+            for k in range(8):
+                stats[k] = 0
+            stats[CANDIDATE_PAIRS], stats[PLANE_PAIRS], stats[CONTACTS] = p1, p2, m
+            if m > MAX_CONTACTS:  # more than the solve's bound: refused, and due again
+                w.status[S_KIND], w.status[S_ERROR_STEP] = CROWDED, step
+                w.status[S_UNCHECKED] = 1
+                point, normal = np.zeros((0, 3)), np.zeros((0, 3))
+                depth, impulse = np.zeros(0), np.zeros(0)
+                ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+                w.status[S_COLLIDED] = 1
+                break
+            ca = np.empty(m, dtype=np.int64)
+            cbb = np.empty(m, dtype=np.int64)
+            body_a = np.empty(m, dtype=np.int64)
+            body_b = np.empty(m, dtype=np.int64)
+            keys = np.empty(m, dtype=np.int64)
+            total = max(nc + planes, 1)
+            for k in range(m):
+                ca[k], cbb[k] = pair_a[source[k]], pair_b[source[k]]
+                body_a[k] = w.cbody[ca[k]]
+                body_b[k] = w.cbody[cbb[k]] if cbb[k] < nc else nb
+                keys[k] = (ca[k] * total + cbb[k]) * (1 << FEATURE_BITS) + (
+                    feature[k] % (1 << FEATURE_BITS))
+            impulse = np.zeros(m)
+            w.energy[SOLVE_BEFORE] = w.energy[SOLVE_AFTER] = 0.0
+            if m == 0:
+                warm_keys, warm_normal, warm_tangent = _store_warm(
+                    nb, w.cbody, w.plane_normals.shape[0], w.asleep, keys, impulse,
+                    np.zeros((0, 3)), warm_keys, warm_normal, warm_tangent)
+                for k in range(nb):
+                    w.slow_steps[k] = 0
+                _finish_stats(w.asleep, w.stats, nb)
+                w.status[S_COLLIDED] = 1
+                w.status[S_UNCHECKED] = 0
+                continue
+            # 4. The solve: the bodies (the last slot static), warm start, materials.
+            inv_inertia = np.zeros((nb + 1, 9))
             for k in range(nb):
-                w.slow_steps[k] = 0
+                _inverse_inertia_world(w.rows, w.params, w.state, k, inv_inertia)
+            warm_n, warm_t = np.zeros(m), np.zeros((m, 3))
+            use_warm = w.config[C_WARM_START] != 0.0 and warm_keys.shape[0] > 0
+            if use_warm:
+                _match(keys, warm_keys, warm_normal, warm_tangent, warm_n, warm_t)
+            e, mu = np.empty(m), np.empty(m)
+            for k in range(m):
+                if w.config[C_MATERIALS] != 0.0:
+                    fa, fb = float(w.friction[ca[k]]), float(w.friction[cbb[k]])
+                    mean = math.sqrt(fa * fb)
+                    e[k] = max(float(w.restitution[ca[k]]), float(w.restitution[cbb[k]]))
+                    mu[k] = min(mean, max(fa, fb))
+                else:
+                    e[k], mu[k] = w.settings[sk.RESTITUTION], w.settings[sk.FRICTION]
+            nn = nb + 1
+            v1, w1 = np.empty((nn, 3)), np.empty((nn, 3))
+            disp, turn = np.empty((nn, 3)), np.empty((nn, 3))
+            tangent, p_impulse = np.empty((m, 3)), np.empty(m)
+            touched = np.empty(nn, dtype=np.bool_)
+            colours, v_iter, p_iter = sk.solve_arrays(
+                body_a, body_b, point, normal, depth, w.x, w.v, w.w, w.inverse_mass, inv_inertia,
+                w.settings, warm_n, warm_t, use_warm, e, mu, v1, w1, disp, turn, impulse, tangent,
+                p_impulse, touched)
+            # 5. Checks, warm start kept, write-back, sleeping.
+            spared = _check_solve(w.status, w.flagged, w.energy, float(w.config[C_GAIN_TOLERANCE]),
+                                  w.rows, w.state, w.params, w.inverse_mass, w.v, w.w, nb, body_a,
+                                  body_b, v1, w1, disp, turn, step)
+            if w.config[C_WARM_START] != 0.0:
+                warm_keys, warm_normal, warm_tangent = _store_warm(
+                    nb, w.cbody, w.plane_normals.shape[0], w.asleep, keys, impulse, tangent,
+                    warm_keys, warm_normal, warm_tangent)
+            write = np.empty(nb, dtype=np.int64)
+            count = 0
+            n_touched = 0
+            for k in range(nb):
+                if touched[k]:
+                    n_touched += 1
+                    if not spared[k]:
+                        write[count] = k
+                        count += 1
+            bad = np.zeros(count, dtype=np.bool_)
+            wk.write_contacts(w.state, w.params, w.rows, w.q, w.has_q, write[:count], w.x, w.rot,
+                              v1, w1, disp, turn, float(w.config[C_MIN_TURN]), bad)
+            for k in range(count):
+                if bad[k] and w.status[S_KIND] == OK:
+                    w.status[S_KIND], w.status[S_ERROR_STEP] = WRITE_NON_FINITE, step
+                    w.status[S_ROW] = write[k]
+                    w.flagged[0] = write[k]
+                    w.status[S_FLAGGED] = 1
+                    for c in range(3):  # what it would have been, for the message
+                        w.energy[c] = w.x[write[k], c] + disp[write[k], c]
+                        w.energy[3 + c] = v1[write[k], c]
+                        w.energy[6 + c] = w1[write[k], c]
+            if w.config[C_SLEEP_STEPS] > 0.0 and integrated:
+                _fall_asleep(w.config, w.reach, w.asleep, w.slow_steps, w.cbody, w.rows, w.state,
+                             w.params, nb, body_a, body_b, impulse, v1, w1, pairs)
+            active = 0
+            for k in range(m):
+                if impulse[k] > 0.0:
+                    active += 1
+            stats[ACTIVE], stats[TOUCHED] = active, n_touched
+            stats[COLOURS], stats[V_ITER], stats[P_ITER] = colours, v_iter, p_iter
             _finish_stats(w.asleep, w.stats, nb)
             w.status[S_COLLIDED] = 1
+            if w.status[S_KIND] != OK:
+                break
             w.status[S_UNCHECKED] = 0
-            continue
-        # 4. The solve: the bodies (the last slot static), warm start, materials.
-        inv_inertia = np.zeros((nb + 1, 9))
-        for k in range(nb):
-            _inverse_inertia_world(w.rows, w.params, w.state, k, inv_inertia)
-        warm_n, warm_t = np.zeros(m), np.zeros((m, 3))
-        use_warm = w.config[C_WARM_START] != 0.0 and warm_keys.shape[0] > 0
-        if use_warm:
-            _match(keys, warm_keys, warm_normal, warm_tangent, warm_n, warm_t)
-        e, mu = np.empty(m), np.empty(m)
-        for k in range(m):
-            if w.config[C_MATERIALS] != 0.0:
-                fa, fb = float(w.friction[ca[k]]), float(w.friction[cbb[k]])
-                mean = math.sqrt(fa * fb)
-                e[k] = max(float(w.restitution[ca[k]]), float(w.restitution[cbb[k]]))
-                mu[k] = min(mean, max(fa, fb))
-            else:
-                e[k], mu[k] = w.settings[sk.RESTITUTION], w.settings[sk.FRICTION]
-        nn = nb + 1
-        v1, w1 = np.empty((nn, 3)), np.empty((nn, 3))
-        disp, turn = np.empty((nn, 3)), np.empty((nn, 3))
-        tangent, p_impulse = np.empty((m, 3)), np.empty(m)
-        touched = np.empty(nn, dtype=np.bool_)
-        colours, v_iter, p_iter = sk.solve_arrays(
-            body_a, body_b, point, normal, depth, w.x, w.v, w.w, w.inverse_mass, inv_inertia,
-            w.settings, warm_n, warm_t, use_warm, e, mu, v1, w1, disp, turn, impulse, tangent,
-            p_impulse, touched)
-        # 5. Checks, warm start kept, write-back, sleeping.
-        spared = _check_solve(w.status, w.flagged, w.energy, float(w.config[C_GAIN_TOLERANCE]),
-                              w.rows, w.state, w.params, w.inverse_mass, w.v, w.w, nb, body_a,
-                              body_b, v1, w1, disp, turn, step)
-        if w.config[C_WARM_START] != 0.0:
-            warm_keys, warm_normal, warm_tangent = _store_warm(
-                nb, w.cbody, w.plane_normals.shape[0], w.asleep, keys, impulse, tangent, warm_keys,
-                warm_normal, warm_tangent)
-        write = np.empty(nb, dtype=np.int64)
-        count = 0
-        n_touched = 0
-        for k in range(nb):
-            if touched[k]:
-                n_touched += 1
-                if not spared[k]:
-                    write[count] = k
-                    count += 1
-        bad = np.zeros(count, dtype=np.bool_)
-        wk.write_contacts(w.state, w.params, w.rows, w.q, w.has_q, write[:count], w.x, w.rot, v1,
-                          w1, disp, turn, float(w.config[C_MIN_TURN]), bad)
-        for k in range(count):
-            if bad[k] and w.status[S_KIND] == OK:
-                w.status[S_KIND], w.status[S_ERROR_STEP] = WRITE_NON_FINITE, step
-                w.status[S_ROW] = write[k]
-                w.flagged[0] = write[k]
-                w.status[S_FLAGGED] = 1
-                for c in range(3):  # what it would have been, for the message
-                    w.energy[c] = w.x[write[k], c] + disp[write[k], c]
-                    w.energy[3 + c] = v1[write[k], c]
-                    w.energy[6 + c] = w1[write[k], c]
-        if w.config[C_SLEEP_STEPS] > 0.0 and integrated:
-            _fall_asleep(w.config, w.reach, w.asleep, w.slow_steps, w.cbody, w.rows, w.state,
-                         w.params, nb, body_a, body_b, impulse, v1, w1, pairs)
-        active = 0
-        for k in range(m):
-            if impulse[k] > 0.0:
-                active += 1
-        stats[ACTIVE], stats[TOUCHED] = active, n_touched
-        stats[COLOURS], stats[V_ITER], stats[P_ITER] = colours, v_iter, p_iter
-        _finish_stats(w.asleep, w.stats, nb)
-        w.status[S_COLLIDED] = 1
-        if w.status[S_KIND] != OK:
-            break
-        w.status[S_UNCHECKED] = 0
-    return warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca, cbb
+        return warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca, cbb
+
+    world_steps.__name__ = world_steps.__qualname__ = name
+    return kernel(world_steps)
 
 
-# The entries from Python, one a family, each passing its family as a constant (a family
-# passed from Python would enter numba's compiler at every call: see step_kernel's
-# ``ADVANCE_BODIES``).
-
-
-# (module constants: numba types a global int as its value, a module's attribute as an int)
+# The entries from Python, one a family (see ``_world_steps_of``; step_kernel's
+# ``ADVANCE_BODIES`` likewise). Each is its own kernel with its own cache entry: a wrapper
+# passing its family to one kernel would have LLVM optimise and emit the whole step twice
+# (about 6 s of a first start).
+world_steps_two = _world_steps_of(K.FAMILY_TWO, 'world_steps_two')
+world_steps_k = _world_steps_of(K.FAMILY_K, 'world_steps_k')
+world_steps_split = _world_steps_of(K.FAMILY_SPLIT, 'world_steps_split')
 FAMILY_TWO, FAMILY_K, FAMILY_SPLIT = K.FAMILY_TWO, K.FAMILY_K, K.FAMILY_SPLIT
 
 
-@kernel
-def world_steps_two(arrays, n, warm_keys, warm_normal, warm_tangent):
-    return world_steps(arrays, n, warm_keys, warm_normal, warm_tangent, FAMILY_TWO)
+# -- compiling world_steps in two processes ---------------------------------------------------
+# The kernels world_steps calls that take longest to compile (about half of its whole compile,
+# each with the kernels it calls), in two groups of about the same time: ``sim/precompile.py``
+# compiles each group in its own process, side by side, before world_steps, which then loads
+# them from the cache. The types below must be those world_steps passes them
+# (test_compile_parts.py checks that it then compiles none of them again).
+LEAF_GROUPS = ('narrow', 'solve')
 
 
-@kernel
-def world_steps_k(arrays, n, warm_keys, warm_normal, warm_tangent):
-    return world_steps(arrays, n, warm_keys, warm_normal, warm_tangent, FAMILY_K)
-
-
-@kernel
-def world_steps_split(arrays, n, warm_keys, warm_normal, warm_tangent):
-    return world_steps(arrays, n, warm_keys, warm_normal, warm_tangent, FAMILY_SPLIT)
+def compile_leaves(arrays, family, group: str) -> None:
+    """Compile (or load) ``group``'s kernels (``LEAF_GROUPS``) for the types world_steps calls
+    them with, for a world of ``arrays`` whose bodies take ``family``'s step."""
+    w = World(*arrays)
+    f1, f2 = np.zeros(0), np.zeros((0, 3))
+    i1, b1 = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_)
+    if group == 'narrow':
+        compile_for(nk.collide_pairs, i1, i1, w.kinds, w.geoms, w.centres, w.rotations, f1, f2,
+                    f2, f1, i1, i1)
+        compile_for(bp.stable_order, f1)  # sweep_and_prune's, _check_solve's
+        compile_for(bp.stable_order, i1)  # _store_warm's
+        compile_for(bp.sorted_copy, i1)  # sweep_and_prune's
+    elif group == 'solve':
+        compile_for(sk.solve_arrays, i1, i1, f2, f2, f1, w.x, w.v, w.w, w.inverse_mass,
+                    np.zeros((0, 9)), w.settings, f1, f2, True, f1, f1, f2, f2, f2, f2, f1, f2,
+                    f1, b1)
+        # body_step's case for the family (step_kernel._two_step ...) calls this
+        step = {FAMILY_TWO: K.advance_body_2, FAMILY_K: K.advance_body_k,
+                FAMILY_SPLIT: K.advance_body_split}[family]
+        compile_for(step, w.state, w.spare, w.params, w.coefficients, 0, 1, False, w.kstatus,
+                    w.taken, w.bad, w.work)
+    else:
+        raise ValueError(f'no group of kernels {group!r}: one of {", ".join(LEAF_GROUPS)}')
 
 
 # family -> the name of its entry (looked up in the module's globals at each call, which
@@ -497,7 +525,7 @@ def _check_solve(status, flagged_bodies, energy, gain_tolerance, rows, state, pa
     gain = np.empty(nb)
     for k in range(nb):
         gain[k] = e0[k] - e1[k] if involved[k] else math.inf
-    order = np.argsort(gain, kind='mergesort')  # the largest gain first
+    order = bp.stable_order(gain)  # the largest gain first
     for k in order:
         if involved[k] and e1[k] > e0[k]:
             spared[k] = True
@@ -559,7 +587,7 @@ def _store_warm(nb, cbody, planes, asleep, keys, normal, tangent, old_keys, old_
             for c in range(3):
                 all_tangent[j, c] = old_tangent[k, c]
             j += 1
-    order = np.argsort(all_keys, kind='mergesort')
+    order = bp.stable_order(all_keys)
     out_keys = np.empty(m + kept, dtype=np.int64)
     out_normal = np.empty(m + kept)
     out_tangent = np.empty((m + kept, 3))

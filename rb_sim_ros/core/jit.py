@@ -92,6 +92,16 @@ def parallel_kernel(function):
     return _made(numba.njit(parallel=True, **_OPTIONS)(function))
 
 
+def compile_for(function, *examples) -> None:
+    """Compile (or load from the cache) the kernel ``function`` for the numba types of the
+    values ``examples``, as a call with them would, without calling it; nothing while the
+    kernels run interpreted. For a compile shared among processes (``sim/precompile.py``):
+    the types must be those its caller passes it, or this compiles an overload nobody calls."""
+    if interpreted() or not hasattr(function, 'compile'):
+        return
+    function.compile(tuple(numba.typeof(e) for e in examples))
+
+
 def compiling() -> bool:
     """Whether kernels are compiled in this process (not NUMBA_DISABLE_JIT=1)."""
     return not numba.config.DISABLE_JIT

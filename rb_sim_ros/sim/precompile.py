@@ -29,8 +29,10 @@ import tempfile
 import threading
 import time
 
+from rb_sim_ros.contact import world_step as ws
 from rb_sim_ros.core import jit, multistep, step_kernel as K
-from rb_sim_ros.sim.simulation import Config, warm_up_bodies, warm_up_contacts
+from rb_sim_ros.sim.simulation import (compile_contact_leaves, Config, warm_up_bodies,
+                                       warm_up_contacts)
 
 
 # One integrator of each family of the step kernel: the kernels compiled for it serve the
@@ -52,9 +54,13 @@ def parts(integrators=None, contact: bool = True) -> list[str]:
 
 
 def parts_of(config: Config) -> list[str]:
-    """The parts a run of ``config`` calls: its family's body step, and the collision world's
-    when it has colliders (a run without them needs it only once a collider is spawned)."""
-    return parts([config.integrator], config.collides)
+    """The part a run of ``config`` steps with: the collision world's of its family when a
+    moving body has colliders, else its family's body step. The other one only a spawn or
+    a delete can call for (a first moving collider, or the last one deleted); the node then
+    compiles (or loads) it (``warm_up_contacts``, ``warm_up_bodies``)."""
+    kind = 'contact' if any(b.colliders and not b.static for b in config.bodies) else 'bodies'
+    family = K.family_of(multistep.method_by_name(config.integrator).steps)
+    return [f'{kind}-{FAMILY_NAMES[family]}']
 
 
 def precompile(names=None, progress=None) -> dict[str, float]:
@@ -68,12 +74,53 @@ def precompile(names=None, progress=None) -> dict[str, float]:
         family = next(f for f, n in FAMILY_NAMES.items() if n == family_name)
         start = time.perf_counter()
         config = Config(integrator=FAMILY_METHODS[family])
+        if kind == 'contact' and not jit.precompiled([part]):
+            _contact_leaves_beside(config)
         (warm_up_bodies if kind == 'bodies' else warm_up_contacts)(config)
         jit.mark_precompiled(part)
         took[part] = time.perf_counter() - start
         if progress is not None:
             progress(part, took[part])
     return took
+
+
+def _cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _contact_leaves_beside(config: Config) -> None:
+    """With two cores or more, the first group of the collision world's longest kernels
+    (``world_step.LEAF_GROUPS``) compiled in a child beside this process, which compiles the
+    others; then ``warm_up_contacts`` loads them (about a third less time to wait on two
+    cores). A child that fails costs nothing but the time: what it did not cache, the
+    warm-up compiles. One core: nothing here (the warm-up compiles them all, one after the
+    other)."""
+    if _cores() < 2 or not jit.compiling() or jit.interpreted():
+        return
+    first, *rest = ws.LEAF_GROUPS
+    child = _python_m('--parent', str(os.getpid()), '--leaves', first,
+                      '--integrator', config.integrator, out=subprocess.DEVNULL)
+    try:
+        for group in rest:
+            compile_contact_leaves(config, group)
+    finally:
+        child.wait()
+
+
+def _python_m(*args, out):
+    """``python -m rb_sim_ros.sim.precompile args`` in a child (same interpreter, environment
+    and cache: this very package, run from the directory holding it since python -m puts the
+    working directory first on the path, and first on PYTHONPATH too)."""
+    here = str(jit.PACKAGE.parent)
+    path = os.pathsep.join([here] + ([os.environ['PYTHONPATH']]
+                                     if os.environ.get('PYTHONPATH') else []))
+    return subprocess.Popen([sys.executable, '-m', 'rb_sim_ros.sim.precompile', *args],
+                            cwd=here, stdin=subprocess.DEVNULL, stdout=out,
+                            stderr=subprocess.STDOUT, env=dict(os.environ, PYTHONPATH=path))
 
 
 class Background:
@@ -84,16 +131,8 @@ class Background:
         self.parts = list(names)
         self.started = time.monotonic()
         self._out = tempfile.TemporaryFile()
-        # This very package: run from the directory holding it (python -m puts the working
-        # directory first on the path), and first on PYTHONPATH too.
-        here = str(jit.PACKAGE.parent)
-        path = os.pathsep.join([here] + ([os.environ['PYTHONPATH']]
-                                         if os.environ.get('PYTHONPATH') else []))
-        self._child = subprocess.Popen(
-            [sys.executable, '-m', 'rb_sim_ros.sim.precompile', '--parent', str(os.getpid()),
-             '--part', *self.parts],
-            cwd=here, stdin=subprocess.DEVNULL, stdout=self._out, stderr=subprocess.STDOUT,
-            env=dict(os.environ, PYTHONPATH=path))
+        self._child = _python_m('--parent', str(os.getpid()), '--part', *self.parts,
+                                out=self._out)
         self.pid = self._child.pid
 
     def poll(self) -> str | None:
@@ -151,11 +190,18 @@ def main(argv: list[str] | None = None) -> int:
                         help='not the collision world (a run without colliders)')
     parser.add_argument('--part', nargs='+', choices=PARTS, metavar='PART',
                         help=f'exactly these parts: {", ".join(PARTS)}')
+    parser.add_argument('--leaves', choices=ws.LEAF_GROUPS, metavar='GROUP',
+                        help="only this group of the collision world's kernels, for the first "
+                             'integrator given (a part compiled in two processes: '
+                             f'{", ".join(ws.LEAF_GROUPS)})')
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
     if args.parent and args.parent != os.getppid():
         parser.error(f'--parent: process {args.parent} is not the parent of this one')
     if args.parent:
         threading.Thread(target=_exit_with, args=(args.parent,), daemon=True).start()
+    if args.leaves:
+        compile_contact_leaves(Config(integrator=(args.integrator or ['eq27'])[0]), args.leaves)
+        return 0
     names = args.part or parts(args.integrator, not args.no_contact)
     where = jit.cache_directories()
     print(f'rb_sim_ros: compiling {len(names)} kernel parts into the first writable of '

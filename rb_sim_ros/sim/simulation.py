@@ -23,7 +23,8 @@ from rb_sim_ros.core.stepper import carry_over, step_all, Stepper
 
 __all__ = ['BodySpec', 'body_from_dict', 'body_to_dict', 'Config', 'ContactSettings', 'Delete',
            'Event', 'make_steppers', 'Reset', 'SetPose', 'SetTwist', 'SetWrench', 'Simulation',
-           'Spawn', 'MAX_BODIES', 'warm_up_bodies', 'warm_up_contacts']
+           'Spawn', 'MAX_BODIES', 'warm_up_bodies', 'warm_up_contacts',
+           'compile_contact_leaves']
 
 
 @dataclass(frozen=True)
@@ -424,6 +425,15 @@ def warm_up_contacts(config: Config) -> None:
     and method) would need, touching no run: what a first spawn with colliders would
     otherwise do in its step."""
     _warm_up_probe(config, BodySpec('probe', colliders=(Sphere(0.1),)))
+
+
+def compile_contact_leaves(config: Config, group: str) -> None:
+    """Compile (or load) one group of the collision kernels a run like ``config`` would need
+    (``world_step.LEAF_GROUPS``): ``warm_up_contacts`` then compiles less, loading it."""
+    Simulation(Config(dt=config.dt, steps_per_publish=config.steps_per_publish,
+                      integrator=config.integrator,
+                      bodies=(BodySpec('probe', colliders=(Sphere(0.1),)),))
+               ).world.compile_leaves(group)
 
 
 def warm_up_bodies(config: Config) -> None:
