@@ -98,7 +98,8 @@ def package_kernels() -> int:
     import importlib
     from rb_sim_ros.core import jit
     for path in jit.kernel_sources():
-        importlib.import_module('.'.join(path.relative_to(ROOT).with_suffix('').parts))
+        importlib.import_module('.'.join(
+            path.relative_to(jit.PACKAGE.parent).with_suffix('').parts))
     return len(jit._PY_FUNCS)
 
 

@@ -3,6 +3,7 @@
 """A run compiles the kernels it uses and no others (core/jit.py, step_kernel.body_step):
 counted by numba's own compile events in a new process on an empty cache."""
 
+from dataclasses import replace
 import json
 import os
 from pathlib import Path
@@ -18,7 +19,7 @@ from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import jit, step_kernel as K
 from rb_sim_ros.sim import precompile
 from rb_sim_ros.sim.scene import load_scene
-from rb_sim_ros.sim.simulation import BodySpec, Config
+from rb_sim_ros.sim.simulation import BodySpec, Config, Delete, kernels_after, Simulation, Spawn
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -100,6 +101,8 @@ def test_a_collision_part_compiles_in_two_processes_and_each_kernel_once(tmp_pat
     assert 'world_step.world_steps_two' in compiled
     for here in ('solver_kernels.solve_arrays', 'step_kernel.advance_body_2'):
         assert compiled.count(here) == 1, here
+        # before world_steps (events in the order they start): not inside its compile
+        assert compiled.index(here) < compiled.index('world_step.world_steps_two'), here
     if found['cores'] >= 2:
         for child in ('narrow_kernels.collide_pairs', 'narrow_kernels.collide_pair',
                       'broad_phase.stable_order', 'broad_phase.sorted_copy'):
@@ -122,6 +125,28 @@ def test_a_scene_names_the_parts_it_steps_with():
         'bodies-two-step', 'bodies-k-step']
 
 
+def test_a_spawn_or_delete_names_the_kernels_the_run_then_steps_with():
+    """The node compiles (or loads) them before its lock: a first moving collider brings the
+    collision world's (colliders on static bodies alone make none), the last one deleted
+    the step kernel's; other changes keep what the run steps with."""
+    ball = BodySpec('ball', colliders=(Sphere(0.1),))
+    ball2 = replace(ball, name='ball2', initial_position=(1.0, 0.0, 0.0))
+    wall = BodySpec('wall', static=True, colliders=(Sphere(0.1),), initial_position=(0, 3, 0))
+    free = BodySpec('free', initial_position=(0.0, -3.0, 0.0))
+    walls_only = Simulation(Config(bodies=(free, wall)))
+    assert kernels_after(walls_only, Spawn(ball)) == 'contact'
+    assert kernels_after(walls_only, Spawn(replace(wall, name='post'))) is None
+    assert kernels_after(walls_only, Spawn(BodySpec('other'))) is None
+    assert kernels_after(walls_only, Delete('wall')) is None
+    assert kernels_after(Simulation(Config(bodies=(free,))), Spawn(ball)) == 'contact'
+    one = Simulation(Config(bodies=(ball, free, wall)))
+    assert kernels_after(one, Delete('ball')) == 'bodies'
+    assert kernels_after(one, Delete('free')) is None
+    assert kernels_after(one, Delete('wall')) is None
+    assert kernels_after(one, Spawn(ball2)) is None
+    assert kernels_after(Simulation(Config(bodies=(ball, ball2))), Delete('ball')) is None
+
+
 def test_every_integrator_has_a_family_and_a_part():
     from rb_sim_ros.core import multistep
     for name, method in multistep.METHODS.items():
@@ -138,6 +163,12 @@ def test_precompile_refuses_an_unknown_part(capsys):
         precompile.main(['--part', 'contact'])
     assert e.value.code == 2
     assert "invalid choice: 'contact'" in capsys.readouterr().err
+    for wrong in (['--part', 'contact-two-step'], ['--no-contact'],
+                  ['--integrator', 'eq27', 'lie4']):
+        with pytest.raises(SystemExit) as e:
+            precompile.main(['--leaves', 'narrow', *wrong])
+        assert e.value.code == 2
+        assert '--leaves: with one --integrator at most' in capsys.readouterr().err
 
 
 @pytest.mark.skipif(not jit.compiling(), reason='NUMBA_DISABLE_JIT=1: nothing compiles')

@@ -12,8 +12,8 @@
 
 Each step, in this order (all deterministic: stable sorts, contacts in pair order, no
 iteration over sets or dicts, no randomness), and ``step(n)`` takes n of them in one compiled
-call (``world_step.world_steps``; Python runs between calls, to apply wrenches and teleports,
-and to name what failed):
+call (``world_step.world_steps_two``, or its twin for the bodies' method; Python runs between
+calls, to apply wrenches and teleports, and to name what failed):
 
 1. every moving body that is awake takes one step of the step kernel (Proof 3, its wrench,
    gravity and damping), exactly as without collisions;

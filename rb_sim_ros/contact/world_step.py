@@ -351,7 +351,9 @@ FAMILY_TWO, FAMILY_K, FAMILY_SPLIT = K.FAMILY_TWO, K.FAMILY_K, K.FAMILY_SPLIT
 # each with the kernels it calls), in two groups of about the same time: ``sim/precompile.py``
 # compiles each group in its own process, side by side, before world_steps, which then loads
 # them from the cache. The types below must be those world_steps passes them
-# (test_compile_parts.py checks that it then compiles none of them again).
+# (test_compile_parts.py checks that it then compiles none of them again). The groups share
+# no kernel (narrow_kernels and broad_phase call none of step_kernel, rotation_kernels or
+# solver_kernels): two processes must never compile one kernel at once (``precompile``).
 LEAF_GROUPS = ('narrow', 'solve')
 
 

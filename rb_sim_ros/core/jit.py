@@ -145,14 +145,10 @@ def _swap(by: dict) -> None:
 
 prange = numba.prange
 
-# ``literally(x)`` in a kernel: compile it for the value of its argument x (an int), as a
-# constant, so that ``literal_switch`` functions it calls compile the one case x chooses.
-literally = numba.literally
-
 
 def literal_switch(cases: dict):
     """Make a plain Python function ``f(choice, ...)`` one that kernels call with a constant
-    ``choice`` (an int literal: a global, or ``literally`` of an argument): there the call
+    ``choice`` (an int literal: a global, or a closure's constant): there the call
     compiles ``cases[choice]`` alone (a function of the same signature, compiled into the
     caller), not every case ``f`` would run. In the interpreter ``f`` itself runs, which must
     do what ``cases[choice]`` does."""
@@ -163,7 +159,7 @@ def literal_switch(cases: dict):
         def typer(choice, *args):
             if not isinstance(choice, types.IntegerLiteral):
                 raise errors.TypingError(f'{name}: its first argument must be an int constant '
-                                         f'(a global or jit.literally), got {choice}')
+                                         f"(a global or a closure's constant), got {choice}")
             case = cases.get(choice.literal_value)
             if case is None:
                 raise errors.TypingError(f'{name}: no case {choice.literal_value}')

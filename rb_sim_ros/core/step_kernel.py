@@ -924,8 +924,9 @@ def _split_step(family, src, dst, p, c, i, n, checked, status, taken, bad, work)
 
 @literal_switch({FAMILY_TWO: _two_step, FAMILY_K: _k_step, FAMILY_SPLIT: _split_step})
 def body_step(family, src, dst, p, c, i, n, checked, status, taken, bad, work):
-    """``advance_body`` of a body of ``family`` (a compile-time constant in a kernel:
-    ``jit.literally``), which compiles that family's step alone."""
+    """``advance_body`` of a body of ``family`` (a compile-time constant in a kernel: a
+    global, or a closure's constant as in world_step's entries), which compiles that
+    family's step alone."""
     if family == FAMILY_K:
         advance_body_k(src, dst, p, c, i, n, checked, status, taken, bad, work)
     elif family == FAMILY_SPLIT:

@@ -69,9 +69,9 @@ from rb_sim_ros.ros.diagnostics import Diagnostics
 from rb_sim_ros.ros.ros_messages import TF, TF_STATIC
 from rb_sim_ros.sim import precompile
 from rb_sim_ros.sim.scene import load_scene
-from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Delete, Reset,
-                                       SetTwist, SetWrench, Simulation, Spawn, warm_up_bodies,
-                                       warm_up_contacts)
+from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, kernels_after,
+                                       Reset, SetTwist, SetWrench, Simulation, Spawn,
+                                       warm_up_bodies, warm_up_contacts)
 
 __all__ = ['APPLIED_QOS', 'SimulatorNode', 'main']
 
@@ -311,13 +311,13 @@ class SimulatorNode(Node):
         under the lock after the queued inputs (a pose relative to another body is resolved
         against that body's state then); its ValueError propagates and nothing changes.
         Returns '' or why it was refused (then nothing changed)."""
-        if isinstance(event, Spawn) and event.spec.colliders and self.sim.world is None:
-            # The first collider of the run: its kernels compiled (or loaded) now, before
-            # the lock, not while the step loop waits.
+        # The first moving collider of the run, or the last one deleted: the kernels that
+        # then step the bodies compiled (or loaded) now, before the lock, not while the step
+        # loop waits (a scene's start compiled the kernels of its own kind only).
+        kind = kernels_after(self.sim, event)
+        if kind == 'contact':
             warm_up_contacts(self.config)
-        elif isinstance(event, Delete) and self.sim.world is not None:
-            # Deleting the last collider leaves no collision world, and its bodies then step
-            # with the step kernel: compiled (or loaded) now, before the lock, too.
+        elif kind == 'bodies':
             warm_up_bodies(self.config)
         with self._lock:
             if not self._guarded(self._drain):
@@ -533,6 +533,13 @@ class SimulatorNode(Node):
                 if why:
                     self.get_logger().warning(f'{why}; compiling in this process instead (the '
                                               'step loop waits for it)')
+                elif not jit.precompiled(precompile.parts_of(self.sim.config)):
+                    # a spawn or delete meanwhile needs the other part (a first moving
+                    # collider, or none left)
+                    self.get_logger().warning(
+                        'the bodies spawned or deleted meanwhile step with kernels the child '
+                        'did not compile: compiling them in this process (the step loop waits '
+                        'for it)')
                 self.sim.warm_up()
                 self.diagnostics.compiled()
                 self._anchor()  # real time goes on from here: no catching up the wait

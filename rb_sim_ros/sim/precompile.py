@@ -6,12 +6,14 @@
 
 The kernels come in parts (``PARTS``): the step of a family of integrators (``step_kernel``:
 two-step, k-step, splitting) for bodies without colliders, and the collision world's step
-(``world_step.world_steps``) with that family's body step inside. A kernel is compiled the
-first time a run calls it, so a run compiles its parts only; this compiles the parts asked
-for (by default all of them) and caches them where the package caches them (``core/jit.py``),
-leaving a marker for each (``jit.precompiled``): a later start of the node, ``replay`` or
-``sweep`` loads them instead of compiling. ``setup.py``'s install (what ``colcon build`` runs)
-calls this for the tree it installed; set RB_SIM_ROS_PRECOMPILE=0 to skip it there.
+(``world_step.world_steps_two`` and its twins) with that family's body step inside (its
+longest kernels compiled in two processes side by side, ``_contact_leaves_beside``). A kernel
+is compiled the first time a run calls it, so a run compiles its parts only; this compiles
+the parts asked for (by default all of them) and caches them where the package caches them
+(``core/jit.py``), leaving a marker for each (``jit.precompiled``): a later start of the
+node, ``replay`` or ``sweep`` loads them instead of compiling. ``setup.py``'s install (what
+``colcon build`` runs) calls this for the tree it installed; set RB_SIM_ROS_PRECOMPILE=0 to
+skip it there.
 
 A node that finds the markers of its own parts missing (a first start from a source checkout
 or a wheel) runs this for those parts in a child process (``Background``) and steps in the
@@ -31,8 +33,7 @@ import time
 
 from rb_sim_ros.contact import world_step as ws
 from rb_sim_ros.core import jit, multistep, step_kernel as K
-from rb_sim_ros.sim.simulation import (compile_contact_leaves, Config, warm_up_bodies,
-                                       warm_up_contacts)
+from rb_sim_ros.sim.simulation import Config, contact_probe, warm_up_bodies, warm_up_contacts
 
 
 # One integrator of each family of the step kernel: the kernels compiled for it serve the
@@ -97,16 +98,27 @@ def _contact_leaves_beside(config: Config) -> None:
     (``world_step.LEAF_GROUPS``) compiled in a child beside this process, which compiles the
     others; then ``warm_up_contacts`` loads them (about a third less time to wait on two
     cores). A child that fails costs nothing but the time: what it did not cache, the
-    warm-up compiles. One core: nothing here (the warm-up compiles them all, one after the
-    other)."""
-    if _cores() < 2 or not jit.compiling() or jit.interpreted():
+    warm-up compiles (its output goes where this process's does). One core, or no cache to
+    share: nothing here (the warm-up compiles them all, one after the other).
+
+    The two processes never compile one kernel at the same time: numba's cache index is
+    read, extended and written back without a lock, and two processes saving two overloads
+    of one kernel at once could leave an index naming the other's code. So the probe world
+    is built here first (building it compiles a few step kernels, which the child then
+    loads), and the groups share no kernel."""
+    if (_cores() < 2 or not jit.compiling() or jit.interpreted()
+            or jit.cache_directory() is None):
         return
+    world = contact_probe(config)
     first, *rest = ws.LEAF_GROUPS
     child = _python_m('--parent', str(os.getpid()), '--leaves', first,
-                      '--integrator', config.integrator, out=subprocess.DEVNULL)
+                      '--integrator', config.integrator, out=None)
     try:
         for group in rest:
-            compile_contact_leaves(config, group)
+            world.compile_leaves(group)
+    except BaseException:
+        child.terminate()  # what it cached so far stays valid
+        raise
     finally:
         child.wait()
 
@@ -114,7 +126,8 @@ def _contact_leaves_beside(config: Config) -> None:
 def _python_m(*args, out):
     """``python -m rb_sim_ros.sim.precompile args`` in a child (same interpreter, environment
     and cache: this very package, run from the directory holding it since python -m puts the
-    working directory first on the path, and first on PYTHONPATH too)."""
+    working directory first on the path, and first on PYTHONPATH too); its output and errors
+    into ``out`` (None: this process's)."""
     here = str(jit.PACKAGE.parent)
     path = os.pathsep.join([here] + ([os.environ['PYTHONPATH']]
                                      if os.environ.get('PYTHONPATH') else []))
@@ -200,7 +213,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.parent:
         threading.Thread(target=_exit_with, args=(args.parent,), daemon=True).start()
     if args.leaves:
-        compile_contact_leaves(Config(integrator=(args.integrator or ['eq27'])[0]), args.leaves)
+        if args.part or args.no_contact or len(args.integrator or ()) > 1:
+            parser.error('--leaves: with one --integrator at most, and no --part or '
+                         '--no-contact')
+        integrator = args.integrator[0] if args.integrator else FAMILY_METHODS[K.FAMILY_TWO]
+        contact_probe(Config(integrator=integrator)).compile_leaves(args.leaves)
         return 0
     names = args.part or parts(args.integrator, not args.no_contact)
     where = jit.cache_directories()

@@ -24,7 +24,7 @@ from rb_sim_ros.core.stepper import carry_over, step_all, Stepper
 __all__ = ['BodySpec', 'body_from_dict', 'body_to_dict', 'Config', 'ContactSettings', 'Delete',
            'Event', 'make_steppers', 'Reset', 'SetPose', 'SetTwist', 'SetWrench', 'Simulation',
            'Spawn', 'MAX_BODIES', 'warm_up_bodies', 'warm_up_contacts',
-           'compile_contact_leaves']
+           'contact_probe', 'kernels_after']
 
 
 @dataclass(frozen=True)
@@ -427,13 +427,29 @@ def warm_up_contacts(config: Config) -> None:
     _warm_up_probe(config, BodySpec('probe', colliders=(Sphere(0.1),)))
 
 
-def compile_contact_leaves(config: Config, group: str) -> None:
-    """Compile (or load) one group of the collision kernels a run like ``config`` would need
-    (``world_step.LEAF_GROUPS``): ``warm_up_contacts`` then compiles less, loading it."""
-    Simulation(Config(dt=config.dt, steps_per_publish=config.steps_per_publish,
-                      integrator=config.integrator,
-                      bodies=(BodySpec('probe', colliders=(Sphere(0.1),)),))
-               ).world.compile_leaves(group)
+def kernels_after(sim: 'Simulation', event) -> str | None:
+    """'contact' when ``event`` is a Spawn bringing ``sim``'s first moving body with colliders
+    (a collision world then steps the bodies; colliders on static bodies alone do not make
+    one), 'bodies' when it is a Delete taking the last one away (the step kernel then steps
+    them), else None: the kernels a run steps with after ``event``, if they change."""
+    enabled = sim.world is not None and sim.world.enabled
+    if isinstance(event, Spawn):
+        moving = bool(event.spec.colliders) and not event.spec.static
+        return 'contact' if moving and not enabled else None
+    if isinstance(event, Delete) and enabled and not any(
+            b.colliders and not b.static and b.name != event.body for b in sim.config.bodies):
+        return 'bodies'
+    return None
+
+
+def contact_probe(config: Config):
+    """The collision world of a run like ``config`` (its dt and method) of one ball, touching
+    no run: its ``compile_leaves(group)`` compiles (or loads) one group of the kernels its
+    step calls (``world_step.LEAF_GROUPS``), and ``warm_up_contacts`` then loads them.
+    Building it compiles (or loads) the few kernels a new body's state needs."""
+    return Simulation(Config(dt=config.dt, steps_per_publish=config.steps_per_publish,
+                             integrator=config.integrator,
+                             bodies=(BodySpec('probe', colliders=(Sphere(0.1),)),))).world
 
 
 def warm_up_bodies(config: Config) -> None:
