@@ -120,9 +120,17 @@ def test_a_scene_names_the_parts_it_steps_with():
                                                       colliders=(Sphere(0.1),))))
     assert precompile.parts_of(walls) == ['bodies-two-step']
     assert CollisionWorld.from_config(walls).enabled is False
-    assert sorted(precompile.parts()) == sorted(precompile.PARTS) and len(precompile.PARTS) == 6
+    assert sorted(precompile.parts()) == sorted(precompile.PARTS) and len(precompile.PARTS) == 7
     assert precompile.parts(['eq27', 'taylor1', 'lie4'], False) == [
-        'bodies-two-step', 'bodies-k-step']
+        'bodies-two-step', 'bodies-k-step', 'blocks-two-step']
+    assert precompile.parts(['lie4']) == ['bodies-k-step', 'contact-k-step']
+    # Four free bodies or more step a block at a time (two-step methods: step_kernel.blocked)
+    many = tuple(BodySpec(f'b{i}', initial_position=(i, 0, 0)) for i in range(K.BLOCK_MIN))
+    assert precompile.parts_of(Config(bodies=many)) == ['bodies-two-step', 'blocks-two-step']
+    assert precompile.parts_of(Config(bodies=many[1:])) == ['bodies-two-step']
+    assert precompile.parts_of(Config(bodies=many, integrator='lie4')) == ['bodies-k-step']
+    store = Simulation(Config(bodies=many))._moving[0]._store
+    assert K.blocked(store.coefficients, len(store.clock), 1, False)
 
 
 def test_a_spawn_or_delete_names_the_kernels_the_run_then_steps_with():
@@ -137,6 +145,8 @@ def test_a_spawn_or_delete_names_the_kernels_the_run_then_steps_with():
     assert kernels_after(walls_only, Spawn(ball)) == 'contact'
     assert kernels_after(walls_only, Spawn(replace(wall, name='post'))) is None
     assert kernels_after(walls_only, Spawn(BodySpec('other'))) is None
+    three = Simulation(Config(bodies=tuple(replace(free, name=f'f{i}') for i in range(3))))
+    assert kernels_after(three, Spawn(BodySpec('fourth'))) == 'blocks'  # K.BLOCK_MIN
     assert kernels_after(walls_only, Delete('wall')) is None
     assert kernels_after(Simulation(Config(bodies=(free,))), Spawn(ball)) == 'contact'
     one = Simulation(Config(bodies=(ball, free, wall)))

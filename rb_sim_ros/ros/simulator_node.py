@@ -317,8 +317,8 @@ class SimulatorNode(Node):
         kind = kernels_after(self.sim, event)
         if kind == 'contact':
             warm_up_contacts(self.config)
-        elif kind == 'bodies':
-            warm_up_bodies(self.config)
+        elif kind is not None:
+            warm_up_bodies(self.config, blocks=kind == 'blocks')
         with self._lock:
             if not self._guarded(self._drain):
                 return self.diagnostics.error

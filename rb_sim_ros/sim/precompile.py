@@ -41,8 +41,17 @@ from rb_sim_ros.sim.simulation import Config, contact_probe, warm_up_bodies, war
 FAMILY_METHODS = {K.FAMILY_TWO: multistep.EQ27.name, K.FAMILY_K: multistep.LIE4.name,
                   K.FAMILY_SPLIT: multistep.FLOW4.name}
 FAMILY_NAMES = {K.FAMILY_TWO: 'two-step', K.FAMILY_K: 'k-step', K.FAMILY_SPLIT: 'splitting'}
-PARTS = tuple(f'{kind}-{FAMILY_NAMES[f]}' for kind in ('bodies', 'contact')
-              for f in K.FAMILIES)
+# The kinds of parts: the body step of a few bodies, of many bodies a block at a time (two-step
+# methods only: ``step_kernel.blocked``), and the collision world's step.
+KINDS = ('bodies', 'blocks', 'contact')
+
+
+def _exists(kind: str, family: int) -> bool:
+    return kind != 'blocks' or family == K.FAMILY_TWO
+
+
+PARTS = tuple(f'{kind}-{FAMILY_NAMES[f]}' for kind in KINDS for f in K.FAMILIES
+              if _exists(kind, f))
 
 
 def parts(integrators=None, contact: bool = True) -> list[str]:
@@ -50,18 +59,23 @@ def parts(integrators=None, contact: bool = True) -> list[str]:
     too when ``contact``."""
     families = (K.FAMILIES if integrators is None else
                 sorted({K.family_of(multistep.method_by_name(i).steps) for i in integrators}))
-    kinds = ('bodies', 'contact') if contact else ('bodies',)
-    return [f'{kind}-{FAMILY_NAMES[f]}' for kind in kinds for f in families]
+    kinds = KINDS if contact else KINDS[:-1]
+    return [f'{kind}-{FAMILY_NAMES[f]}' for kind in kinds for f in families
+            if _exists(kind, f)]
 
 
 def parts_of(config: Config) -> list[str]:
-    """The part a run of ``config`` steps with: the collision world's of its family when a
-    moving body has colliders, else its family's body step. The other one only a spawn or
-    a delete can call for (a first moving collider, or the last one deleted); the node then
-    compiles (or loads) it (``warm_up_contacts``, ``warm_up_bodies``)."""
-    kind = 'contact' if any(b.colliders and not b.static for b in config.bodies) else 'bodies'
+    """The parts a run of ``config`` steps with: the collision world's of its family when a
+    moving body has colliders, else its family's body step, and the block step too with
+    ``step_kernel.BLOCK_MIN`` moving bodies or more (two-step methods). The others only a
+    spawn or a delete can call for (a first moving collider, the last one deleted, the
+    BLOCK_MIN-th body); the node then compiles (or loads) them (``sim.kernels_after``)."""
     family = K.family_of(multistep.method_by_name(config.integrator).steps)
-    return [f'{kind}-{FAMILY_NAMES[family]}']
+    if any(b.colliders and not b.static for b in config.bodies):
+        return [f'contact-{FAMILY_NAMES[family]}']
+    many = sum(not b.static for b in config.bodies) >= K.BLOCK_MIN
+    return [f'{kind}-{FAMILY_NAMES[family]}' for kind in ('bodies', 'blocks')
+            if kind == 'bodies' or (many and _exists(kind, family))]
 
 
 def precompile(names=None, progress=None) -> dict[str, float]:
@@ -77,7 +91,10 @@ def precompile(names=None, progress=None) -> dict[str, float]:
         config = Config(integrator=FAMILY_METHODS[family])
         if kind == 'contact' and not jit.precompiled([part]):
             _contact_leaves_beside(config)
-        (warm_up_bodies if kind == 'bodies' else warm_up_contacts)(config)
+        if kind == 'contact':
+            warm_up_contacts(config)
+        else:
+            warm_up_bodies(config, blocks=kind == 'blocks')
         jit.mark_precompiled(part)
         took[part] = time.perf_counter() - start
         if progress is not None:

@@ -17,7 +17,7 @@ from typing import Any, Union
 from rb_sim_ros.contact.bodies import BodySpec, ContactSettings, make_steppers, MAX_COLLIDERS
 from rb_sim_ros.contact.collision_shapes import shape_from_dict, shape_to_dict, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
-from rb_sim_ros.core import multistep
+from rb_sim_ros.core import multistep, step_kernel as K
 from rb_sim_ros.core.rigid_body import finite_floats, State, Wrench, ZERO_WRENCH
 from rb_sim_ros.core.stepper import carry_over, step_all, Stepper
 
@@ -428,17 +428,24 @@ def warm_up_contacts(config: Config) -> None:
 
 
 def kernels_after(sim: 'Simulation', event) -> str | None:
-    """'contact' when ``event`` is a Spawn bringing ``sim``'s first moving body with colliders
-    (a collision world then steps the bodies; colliders on static bodies alone do not make
-    one), 'bodies' when it is a Delete taking the last one away (the step kernel then steps
-    them), else None: the kernels a run steps with after ``event``, if they change."""
+    """The kernels a run steps with after ``event``, if they change: 'contact' for a Spawn
+    bringing ``sim``'s first moving body with colliders (a collision world then steps the
+    bodies; colliders on static bodies alone do not make one); 'bodies' for a Delete taking
+    the last one away (the step kernel then steps them), 'blocks' if it leaves
+    ``step_kernel.BLOCK_MIN`` moving bodies or more, or for a Spawn making them that many
+    without a collision world (``warm_up_bodies(blocks=True)``); else None."""
     enabled = sim.world is not None and sim.world.enabled
+    moving = [b for b in sim.config.bodies if not b.static]
     if isinstance(event, Spawn):
-        moving = bool(event.spec.colliders) and not event.spec.static
-        return 'contact' if moving and not enabled else None
-    if isinstance(event, Delete) and enabled and not any(
-            b.colliders and not b.static and b.name != event.body for b in sim.config.bodies):
-        return 'bodies'
+        if event.spec.static or enabled:
+            return None
+        if event.spec.colliders:
+            return 'contact'
+        return 'blocks' if len(moving) + 1 == K.BLOCK_MIN else None
+    if isinstance(event, Delete) and enabled:
+        left = [b for b in moving if b.name != event.body]
+        if not any(b.colliders for b in left):
+            return 'blocks' if len(left) >= K.BLOCK_MIN else 'bodies'
     return None
 
 
@@ -452,17 +459,22 @@ def contact_probe(config: Config):
                              bodies=(BodySpec('probe', colliders=(Sphere(0.1),)),))).world
 
 
-def warm_up_bodies(config: Config) -> None:
+def warm_up_bodies(config: Config, blocks: bool | None = None) -> None:
     """Compile (or load from the cache) the step kernel of bodies without a collision world,
     touching no run: what a run whose last collider is deleted would otherwise do in its
-    step (an enabled world's warm-up leaves it out)."""
-    _warm_up_probe(config, BodySpec('probe'))
+    step (an enabled world's warm-up leaves it out). ``blocks``: with the kernels that step
+    ``step_kernel.BLOCK_MIN`` bodies or more a block at a time (two-step methods,
+    ``step_kernel.blocked``); None: if ``config`` has that many moving bodies."""
+    if blocks is None:
+        blocks = sum(not b.static for b in config.bodies) >= K.BLOCK_MIN
+    _warm_up_probe(config, *(BodySpec(f'probe{i}', initial_position=(2.0 * i, 0.0, 0.0))
+                             for i in range(K.BLOCK_MIN if blocks else 1)))
 
 
-def _warm_up_probe(config: Config, probe: BodySpec) -> None:
-    """Warm up a run of ``probe`` alone with ``config``'s dt, output period and method."""
+def _warm_up_probe(config: Config, *probes: BodySpec) -> None:
+    """Warm up a run of ``probes`` alone with ``config``'s dt, output period and method."""
     Simulation(Config(dt=config.dt, steps_per_publish=config.steps_per_publish,
-                      integrator=config.integrator, bodies=(probe,))).warm_up()
+                      integrator=config.integrator, bodies=probes)).warm_up()
 
 
 def _build(config: Config):
