@@ -343,7 +343,6 @@ def _world_steps_of(family, name):
 world_steps_two = _world_steps_of(K.FAMILY_TWO, 'world_steps_two')
 world_steps_k = _world_steps_of(K.FAMILY_K, 'world_steps_k')
 world_steps_split = _world_steps_of(K.FAMILY_SPLIT, 'world_steps_split')
-FAMILY_TWO, FAMILY_K, FAMILY_SPLIT = K.FAMILY_TWO, K.FAMILY_K, K.FAMILY_SPLIT
 
 
 # -- compiling world_steps in two processes ---------------------------------------------------
@@ -374,8 +373,8 @@ def compile_leaves(arrays, family, group: str) -> None:
                     np.zeros((0, 9)), w.settings, f1, f2, True, f1, f1, f2, f2, f2, f2, f1, f2,
                     f1, b1)
         # body_step's case for the family (step_kernel._two_step ...) calls this
-        step = {FAMILY_TWO: K.advance_body_2, FAMILY_K: K.advance_body_k,
-                FAMILY_SPLIT: K.advance_body_split}[family]
+        step = {K.FAMILY_TWO: K.advance_body_2, K.FAMILY_K: K.advance_body_k,
+                K.FAMILY_SPLIT: K.advance_body_split}[family]
         compile_for(step, w.state, w.spare, w.params, w.coefficients, 0, 1, False, w.kstatus,
                     w.taken, w.bad, w.work)
     else:
@@ -384,8 +383,8 @@ def compile_leaves(arrays, family, group: str) -> None:
 
 # family -> the name of its entry (looked up in the module's globals at each call, which
 # ``jit.run_interpreted`` rebinds).
-WORLD_STEPS = {FAMILY_TWO: 'world_steps_two', FAMILY_K: 'world_steps_k',
-               FAMILY_SPLIT: 'world_steps_split'}
+WORLD_STEPS = {K.FAMILY_TWO: 'world_steps_two', K.FAMILY_K: 'world_steps_k',
+               K.FAMILY_SPLIT: 'world_steps_split'}
 
 
 def steps(arrays, n, warm_keys, warm_normal, warm_tangent, family):
