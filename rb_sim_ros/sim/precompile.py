@@ -33,7 +33,7 @@ import time
 
 from rb_sim_ros.contact import world_step as ws
 from rb_sim_ros.core import jit, multistep, step_kernel as K
-from rb_sim_ros.sim.simulation import Config, contact_probe, warm_up_bodies, warm_up_contacts
+from rb_sim_ros.sim.simulation import Config, contact_probe, warm_up_bodies
 
 
 # One integrator of each family of the step kernel: the kernels compiled for it serve the
@@ -71,9 +71,9 @@ def parts_of(config: Config) -> list[str]:
     spawn or a delete can call for (a first moving collider, the last one deleted, the
     BLOCK_MIN-th body); the node then compiles (or loads) them (``sim.kernels_after``)."""
     family = K.family_of(multistep.method_by_name(config.integrator).steps)
-    if any(b.colliders and not b.static for b in config.bodies):
+    if any(b.colliders for b in config.moving_bodies):
         return [f'contact-{FAMILY_NAMES[family]}']
-    many = sum(not b.static for b in config.bodies) >= K.BLOCK_MIN
+    many = len(config.moving_bodies) >= K.BLOCK_MIN
     return [f'{kind}-{FAMILY_NAMES[family]}' for kind in ('bodies', 'blocks')
             if kind == 'bodies' or (many and _exists(kind, family))]
 
@@ -89,10 +89,11 @@ def precompile(names=None, progress=None) -> dict[str, float]:
         family = next(f for f, n in FAMILY_NAMES.items() if n == family_name)
         start = time.perf_counter()
         config = Config(integrator=FAMILY_METHODS[family])
-        if kind == 'contact' and not jit.precompiled([part]):
-            _contact_leaves_beside(config)
         if kind == 'contact':
-            warm_up_contacts(config)
+            world = contact_probe(config)  # what warm_up_contacts warms up
+            if not jit.precompiled([part]):
+                _contact_leaves_beside(world, config.integrator)
+            world.warm_up()
         else:
             warm_up_bodies(config, blocks=kind == 'blocks')
         jit.mark_precompiled(part)
@@ -110,26 +111,25 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
-def _contact_leaves_beside(config: Config) -> None:
+def _contact_leaves_beside(world, integrator: str) -> None:
     """With two cores or more, the first group of the collision world's longest kernels
     (``world_step.LEAF_GROUPS``) compiled in a child beside this process, which compiles the
-    others; then ``warm_up_contacts`` loads them (about a third less time to wait on two
+    others; then ``world.warm_up()`` loads them (about a third less time to wait on two
     cores). A child that fails costs nothing but the time: what it did not cache, the
     warm-up compiles (its output goes where this process's does). One core, or no cache to
     share: nothing here (the warm-up compiles them all, one after the other).
 
     The two processes never compile one kernel at the same time: numba's cache index is
     read, extended and written back without a lock, and two processes saving two overloads
-    of one kernel at once could leave an index naming the other's code. So the probe world
-    is built here first (building it compiles a few step kernels, which the child then
-    loads), and the groups share no kernel."""
+    of one kernel at once could leave an index naming the other's code. So ``world``, the
+    probe world of ``integrator`` (``contact_probe``), is built before (building it compiles
+    a few step kernels, which the child then loads), and the groups share no kernel."""
     if (_cores() < 2 or not jit.compiling() or jit.interpreted()
             or jit.cache_directory() is None):
         return
-    world = contact_probe(config)
     first, *rest = ws.LEAF_GROUPS
     child = _python_m('--parent', str(os.getpid()), '--leaves', first,
-                      '--integrator', config.integrator, out=None)
+                      '--integrator', integrator, out=None)
     try:
         for group in rest:
             world.compile_leaves(group)

@@ -75,6 +75,12 @@ class Config:
         """Whether any body has a collider (else no collision code runs at all)."""
         return any(b.colliders for b in self.bodies)
 
+    @property
+    def moving_bodies(self) -> tuple[BodySpec, ...]:
+        """The bodies that are not static: those a step moves (and a collision world steps
+        when one of them has colliders)."""
+        return tuple(b for b in self.bodies if not b.static)
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-able form; floats are written with repr, so a round trip is exact."""
         def plain(v):
@@ -424,7 +430,7 @@ def warm_up_contacts(config: Config) -> None:
     """Compile (or load from the cache) the collision kernels a run like ``config`` (its dt
     and method) would need, touching no run: what a first spawn with colliders would
     otherwise do in its step."""
-    _warm_up_probe(config, BodySpec('probe', colliders=(Sphere(0.1),)))
+    _probe_run(config, _BALL).warm_up()
 
 
 def kernels_after(sim: 'Simulation', event) -> str | None:
@@ -435,7 +441,7 @@ def kernels_after(sim: 'Simulation', event) -> str | None:
     ``step_kernel.BLOCK_MIN`` moving bodies or more, or for a Spawn making them that many
     without a collision world (``warm_up_bodies(blocks=True)``); else None."""
     enabled = sim.world is not None and sim.world.enabled
-    moving = [b for b in sim.config.bodies if not b.static]
+    moving = sim.config.moving_bodies
     if isinstance(event, Spawn):
         if event.spec.static or enabled:
             return None
@@ -454,9 +460,7 @@ def contact_probe(config: Config):
     no run: its ``compile_leaves(group)`` compiles (or loads) one group of the kernels its
     step calls (``world_step.LEAF_GROUPS``), and ``warm_up_contacts`` then loads them.
     Building it compiles (or loads) the few kernels a new body's state needs."""
-    return Simulation(Config(dt=config.dt, steps_per_publish=config.steps_per_publish,
-                             integrator=config.integrator,
-                             bodies=(BodySpec('probe', colliders=(Sphere(0.1),)),))).world
+    return _probe_run(config, _BALL).world
 
 
 def warm_up_bodies(config: Config, blocks: bool | None = None) -> None:
@@ -466,15 +470,20 @@ def warm_up_bodies(config: Config, blocks: bool | None = None) -> None:
     ``step_kernel.BLOCK_MIN`` bodies or more a block at a time (two-step methods,
     ``step_kernel.blocked``); None: if ``config`` has that many moving bodies."""
     if blocks is None:
-        blocks = sum(not b.static for b in config.bodies) >= K.BLOCK_MIN
-    _warm_up_probe(config, *(BodySpec(f'probe{i}', initial_position=(2.0 * i, 0.0, 0.0))
-                             for i in range(K.BLOCK_MIN if blocks else 1)))
+        blocks = len(config.moving_bodies) >= K.BLOCK_MIN
+    _probe_run(config, *(BodySpec(f'probe{i}', initial_position=(2.0 * i, 0.0, 0.0))
+                         for i in range(K.BLOCK_MIN if blocks else 1))).warm_up()
 
 
-def _warm_up_probe(config: Config, *probes: BodySpec) -> None:
-    """Warm up a run of ``probes`` alone with ``config``'s dt, output period and method."""
-    Simulation(Config(dt=config.dt, steps_per_publish=config.steps_per_publish,
-                      integrator=config.integrator, bodies=probes)).warm_up()
+# The probe of the collision kernels: one ball.
+_BALL = BodySpec('probe', colliders=(Sphere(0.1),))
+
+
+def _probe_run(config: Config, *probes: BodySpec) -> 'Simulation':
+    """A run of ``probes`` alone with ``config``'s dt, output period and method, touching no
+    other run: what the warm-ups compile (or load) a run's kernels with."""
+    return Simulation(Config(dt=config.dt, steps_per_publish=config.steps_per_publish,
+                             integrator=config.integrator, bodies=probes))
 
 
 def _build(config: Config):
