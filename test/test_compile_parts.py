@@ -14,8 +14,9 @@ from numba.core import event
 import pytest
 
 from rb_sim_ros import RigidBody, State, Stepper
-from rb_sim_ros.contact.collision_shapes import Plane, Sphere
-from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact import narrow_kernels as nk, world_step as ws
+from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
+from rb_sim_ros.contact.collision_world import CollisionWorld, pairs_met
 from rb_sim_ros.core import jit, step_kernel as K
 from rb_sim_ros.sim import precompile
 from rb_sim_ros.sim.scene import load_scene
@@ -72,12 +73,19 @@ def test_a_free_body_compiles_its_own_family_only(tmp_path):
     assert interpreted[0][1] == []
 
 
+# Two balls on the ground: the contact tests sphere-sphere and sphere-plane only.
+BALLS = (BodySpec('ground', static=True, colliders=(Plane(),)),
+         BodySpec('ball', colliders=(Sphere(0.1),), initial_position=(0.0, 0.0, 1.0)),
+         BodySpec('ball2', colliders=(Sphere(0.1),), initial_position=(0.5, 0.0, 1.0)))
+BALLS_PART = 'contact-two-step:sphere-sphere+sphere-plane'
+
 CONTACT_PART = """
 import json, sys
 from numba.core import event
 from rb_sim_ros.sim import precompile
+from rb_sim_ros.sim.simulation import Config
 with event.install_recorder('numba:compile') as rec:
-    precompile.precompile(['contact-two-step'])
+    precompile.precompile([sys.argv[1]])
 funcs = [e.data['dispatcher'].py_func for _, e in rec.buffer if e.is_start]
 print(json.dumps({'cores': precompile._cores(), 'compiled': [
     f.__module__.rsplit('.', 1)[-1] + '.' + f.__qualname__ for f in funcs
@@ -91,30 +99,58 @@ def test_a_collision_part_compiles_in_two_processes_and_each_kernel_once(tmp_pat
     """On an empty cache, a child compiles the narrow phase and the sorts while this process
     compiles the solver and the body step; world_steps then loads them all (compiled here
     once, in the child not at all): the types world_step.compile_leaves gives them are the
-    ones world_steps calls them with."""
-    out = subprocess.run([sys.executable, '-c', CONTACT_PART], cwd=tmp_path,
-                         env={**os.environ, 'NUMBA_CACHE_DIR': str(tmp_path / 'cache')},
+    ones world_steps calls them with. The part of a scene of balls on the ground compiles
+    its two contact tests and none of the others, in either process; a run of that scene
+    then names that part, precompiled."""
+    cache = tmp_path / 'cache'
+    out = subprocess.run([sys.executable, '-c', CONTACT_PART, BALLS_PART], cwd=tmp_path,
+                         env={**os.environ, 'NUMBA_CACHE_DIR': str(cache)},
                          capture_output=True, text=True, timeout=1800)
     assert out.returncode == 0, out.stderr[-3000:]
     found = json.loads(out.stdout.splitlines()[-1])
     compiled = found['compiled']
-    assert 'world_step.world_steps_two' in compiled
+    entry = f'world_step.world_steps_two_{nk.pairs_named(["sphere-sphere", "sphere-plane"])}'
+    assert entry in compiled
     for here in ('solver_kernels.solve_arrays', 'step_kernel.advance_body_2'):
         assert compiled.count(here) == 1, here
         # before world_steps (events in the order they start): not inside its compile
-        assert compiled.index(here) < compiled.index('world_step.world_steps_two'), here
+        assert compiled.index(here) < compiled.index(entry), here
     if found['cores'] >= 2:
-        for child in ('narrow_kernels.collide_pairs', 'narrow_kernels.collide_pair',
+        for child in ('narrow_kernels.collide_pairs_of', 'narrow_kernels.collide_pair_of',
                       'broad_phase.stable_order', 'broad_phase.sorted_copy'):
             assert child not in compiled, child
+    # Cached by either process: the two tests of the scene, not one of the others.
+    cached = {p.name.split('-')[0] for p in (cache / 'rb_sim_ros').glob('*.nbi')}
+    assert {'narrow_kernels._sphere_sphere', 'narrow_kernels._sphere_plane',
+            'narrow_kernels.collide_pairs_of'} <= cached
+    others = {'_sphere_box', '_sphere_capsule', '_capsule_capsule', '_capsule_box',
+              '_capsule_plane', '_box_box', '_box_plane', '_face_contacts', '_clip'}
+    assert not {f'narrow_kernels.{k}' for k in others} & cached
+    # The run of that scene finds its part precompiled.
+    check = ('from rb_sim_ros.sim import precompile; from rb_sim_ros.core import jit; '
+             'from test_compile_parts import BALLS; from rb_sim_ros.sim.simulation import '
+             'Config; p = precompile.parts_of(Config(bodies=BALLS)); '
+             'print(p, jit.precompiled(p))')
+    out = subprocess.run([sys.executable, '-c', check], cwd=Path(__file__).parent,
+                         env={**os.environ, 'NUMBA_CACHE_DIR': str(cache)},
+                         capture_output=True, text=True, timeout=600)
+    assert out.stdout.split() == [f"['{BALLS_PART}']", 'True'], out.stderr[-2000:]
 
 
-def test_a_scene_names_the_parts_it_steps_with():
+def test_a_scene_names_the_parts_it_steps_with(tmp_path, monkeypatch):
+    monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path))  # no part precompiled
+    monkeypatch.delenv(ws.ALL_TESTS_VARIABLE, raising=False)
     assert precompile.parts_of(Config()) == ['bodies-two-step']
     assert precompile.parts_of(Config(integrator='lie3')) == ['bodies-k-step']
     gravity, bodies, contact = load_scene(str(ROOT / 'scenes' / 'collisions.yaml'))[:3]
     demo = Config(gravity=gravity, bodies=tuple(bodies), contact=contact, integrator='flow2')
+    # Every pair of kinds meets in the demo but capsule-capsule (one body has a capsule).
+    assert precompile.parts_of(demo) == [
+        'contact-splitting:sphere-sphere+sphere-capsule+sphere-box+sphere-plane+capsule-box+'
+        'capsule-plane+box-box+box-plane']
+    jit.mark_precompiled('contact-splitting')  # every test: colcon build's
     assert precompile.parts_of(demo) == ['contact-splitting']
+    assert precompile.parts_of(Config(bodies=BALLS)) == [BALLS_PART]
     # Colliders on static bodies only: no collision world runs (collision_world's enabled).
     walls = Config(bodies=(BodySpec('ball'), BodySpec('wall', static=True,
                                                       colliders=(Sphere(0.1),))))
@@ -131,6 +167,113 @@ def test_a_scene_names_the_parts_it_steps_with():
     assert precompile.parts_of(Config(bodies=many, integrator='lie4')) == ['bodies-k-step']
     store = Simulation(Config(bodies=many))._moving[0]._store
     assert K.blocked(store.coefficients, len(store.clock), 1, False)
+
+
+def test_a_world_has_the_contact_tests_of_the_shapes_that_can_meet():
+    """pairs_met against pairs enumerated by hand: a moving body's collider against any other
+    body's; never two static ones, never two of one body."""
+    def met(*bodies, planes=()):
+        return sorted(nk.pair_names(pairs_met(bodies, planes)))
+
+    ball = BodySpec('ball', colliders=(Sphere(0.1),))
+    ground = BodySpec('ground', static=True, colliders=(Plane(),))
+    crate = BodySpec('crate', colliders=(Box((0.2, 0.2, 0.2)),))
+    post = BodySpec('post', static=True, colliders=(Capsule(0.1, 1.0),))
+    bell = BodySpec('bell', colliders=(Capsule(0.02, 0.3), Sphere(0.06, position=(0, 0, 0.18))))
+    assert met(ball) == [] and met(bell) == []
+    assert met(ball, ground) == ['sphere-plane']
+    assert met(ball, replace(ball, name='b2')) == ['sphere-sphere']
+    assert met(ball, replace(ball, name='s', static=True)) == ['sphere-sphere']
+    assert met(replace(crate, static=True), post, ground) == []
+    assert met(bell, ground) == ['capsule-plane', 'sphere-plane']
+    assert met(crate, post, ball) == ['capsule-box', 'sphere-box', 'sphere-capsule']
+    assert met(ball, planes=(Plane(),)) == ['sphere-plane']
+    assert met(bell, replace(bell, name='bell2')) == [
+        'capsule-capsule', 'sphere-capsule', 'sphere-sphere']
+
+
+def test_a_world_steps_with_the_smallest_precompiled_set_of_tests_that_holds_its_own(
+        tmp_path, monkeypatch):
+    monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path))
+    monkeypatch.delenv(ws.ALL_TESTS_VARIABLE, raising=False)
+    two = K.FAMILY_TWO
+    balls = nk.pairs_named(['sphere-sphere', 'sphere-plane'])
+    crate = nk.pairs_named(['box-plane'])
+    assert ws.tests_for(two, balls) == balls  # nothing precompiled: its own
+    jit.mark_precompiled('contact-two-step')
+    assert ws.tests_for(two, balls) == nk.PAIRS_ALL
+    assert ws.tests_for(K.FAMILY_K, balls) == balls  # another family's part does not serve
+    jit.mark_precompiled(ws.contact_part(two, balls | nk.pairs_named(['sphere-box'])))
+    assert ws.tests_for(two, balls) == balls | nk.pairs_named(['sphere-box'])
+    assert ws.tests_for(two, crate) == nk.PAIRS_ALL
+    jit.mark_precompiled('contact-two-step:typo-sphere')  # a stray marker: not a set
+    assert ws.tests_for(two, crate) == nk.PAIRS_ALL
+    monkeypatch.setenv(ws.ALL_TESTS_VARIABLE, 'all')
+    assert ws.tests_for(K.FAMILY_K, balls) == nk.PAIRS_ALL
+    # A world of one ball needs no test: an entry of its own (made, not compiled, here).
+    assert ws.entry(two, 0) == 'world_steps_two_0' and hasattr(ws, 'world_steps_two_0')
+    assert ws.entry(two, nk.PAIRS_ALL) == 'world_steps_two'
+    # Every set named and read back.
+    for family in K.FAMILIES:
+        for tests in range(nk.PAIRS_ALL + 1):
+            assert ws.part_tests(ws.contact_part(family, tests)) == (family, tests)
+            assert precompile.part(ws.contact_part(family, tests)) == ('contact', family, tests)
+
+
+NARROW_ONLY = """
+import json, sys
+import numpy as np
+from numba.core import event
+from rb_sim_ros.contact import narrow_kernels as nk
+import numba
+TESTS = nk.pairs_named(['sphere-sphere', 'sphere-plane'])
+
+@numba.njit  # a caller of its own, not cached (world_steps is one)
+def balls(a, b, kinds, geoms, centres, rot, margins, point, normal, depth, feature, source):
+    return nk.collide_pairs_of(TESTS, a, b, kinds, geoms, centres, rot, margins, point, normal,
+                               depth, feature, source)
+
+def run(function, kinds):
+    geoms = np.array([[0.1, 0, 0.1, 0.1, 0.1], [0.2, 0, 0.1, 0.1, 0.1], [0, 0, 0, 0, 1.0]])
+    centres = np.array([[0, 0, 0.09], [0.25, 0.0, 0.15], [0, 0, 0]])
+    rot = np.tile(np.eye(3).reshape(9), (3, 1))
+    a, b = np.array([0, 0, 1]), np.array([1, 2, 2])
+    out = [np.zeros((27, 3)), np.zeros((27, 3)), np.zeros(27)] + [
+        np.zeros(27, dtype=np.int64)] * 2
+    try:
+        m = function(a, b, np.array(kinds), geoms, centres, rot, np.full(3, 0.01), *out)
+    except ValueError as e:
+        return str(e)
+    return [m] + [x[:m].tolist() for x in out]
+
+with event.install_recorder('numba:compile') as rec:
+    mine = run(balls, [nk.KIND_SPHERE, nk.KIND_SPHERE, nk.KIND_PLANE])
+    boxed = run(balls, [nk.KIND_SPHERE, nk.KIND_BOX, nk.KIND_PLANE])
+funcs = {e.data['dispatcher'].py_func.__qualname__ for _, e in rec.buffer if e.is_start}
+every = run(nk.collide_pairs, [nk.KIND_SPHERE, nk.KIND_SPHERE, nk.KIND_PLANE])
+print(json.dumps({'compiled': sorted(funcs), 'mine': mine, 'every': every, 'boxed': boxed}))
+"""
+
+
+@pytest.mark.parametrize('tier', ['compiled', 'interpreted'])
+def test_a_set_of_contact_tests_compiles_those_alone_and_refuses_the_others(tmp_path, tier):
+    """collide_pairs_of with the tests of balls and planes: the same contacts as every test
+    (a constant in the caller, as in world_steps), none of the other tests compiled, and a
+    box among the pairs refused in both tiers."""
+    env = {**os.environ, 'NUMBA_CACHE_DIR': str(tmp_path / 'cache')}
+    if tier == 'interpreted':
+        env['NUMBA_DISABLE_JIT'] = '1'
+    out = subprocess.run([sys.executable, '-c', NARROW_ONLY], cwd=tmp_path, env=env,
+                         capture_output=True, text=True, timeout=900)
+    assert out.returncode == 0, out.stderr[-3000:]
+    found = json.loads(out.stdout)
+    assert found['mine'] == found['every'] and found['mine'][0] == 3
+    assert 'not in the set its kernels were compiled for' in found['boxed']
+    if tier == 'compiled':
+        assert {'_sphere_sphere', '_sphere_plane', 'collide_pair_of'} <= set(found['compiled'])
+        assert not set(found['compiled']) & {
+            '_sphere_box', '_box_box', '_box_plane', '_capsule_box', '_capsule_capsule',
+            '_capsule_plane', '_sphere_capsule', 'collide_pair'}
 
 
 def test_a_spawn_or_delete_names_the_kernels_the_run_then_steps_with():
@@ -169,16 +312,23 @@ def test_every_integrator_has_a_family_and_a_part():
 def test_precompile_refuses_an_unknown_part(capsys):
     with pytest.raises(ValueError, match="no kernel part 'bodies-three-step'"):
         precompile.precompile(['bodies-three-step'])
-    with pytest.raises(SystemExit) as e:
-        precompile.main(['--part', 'contact'])
-    assert e.value.code == 2
-    assert "invalid choice: 'contact'" in capsys.readouterr().err
-    for wrong in (['--part', 'contact-two-step'], ['--no-contact'],
-                  ['--integrator', 'eq27', 'lie4']):
+    for bad, why in (('contact', "no kernel part 'contact'"),
+                     ('contact-two-step:sphere-cone', "no pair of kinds 'sphere-cone'"),
+                     ('contact-two-step:plane-plane', "no contact test between 'plane-plane'"),
+                     ('contact-two-step:', "no contact part 'contact-two-step:'")):
+        with pytest.raises(SystemExit) as e:
+            precompile.main(['--part', bad])
+        assert e.value.code == 2
+        err = capsys.readouterr().err
+        assert why in err and len(err.strip().splitlines()[-1]) < 400
+    for wrong in ([], ['--part', 'bodies-two-step'],
+                  ['--part', 'contact-two-step', '--no-contact'],
+                  ['--part', 'contact-two-step', '--integrator', 'eq27'],
+                  ['--part', 'contact-two-step', 'contact-k-step']):
         with pytest.raises(SystemExit) as e:
             precompile.main(['--leaves', 'narrow', *wrong])
         assert e.value.code == 2
-        assert '--leaves: with one --integrator at most' in capsys.readouterr().err
+        assert '--leaves: with one collision --part' in capsys.readouterr().err
 
 
 @pytest.mark.skipif(not jit.compiling(), reason='NUMBA_DISABLE_JIT=1: nothing compiles')
@@ -204,3 +354,24 @@ def test_a_later_call_compiles_nothing(method):
                 run(1)
                 run(7)
         assert [e.data['dispatcher'].py_func.__qualname__ for _, e in rec.buffer] == []
+
+
+@pytest.mark.slow
+def test_a_world_gives_the_same_bits_with_its_own_contact_tests_as_with_all():
+    """A ball and a crate on the ground, stepped by a world compiled with their three tests
+    and by one with every test: the same bits; a delete keeps the step the run has."""
+    crate = BodySpec('crate', colliders=(Box((0.4, 0.3, 0.2)),), initial_position=(0.3, 0, 0.5),
+                     initial_orientation_xyzw=(0.3, 0.2, 0.1, 0.927362))
+    config = Config(bodies=BALLS[:2] + (crate,), gravity=(0.0, 0.0, -9.81))
+    own = nk.pairs_named(['sphere-box', 'sphere-plane', 'box-plane'])
+    finals = []
+    for tests in (own, nk.PAIRS_ALL):
+        sim = Simulation(config, tests)
+        assert sim.world.pair_tests == tests
+        sim.run(400)
+        sim.apply(Delete('ball'))
+        assert sim.world.pair_tests == tests  # box-plane alone: the same step serves
+        assert sim.world.pairs_needed == nk.pairs_named(['box-plane'])
+        sim.run(200)
+        finals.append([float(c) for part in sim.pose_twist('crate') for c in part])
+    assert finals[0] == finals[1]

@@ -20,7 +20,8 @@ calls, to apply wrenches and teleports, and to name what failed):
 2. broad phase (``world_kernels.sweep_and_prune`` on the colliders' world AABBs, each widened
    by its body's speculative margin; every collider against every plane by its support
    distance);
-3. narrow phase (``narrow_kernels.collide_pairs``, every candidate pair);
+3. narrow phase (``narrow_kernels.collide_pairs_of``, every candidate pair; the step is
+   compiled with the contact tests of the pairs of shapes that can meet, ``pair_tests``);
 4. impulses and position correction (``solver_kernels.solve_arrays``, warm-started from the
    impulses of the same contact features at the step before);
 5. every body whose velocity or pose changed is written back (``world_kernels.write_contacts``):
@@ -120,6 +121,14 @@ class WorldContact:
     normal_impulse: float
 
 
+def pairs_met(bodies: Sequence[BodySpec], planes: Sequence[Plane] = ()) -> int:
+    """The contact tests (a set of ``narrow_kernels.PAIR_BIT``) a world of ``bodies`` and
+    ``planes`` can call: those of the kinds of a moving body's collider and another body's."""
+    kinds = [[nk.KIND_NAMES.index(sh.kind) for sh in b.colliders] for b in bodies]
+    return nk.pair_set(kinds + [[nk.KIND_PLANE] * len(planes)],
+                       [not b.static for b in bodies] + [False])
+
+
 @dataclass
 class _Collider:
     shape: Shape
@@ -139,8 +148,12 @@ class CollisionWorld:
     material of its own. The other keywords are ``contact_solver.SolverSettings`` fields;
     ``bounce_threshold`` (m/s) must stay above |g| dt, or resting bodies bounce on the speed
     gravity gives them in one step.
-    ``sleep_time`` (s, 0: never) and ``sleep_speed`` (m/s): see Sleeping above. Every
-    argument is validated (ValueError naming it) before anything is built.
+    ``sleep_time`` (s, 0: never) and ``sleep_speed`` (m/s): see Sleeping above.
+    ``pair_tests``: contact tests (a set of ``narrow_kernels.PAIR_BIT``) the world's step is
+    compiled with besides those its bodies can meet (``pair_tests`` the attribute: the
+    union); None: ``world_step.tests_for`` chooses (a precompiled set that holds them, so that
+    it is loaded rather than compiled). The bits are the same with any set. Every argument
+    is validated (ValueError naming it) before anything is built.
     """
 
     def __init__(self, bodies: Sequence[BodySpec], dt: float, gravity: Any = (0.0, 0.0, 0.0),
@@ -152,7 +165,7 @@ class CollisionWorld:
                  speculative: bool = True, warm_start: bool = True,
                  batch_threshold: int = 48, sleep_time: float = 0.5,
                  sleep_speed: float = 1e-3, rolling_resistance: float = 0.0,
-                 torsional_friction: float = 0.0) -> None:
+                 torsional_friction: float = 0.0, pair_tests: int | None = None) -> None:
         # What a world rebuilt around other bodies is made with (``rebuilt``).
         self._arguments = dict(
             dt=dt, gravity=gravity, restitution=restitution, friction=friction, planes=planes,
@@ -204,7 +217,20 @@ class CollisionWorld:
         self._warm_normal = np.zeros(0)
         self._warm_tangent = np.zeros((0, 3))
         self._unchecked = True
+        if pair_tests is not None and (
+                not isinstance(pair_tests, int) or isinstance(pair_tests, bool)
+                or not 0 <= pair_tests <= nk.PAIRS_ALL):
+            raise ValueError(f'pair_tests must be a set of narrow_kernels.PAIR_BIT (an int in '
+                             f'[0, {nk.PAIRS_ALL}]) or None, got {pair_tests!r}')
         self._build(planes)
+        # The contact tests its bodies can meet, and those its step is compiled with.
+        self.pairs_needed = needed = pairs_met(bodies, planes)
+        if pair_tests is not None:
+            self.pair_tests = pair_tests | needed
+        elif self.enabled:
+            self.pair_tests = ws.tests_for(K.family(self._store.coefficients), needed)
+        else:
+            self.pair_tests = needed
 
     @classmethod
     def from_config(cls, config, **kwargs) -> 'CollisionWorld':
@@ -465,14 +491,15 @@ class CollisionWorld:
         """Compile (or load) one group of the kernels ``world_steps`` calls
         (``world_step.compile_leaves``), for another process to compile the rest beside it."""
         if self.enabled:
-            ws.compile_leaves(self._world(), K.family(self._store.coefficients), group)
+            ws.compile_leaves(self._world(), K.family(self._store.coefficients),
+                              self.pair_tests, group)
 
     def _call(self, n: int):
         """``world_steps`` for n steps from the world's clock and arrays as they are now."""
         self._status[ws.S_STEP] = self._step_count
         self._status[ws.S_UNCHECKED] = int(self._unchecked)
         return ws.steps(self._world(), n, self._warm_keys, self._warm_normal,
-                        self._warm_tangent, K.family(self._store.coefficients))
+                        self._warm_tangent, K.family(self._store.coefficients), self.pair_tests)
 
     def _world(self) -> tuple:
         """The world's arrays for the step kernel (the store's, as they are now), in the order
@@ -618,6 +645,9 @@ class CollisionWorld:
         ``steppers`` by name) at ``step_count``: see ``rebuilt``."""
         carry_over(self.steppers, steppers, step_count)
         self._step_count = step_count
+        if (old is not None and old.enabled and self.enabled
+                and self.pairs_needed & ~old.pair_tests == 0):
+            self.pair_tests = old.pair_tests  # the step the run has compiled (or loaded) serves
         self._unchecked = True if recheck or old is None else old._unchecked
         if old is not None:
             self.totals, self.last_stats = old.totals, old.last_stats

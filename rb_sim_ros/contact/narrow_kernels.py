@@ -10,6 +10,12 @@ sphere uses the radius; a capsule the radius and half_length (its segment runs a
 z axis); a box its half extents; a plane (static only) has centre = one of its points and
 geom[2:5] = its unit normal (world frame, out of the solid); rot is not read.
 
+``collide_pair_of`` and ``collide_pairs_of`` take first a set of contact tests (``PAIR_BIT``,
+one bit a pair of kinds), a constant where a kernel calls them: only those tests are compiled
+into the caller, and a pair outside the set is a ValueError, in either tier (a world's step
+is compiled for the pairs its shapes can meet: ``pair_set``). ``collide_pair`` and
+``collide_pairs`` are them with every test.
+
 ``collide_pair`` writes the contacts of one pair to rows start, start + 1, ... of point (K, 3)
 (m), normal (K, 3) (unit), depth (K,) (m), feature (K,) int64 (world frame) and returns how
 many; the outputs must have MAX_CONTACTS_PER_PAIR rows from ``start`` (ValueError otherwise).
@@ -50,7 +56,7 @@ import math
 
 import numpy as np
 
-from rb_sim_ros.core.jit import kernel
+from rb_sim_ros.core.jit import kernel, literal_gate
 
 KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE = 0, 1, 2, 3
 # geom row: (radius, half_length, hx, hy, hz); a plane's unit normal in place of (hx, hy, hz).
@@ -866,14 +872,162 @@ def _box_box(ca, rota, ga, cb, rotb, gb, margin, point, normal, depth, feature, 
 
 
 # -- dispatch ----------------------------------------------------------------------------------
+# The contact tests, one for each pair of kinds (low rank, high rank), written ``_pair_*`` below
+# with one signature: the arrays of the two shapes in the order the pair is given and
+# ``swap`` (the pair given high kind first, so computed B as A). A set of pairs is an int, one
+# bit a pair (``PAIR_BIT``): the kernels of a world are compiled for the pairs its scene can
+# meet (``pair_set``), each test outside them compiled as a "no test" (``jit.literal_gate``).
+PAIR_KINDS = tuple((low, high) for low in (KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE)
+                   for high in (KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE)
+                   if low <= high and low != KIND_PLANE)  # not plane-plane: both static
+PAIR_BIT = {pair: 1 << i for i, pair in enumerate(PAIR_KINDS)}
+PAIRS_ALL = (1 << len(PAIR_KINDS)) - 1
+KIND_NAMES = ('sphere', 'capsule', 'box', 'plane')
+
+
+def pair_set(kinds_of_bodies, moving) -> int:
+    """The set of pairs (bits of ``PAIR_BIT``) a world can test: a pair of kinds (a, b) if a
+    moving body has a collider of kind a and another body one of kind b. ``kinds_of_bodies``:
+    for each body the kinds (KIND_*) of its colliders; ``moving``: for each body whether it
+    moves (planes are on static bodies only; static bodies never meet each other)."""
+    bodies_of: dict = {}   # kind -> the bodies with a collider of that kind
+    moving_of: dict = {}   # kind -> the moving ones
+    for i, (kinds, m) in enumerate(zip(kinds_of_bodies, moving)):
+        for k in set(kinds):
+            bodies_of.setdefault(k, set()).add(i)
+            if m:
+                moving_of.setdefault(k, set()).add(i)
+    bits = 0
+    for a, movers in moving_of.items():
+        for b, others in bodies_of.items():
+            # some moving body of kind a and another body of kind b: unless b's only body
+            # is a's only mover
+            if len(others) > 1 or others != movers:
+                bits |= PAIR_BIT[(min(a, b), max(a, b))]
+    return bits
+
+
+def pair_names(pairs: int) -> list[str]:
+    """The pairs of the set ``pairs`` as 'sphere-box' and the like, in ``PAIR_KINDS`` order."""
+    return [f'{KIND_NAMES[a]}-{KIND_NAMES[b]}' for (a, b) in PAIR_KINDS
+            if pairs & PAIR_BIT[(a, b)]]
+
+
+def pairs_named(names) -> int:
+    """The set of the pairs ``names`` ('sphere-box', ...; the other order too); ValueError for
+    a name that is no pair of kinds with a contact test."""
+    bits = 0
+    for name in names:
+        a, _, b = name.partition('-')
+        if a not in KIND_NAMES or b not in KIND_NAMES:
+            raise ValueError(f'no pair of kinds {name!r}: kinds are {", ".join(KIND_NAMES)}')
+        low, high = sorted((KIND_NAMES.index(a), KIND_NAMES.index(b)))
+        if (low, high) not in PAIR_BIT:
+            raise ValueError(f'no contact test between {name!r} (two planes are static)')
+        bits |= PAIR_BIT[(low, high)]
+    return bits
+
+
+@literal_gate(PAIR_BIT[(KIND_SPHERE, KIND_SPHERE)], -1)
+def _pair_sphere_sphere(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                        point, normal, depth, feature, start):
+    return _sphere_sphere(float(centre_a[0]), float(centre_a[1]), float(centre_a[2]),
+                          float(geom_a[RADIUS]), float(centre_b[0]), float(centre_b[1]),
+                          float(centre_b[2]), float(geom_b[RADIUS]), margin, int(0),
+                          0.0, 0.0, 1.0, point, normal, depth, feature, start)
+
+
+@literal_gate(PAIR_BIT[(KIND_SPHERE, KIND_CAPSULE)], -1)
+def _pair_sphere_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                         point, normal, depth, feature, start):
+    if swap:
+        return _sphere_capsule(centre_b, float(geom_b[RADIUS]), centre_a, rot_a,
+                               float(geom_a[RADIUS]), float(geom_a[HALF_LENGTH]), margin,
+                               point, normal, depth, feature, start)
+    return _sphere_capsule(centre_a, float(geom_a[RADIUS]), centre_b, rot_b,
+                           float(geom_b[RADIUS]), float(geom_b[HALF_LENGTH]), margin,
+                           point, normal, depth, feature, start)
+
+
+@literal_gate(PAIR_BIT[(KIND_SPHERE, KIND_BOX)], -1)
+def _pair_sphere_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                     point, normal, depth, feature, start):
+    if swap:
+        return _sphere_box(centre_b, float(geom_b[RADIUS]), centre_a, rot_a, geom_a, margin,
+                           point, normal, depth, feature, start)
+    return _sphere_box(centre_a, float(geom_a[RADIUS]), centre_b, rot_b, geom_b, margin,
+                       point, normal, depth, feature, start)
+
+
+@literal_gate(PAIR_BIT[(KIND_SPHERE, KIND_PLANE)], -1)
+def _pair_sphere_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                       point, normal, depth, feature, start):
+    if swap:
+        return _sphere_plane(float(centre_b[0]), float(centre_b[1]), float(centre_b[2]),
+                             float(geom_b[RADIUS]), float(centre_a[0]), float(centre_a[1]),
+                             float(centre_a[2]), float(geom_a[NORMAL]),
+                             float(geom_a[NORMAL + 1]), float(geom_a[NORMAL + 2]), margin,
+                             int(0), point, normal, depth, feature, start)
+    return _sphere_plane(float(centre_a[0]), float(centre_a[1]), float(centre_a[2]),
+                         float(geom_a[RADIUS]), float(centre_b[0]), float(centre_b[1]),
+                         float(centre_b[2]), float(geom_b[NORMAL]),
+                         float(geom_b[NORMAL + 1]), float(geom_b[NORMAL + 2]), margin,
+                         int(0), point, normal, depth, feature, start)
+
+
+@literal_gate(PAIR_BIT[(KIND_CAPSULE, KIND_CAPSULE)], -1)
+def _pair_capsule_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                          point, normal, depth, feature, start):
+    return _capsule_capsule(centre_a, rot_a, float(geom_a[RADIUS]), float(geom_a[HALF_LENGTH]),
+                            centre_b, rot_b, float(geom_b[RADIUS]), float(geom_b[HALF_LENGTH]),
+                            margin, point, normal, depth, feature, start)
+
+
+@literal_gate(PAIR_BIT[(KIND_CAPSULE, KIND_BOX)], -1)
+def _pair_capsule_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                      point, normal, depth, feature, start):
+    if swap:
+        return _capsule_box(centre_b, rot_b, float(geom_b[RADIUS]), float(geom_b[HALF_LENGTH]),
+                            centre_a, rot_a, geom_a, margin, point, normal, depth, feature,
+                            start)
+    return _capsule_box(centre_a, rot_a, float(geom_a[RADIUS]), float(geom_a[HALF_LENGTH]),
+                        centre_b, rot_b, geom_b, margin, point, normal, depth, feature, start)
+
+
+@literal_gate(PAIR_BIT[(KIND_CAPSULE, KIND_PLANE)], -1)
+def _pair_capsule_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                        point, normal, depth, feature, start):
+    if swap:
+        return _capsule_plane(centre_b, rot_b, float(geom_b[RADIUS]),
+                              float(geom_b[HALF_LENGTH]), centre_a, geom_a, margin,
+                              point, normal, depth, feature, start)
+    return _capsule_plane(centre_a, rot_a, float(geom_a[RADIUS]), float(geom_a[HALF_LENGTH]),
+                          centre_b, geom_b, margin, point, normal, depth, feature, start)
+
+
+@literal_gate(PAIR_BIT[(KIND_BOX, KIND_BOX)], -1)
+def _pair_box_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                  point, normal, depth, feature, start):
+    return _box_box(centre_a, rot_a, geom_a, centre_b, rot_b, geom_b, margin,
+                    point, normal, depth, feature, start)
+
+
+@literal_gate(PAIR_BIT[(KIND_BOX, KIND_PLANE)], -1)
+def _pair_box_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                    point, normal, depth, feature, start):
+    if swap:
+        return _box_plane(centre_b, rot_b, geom_b, centre_a, geom_a, margin,
+                          point, normal, depth, feature, start)
+    return _box_plane(centre_a, rot_a, geom_a, centre_b, geom_b, margin,
+                      point, normal, depth, feature, start)
+
+
 @kernel
-def collide_pair(kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, centre_b, rot_b, margin,
-                 point, normal, depth, feature, start):
-    """The contacts of shape A (kind_a, geom_a (5,), centre_a (3,), rot_a (9,), see the module
-    doc) with shape B within ``margin`` (m), written to rows start, start + 1, ... of point
-    (K, 3), normal (K, 3) (from A to B), depth (K,), feature (K,) int64, world frame; returns
-    their number (0 to MAX_CONTACTS_PER_PAIR). ValueError if the outputs have fewer than
-    start + MAX_CONTACTS_PER_PAIR rows, an input array is too short, or both are planes."""
+def collide_pair_of(tests, kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, centre_b, rot_b,
+                    margin, point, normal, depth, feature, start):
+    """``collide_pair`` with the contact tests of the set ``tests`` alone (``PAIR_BIT``; a
+    constant where a kernel calls it: see ``jit.literal_gate``); a pair outside it is a
+    ValueError, as two planes are."""
     rows = start + MAX_CONTACTS_PER_PAIR
     if (start < 0 or point.shape[0] < rows or normal.shape[0] < rows or depth.shape[0] < rows
             or feature.shape[0] < rows or point.shape[1] < 3 or normal.shape[1] < 3):
@@ -882,83 +1036,45 @@ def collide_pair(kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, centre_b, rot_
             or centre_b.shape[0] < 3 or rot_a.shape[0] < 9 or rot_b.shape[0] < 9):
         raise ValueError('collide_pair: geom needs 5 values, centre 3 and rot 9')
     # B before A in rank: computed swapped (B's arrays where A's go), then the normals negated
-    # (from B to A becomes from A to B). The arrays are passed in the order each call needs,
-    # never swapped into other variables: numba counts references on array variables merged
-    # across branches, which costs more than the sphere-sphere test itself.
+    # (from B to A becomes from A to B). The arrays are passed on as they are, and each test
+    # hands them to its function in the order it needs, never swapped into other variables:
+    # numba counts references on array variables merged across branches, which costs more
+    # than the sphere-sphere test itself.
     swap = kind_a > kind_b
     low = kind_b if swap else kind_a
     high = kind_a if swap else kind_b
     count = -1
     if low == KIND_SPHERE and high == KIND_SPHERE:
-        count = _sphere_sphere(float(centre_a[0]), float(centre_a[1]), float(centre_a[2]),
-                               float(geom_a[RADIUS]), float(centre_b[0]), float(centre_b[1]),
-                               float(centre_b[2]), float(geom_b[RADIUS]), margin, int(0),
-                               0.0, 0.0, 1.0, point, normal, depth, feature, start)
+        count = _pair_sphere_sphere(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
+                                    rot_b, margin, point, normal, depth, feature, start)
     elif low == KIND_SPHERE and high == KIND_CAPSULE:
-        if swap:
-            count = _sphere_capsule(centre_b, float(geom_b[RADIUS]), centre_a, rot_a,
-                                    float(geom_a[RADIUS]), float(geom_a[HALF_LENGTH]), margin,
-                                    point, normal, depth, feature, start)
-        else:
-            count = _sphere_capsule(centre_a, float(geom_a[RADIUS]), centre_b, rot_b,
-                                    float(geom_b[RADIUS]), float(geom_b[HALF_LENGTH]), margin,
-                                    point, normal, depth, feature, start)
+        count = _pair_sphere_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
+                                     rot_b, margin, point, normal, depth, feature, start)
     elif low == KIND_SPHERE and high == KIND_BOX:
-        if swap:
-            count = _sphere_box(centre_b, float(geom_b[RADIUS]), centre_a, rot_a, geom_a, margin,
-                                point, normal, depth, feature, start)
-        else:
-            count = _sphere_box(centre_a, float(geom_a[RADIUS]), centre_b, rot_b, geom_b, margin,
-                                point, normal, depth, feature, start)
+        count = _pair_sphere_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
+                                 rot_b, margin, point, normal, depth, feature, start)
     elif low == KIND_SPHERE and high == KIND_PLANE:
-        if swap:
-            count = _sphere_plane(float(centre_b[0]), float(centre_b[1]), float(centre_b[2]),
-                                  float(geom_b[RADIUS]), float(centre_a[0]), float(centre_a[1]),
-                                  float(centre_a[2]), float(geom_a[NORMAL]),
-                                  float(geom_a[NORMAL + 1]), float(geom_a[NORMAL + 2]), margin,
-                                  int(0), point, normal, depth, feature, start)
-        else:
-            count = _sphere_plane(float(centre_a[0]), float(centre_a[1]), float(centre_a[2]),
-                                  float(geom_a[RADIUS]), float(centre_b[0]), float(centre_b[1]),
-                                  float(centre_b[2]), float(geom_b[NORMAL]),
-                                  float(geom_b[NORMAL + 1]), float(geom_b[NORMAL + 2]), margin,
-                                  int(0), point, normal, depth, feature, start)
+        count = _pair_sphere_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
+                                   rot_b, margin, point, normal, depth, feature, start)
     elif low == KIND_CAPSULE and high == KIND_CAPSULE:
-        count = _capsule_capsule(centre_a, rot_a, float(geom_a[RADIUS]),
-                                 float(geom_a[HALF_LENGTH]), centre_b, rot_b,
-                                 float(geom_b[RADIUS]), float(geom_b[HALF_LENGTH]), margin,
-                                 point, normal, depth, feature, start)
+        count = _pair_capsule_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
+                                      rot_b, margin, point, normal, depth, feature, start)
     elif low == KIND_CAPSULE and high == KIND_BOX:
-        if swap:
-            count = _capsule_box(centre_b, rot_b, float(geom_b[RADIUS]),
-                                 float(geom_b[HALF_LENGTH]), centre_a, rot_a, geom_a, margin,
-                                 point, normal, depth, feature, start)
-        else:
-            count = _capsule_box(centre_a, rot_a, float(geom_a[RADIUS]),
-                                 float(geom_a[HALF_LENGTH]), centre_b, rot_b, geom_b, margin,
-                                 point, normal, depth, feature, start)
+        count = _pair_capsule_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
+                                  rot_b, margin, point, normal, depth, feature, start)
     elif low == KIND_CAPSULE and high == KIND_PLANE:
-        if swap:
-            count = _capsule_plane(centre_b, rot_b, float(geom_b[RADIUS]),
-                                   float(geom_b[HALF_LENGTH]), centre_a, geom_a, margin,
-                                   point, normal, depth, feature, start)
-        else:
-            count = _capsule_plane(centre_a, rot_a, float(geom_a[RADIUS]),
-                                   float(geom_a[HALF_LENGTH]), centre_b, geom_b, margin,
-                                   point, normal, depth, feature, start)
+        count = _pair_capsule_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
+                                    rot_b, margin, point, normal, depth, feature, start)
     elif low == KIND_BOX and high == KIND_BOX:
-        count = _box_box(centre_a, rot_a, geom_a, centre_b, rot_b, geom_b, margin,
-                         point, normal, depth, feature, start)
+        count = _pair_box_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
+                              rot_b, margin, point, normal, depth, feature, start)
     elif low == KIND_BOX and high == KIND_PLANE:
-        if swap:
-            count = _box_plane(centre_b, rot_b, geom_b, centre_a, geom_a, margin,
-                               point, normal, depth, feature, start)
-        else:
-            count = _box_plane(centre_a, rot_a, geom_a, centre_b, geom_b, margin,
-                               point, normal, depth, feature, start)
+        count = _pair_box_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
+                                rot_b, margin, point, normal, depth, feature, start)
     if count < 0:
         raise ValueError('collide_pair: no contact test between these kinds (two planes are '
-                         'both static, or a kind is not one of KIND_*)')
+                         'both static, a kind is not one of KIND_*, or the pair is not in the '
+                         'set its kernels were compiled for)')
     if swap:
         for row in range(start, start + count):
             normal[row, 0], normal[row, 1], normal[row, 2] = (
@@ -967,25 +1083,47 @@ def collide_pair(kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, centre_b, rot_
 
 
 @kernel
+def collide_pair(kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, centre_b, rot_b, margin,
+                 point, normal, depth, feature, start):
+    """The contacts of shape A (kind_a, geom_a (5,), centre_a (3,), rot_a (9,), see the module
+    doc) with shape B within ``margin`` (m), written to rows start, start + 1, ... of point
+    (K, 3), normal (K, 3) (from A to B), depth (K,), feature (K,) int64, world frame; returns
+    their number (0 to MAX_CONTACTS_PER_PAIR). ValueError if the outputs have fewer than
+    start + MAX_CONTACTS_PER_PAIR rows, an input array is too short, or both are planes."""
+    return collide_pair_of(PAIRS_ALL, kind_a, geom_a, centre_a, rot_a, kind_b, geom_b,
+                           centre_b, rot_b, margin, point, normal, depth, feature, start)
+
+
+@kernel
 def collide_pairs(pair_a, pair_b, kinds, geoms, centres, rotations, margins,
                   point, normal, depth, feature, source):
+    """``collide_pairs_of`` with every contact test."""
+    return collide_pairs_of(PAIRS_ALL, pair_a, pair_b, kinds, geoms, centres, rotations,
+                            margins, point, normal, depth, feature, source)
+
+
+@kernel
+def collide_pairs_of(tests, pair_a, pair_b, kinds, geoms, centres, rotations, margins,
+                     point, normal, depth, feature, source):
     """The contacts of P candidate pairs of colliders, pair k being colliders pair_a[k] and
     pair_b[k] (int64, indices into kinds (C,) int64, geoms (C, 5), centres (C, 3), rotations
     (C, 9), as in the module doc) within margins[k] (m): written pair after pair to the rows of
     point (K, 3), normal (K, 3) (from pair_a's collider to pair_b's), depth (K,), feature (K,)
     int64 and source (K,) int64 (= k), K >= P * MAX_CONTACTS_PER_PAIR; returns their number.
-    ValueError (before anything is written) for an index out of range or arrays too small."""
-    pairs = pair_a.shape[0]
+    ValueError (before anything is written) for an index out of range or arrays too small.
+    ``tests``: the set of contact tests compiled (``collide_pair_of``; a constant in a
+    kernel)."""
+    n_pairs = pair_a.shape[0]
     colliders = kinds.shape[0]
-    rows = pairs * MAX_CONTACTS_PER_PAIR
-    if (pair_b.shape[0] < pairs or margins.shape[0] < pairs or geoms.shape[0] < colliders
+    rows = n_pairs * MAX_CONTACTS_PER_PAIR
+    if (pair_b.shape[0] < n_pairs or margins.shape[0] < n_pairs or geoms.shape[0] < colliders
             or centres.shape[0] < colliders or rotations.shape[0] < colliders
             or geoms.shape[1] < GEOM_WIDTH or centres.shape[1] < 3 or rotations.shape[1] < 9):
         raise ValueError('collide_pairs: per-pair or per-collider arrays too short')
     if (point.shape[0] < rows or normal.shape[0] < rows or depth.shape[0] < rows
             or feature.shape[0] < rows or source.shape[0] < rows):
         raise ValueError('collide_pairs: the outputs need P * MAX_CONTACTS_PER_PAIR rows')
-    for k in range(pairs):
+    for k in range(n_pairs):
         i, j = int(pair_a[k]), int(pair_b[k])
         if i < 0 or i >= colliders or j < 0 or j >= colliders:
             raise ValueError('collide_pairs: a collider index out of range')
@@ -995,7 +1133,7 @@ def collide_pairs(pair_a, pair_b, kinds, geoms, centres, rotations, margins,
     centre_a, centre_b = np.empty(3), np.empty(3)
     rot_a, rot_b = np.empty(9), np.empty(9)
     total = int(0)
-    for k in range(pairs):
+    for k in range(n_pairs):
         i, j = int(pair_a[k]), int(pair_b[k])
         for q in range(GEOM_WIDTH):
             geom_a[q], geom_b[q] = geoms[i, q], geoms[j, q]
@@ -1003,9 +1141,9 @@ def collide_pairs(pair_a, pair_b, kinds, geoms, centres, rotations, margins,
             centre_a[q], centre_b[q] = centres[i, q], centres[j, q]
         for q in range(9):
             rot_a[q], rot_b[q] = rotations[i, q], rotations[j, q]
-        count = collide_pair(int(kinds[i]), geom_a, centre_a, rot_a, int(kinds[j]), geom_b,
-                             centre_b, rot_b, float(margins[k]), point, normal, depth, feature,
-                             total)
+        count = collide_pair_of(tests, int(kinds[i]), geom_a, centre_a, rot_a, int(kinds[j]),
+                                geom_b, centre_b, rot_b, float(margins[k]), point, normal,
+                                depth, feature, total)
         for row in range(total, total + count):
             source[row] = k
         total += count

@@ -12,7 +12,8 @@ through ``n`` steps of the order written in ``collision_world``'s module docstri
 2. the colliders are placed, and paired: sweep and prune on their AABBs (sleepers pair like
    static colliders; an awake body that reaches a sleeper wakes it, and its whole pile, in this
    step: they take the step they missed and the pairs are found again), and the planes;
-3. the narrow phase of every pair (``narrow_kernels.collide_pairs``);
+3. the narrow phase of every pair (``narrow_kernels.collide_pairs_of``, with the contact
+   tests the entry is compiled for: ``entry``, ``tests_for``);
 4. the solve (``solver_kernels.solve_arrays``), warm-started from the impulses of the same
    features at the step before (a sorted array of keys), with the shapes' materials;
 5. the checks of the solve (a non-finite result, or kinetic energy gained), the write-back
@@ -32,13 +33,15 @@ from __future__ import annotations
 
 from collections import namedtuple
 import math
+import os
+import threading
 
 import numpy as np
 
 from rb_sim_ros.contact import broad_phase as bp, narrow_kernels as nk, solver_kernels as sk
 from rb_sim_ros.contact import world_kernels as wk
-from rb_sim_ros.core import step_kernel as K
-from rb_sim_ros.core.jit import compile_for, inline_kernel, kernel
+from rb_sim_ros.core import jit, step_kernel as K
+from rb_sim_ros.core.jit import compile_for, inline_kernel, kernel, literal
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
 FEATURE_BITS = 12
@@ -90,10 +93,11 @@ World = namedtuple('World', [
     'settings', 'config', 'status', 'stats', 'flagged', 'energy'])
 
 
-def _world_steps_of(family, name):
-    """``world_steps`` (below) compiled for the bodies' ``family`` (``step_kernel.family``), a
-    constant in it (from Python it could not be one: numba would enter its compiler at
-    every call, 15 ms); ``name``, its name and the name of its cache entry."""
+def _world_steps_of(family, tests, name):
+    """``world_steps`` (below) compiled for the bodies' ``family`` (``step_kernel.family``)
+    and the contact tests of the set ``tests`` (``narrow_kernels.PAIR_BIT``), constants in it
+    (from Python they could not be: numba would enter its compiler at every call, 15 ms);
+    ``name``, its name and the name of its cache entry."""
 
     def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
         """``n`` steps of the world (see the module doc) of ``arrays``, a World's arrays as a plain
@@ -221,8 +225,8 @@ def _world_steps_of(family, name):
             point, normal = np.empty((rows, 3)), np.empty((rows, 3))
             depth = np.empty(rows)
             feature, source = np.empty(rows, dtype=np.int64), np.empty(rows, dtype=np.int64)
-            m = nk.collide_pairs(pair_a, pair_b, w.kinds, w.geoms, w.centres, w.rotations, margins,
-                                 point, normal, depth, feature, source)
+            m = nk.collide_pairs_of(tests, pair_a, pair_b, w.kinds, w.geoms, w.centres,
+                                    w.rotations, margins, point, normal, depth, feature, source)
             point, normal, depth = point[:m], normal[:m], depth[:m]
             stats = w.stats
             for k in range(8):
@@ -336,13 +340,14 @@ def _world_steps_of(family, name):
     return kernel(world_steps)
 
 
-# The entries from Python, one a family (see ``_world_steps_of``; step_kernel's
-# ``ADVANCE_BODIES`` likewise). Each is its own kernel with its own cache entry: a wrapper
-# passing its family to one kernel would have LLVM optimise and emit the whole step twice
-# (about 6 s of a first start).
-world_steps_two = _world_steps_of(K.FAMILY_TWO, 'world_steps_two')
-world_steps_k = _world_steps_of(K.FAMILY_K, 'world_steps_k')
-world_steps_split = _world_steps_of(K.FAMILY_SPLIT, 'world_steps_split')
+# The entries from Python, one a family and set of contact tests (see ``_world_steps_of``;
+# step_kernel's ``ADVANCE_BODIES`` likewise), made the first time one is asked for
+# (``entry``). Each is its own kernel with its own cache entry: a wrapper passing its family
+# to one kernel would have LLVM optimise and emit the whole step twice (about 6 s of a first
+# start). Those with every contact test, what ``precompile`` compiles for ``colcon build``:
+world_steps_two = _world_steps_of(K.FAMILY_TWO, nk.PAIRS_ALL, 'world_steps_two')
+world_steps_k = _world_steps_of(K.FAMILY_K, nk.PAIRS_ALL, 'world_steps_k')
+world_steps_split = _world_steps_of(K.FAMILY_SPLIT, nk.PAIRS_ALL, 'world_steps_split')
 
 
 # -- compiling world_steps in two processes ---------------------------------------------------
@@ -356,15 +361,16 @@ world_steps_split = _world_steps_of(K.FAMILY_SPLIT, 'world_steps_split')
 LEAF_GROUPS = ('narrow', 'solve')
 
 
-def compile_leaves(arrays, family, group: str) -> None:
+def compile_leaves(arrays, family, tests, group: str) -> None:
     """Compile (or load) ``group``'s kernels (``LEAF_GROUPS``) for the types world_steps calls
-    them with, for a world of ``arrays`` whose bodies take ``family``'s step."""
+    them with, for a world of ``arrays`` whose bodies take ``family``'s step, with the contact
+    tests ``tests``."""
     w = World(*arrays)
     f1, f2 = np.zeros(0), np.zeros((0, 3))
     i1, b1 = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_)
     if group == 'narrow':
-        compile_for(nk.collide_pairs, i1, i1, w.kinds, w.geoms, w.centres, w.rotations, f1, f2,
-                    f2, f1, i1, i1)
+        compile_for(nk.collide_pairs_of, literal(tests), i1, i1, w.kinds, w.geoms,
+                    w.centres, w.rotations, f1, f2, f2, f1, i1, i1)
         compile_for(bp.stable_order, f1)  # sweep_and_prune's, _check_solve's
         compile_for(bp.stable_order, i1)  # _store_warm's
         compile_for(bp.sorted_copy, i1)  # sweep_and_prune's
@@ -381,15 +387,82 @@ def compile_leaves(arrays, family, group: str) -> None:
         raise ValueError(f'no group of kernels {group!r}: one of {", ".join(LEAF_GROUPS)}')
 
 
-# family -> the name of its entry (looked up in the module's globals at each call, which
-# ``jit.run_interpreted`` rebinds).
+# family -> the name of its entry with every contact test (the others: ``entry``).
 WORLD_STEPS = {K.FAMILY_TWO: 'world_steps_two', K.FAMILY_K: 'world_steps_k',
                K.FAMILY_SPLIT: 'world_steps_split'}
+_making = threading.Lock()
 
 
-def steps(arrays, n, warm_keys, warm_normal, warm_tangent, family):
-    """``world_steps`` from Python: its family's entry."""
-    return globals()[WORLD_STEPS[family]](arrays, n, warm_keys, warm_normal, warm_tangent)
+def entry(family, tests) -> str:
+    """The name of the module global holding ``world_steps`` for ``family`` and the contact
+    tests ``tests`` (none, for a world of one body), made now if it is not there yet: looked
+    up at each call, since ``jit.run_interpreted`` rebinds the module's globals. Not
+    compiled here."""
+    if not 0 <= tests <= nk.PAIRS_ALL:
+        raise ValueError(f'tests must be a set of narrow_kernels.PAIR_BIT, got {tests!r}')
+    name = WORLD_STEPS[family] + ('' if tests == nk.PAIRS_ALL else f'_{tests}')
+    with _making:
+        if name not in globals():
+            globals()[name] = _world_steps_of(family, tests, name)
+    return name
+
+
+# -- which contact tests a world's step is compiled with -------------------------------------
+# A world steps with the entry of its family and a set of contact tests that holds those its
+# bodies can meet (``collision_world.pairs_met``): a new set is a new compile of the whole
+# world step (about 30 s), so a world takes the smallest set whose kernels ``precompile`` put
+# in the cache (``colcon build``: every test), and its own set only when there is none.
+# RB_SIM_ROS_CONTACT_TESTS=all in the environment: every test, always (one compile for a
+# process that meets many scenes, as a test suite does).
+ALL_TESTS_VARIABLE = 'RB_SIM_ROS_CONTACT_TESTS'
+
+
+def contact_part(family, tests) -> str:
+    """The name of the kernel part (``sim/precompile.py``) of a world of ``family`` with the
+    contact tests ``tests``: 'contact-two-step' with every test, else with the pairs named,
+    'contact-two-step:sphere-sphere+sphere-plane' (':none' for none)."""
+    name = f'contact-{K.FAMILY_NAMES[family]}'
+    if tests == nk.PAIRS_ALL:
+        return name
+    return name + ':' + ('+'.join(nk.pair_names(tests)) or 'none')
+
+
+def part_tests(part: str) -> tuple[int, int]:
+    """(family, tests) of a contact part's name (``contact_part``); ValueError for another."""
+    head, colon, pairs = part.partition(':')
+    family = next((f for f, n in K.FAMILY_NAMES.items() if head == f'contact-{n}'), None)
+    if family is None or (colon and not pairs):
+        raise ValueError(f'no contact part {part!r}')
+    if not colon:
+        return family, nk.PAIRS_ALL
+    return family, 0 if pairs == 'none' else nk.pairs_named(pairs.split('+'))
+
+
+def tests_for(family, needed: int) -> int:
+    """The contact tests a world of ``family`` whose bodies need ``needed`` steps with: the
+    smallest set holding them whose part is precompiled (``jit.precompiled``), else
+    ``needed`` itself (every test with RB_SIM_ROS_CONTACT_TESTS=all)."""
+    if os.environ.get(ALL_TESTS_VARIABLE, '').strip().lower() == 'all':
+        return nk.PAIRS_ALL
+    if jit.precompiled([contact_part(family, nk.PAIRS_ALL)]):
+        best = nk.PAIRS_ALL
+    else:
+        best = None
+    prefix = contact_part(family, 0).rsplit(':', 1)[0] + ':'
+    for part in jit.marked_parts(prefix):
+        try:
+            f, tests = part_tests(part)
+        except ValueError:
+            continue  # not one of ours
+        if f == family and tests & needed == needed and (
+                best is None or (bin(tests).count('1'), tests) < (bin(best).count('1'), best)):
+            best = tests
+    return needed if best is None else best
+
+
+def steps(arrays, n, warm_keys, warm_normal, warm_tangent, family, tests):
+    """``world_steps`` from Python: the entry of the family and contact tests."""
+    return globals()[entry(family, tests)](arrays, n, warm_keys, warm_normal, warm_tangent)
 
 
 # The stages take the arrays they use, never ``w``, and steps 2 - 5 are written out in

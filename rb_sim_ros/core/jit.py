@@ -30,6 +30,7 @@ the first time a run calls it, so a run compiles what it uses and nothing else.
 from __future__ import annotations
 
 import functools
+import glob
 import hashlib
 import os
 from pathlib import Path
@@ -95,11 +96,19 @@ def parallel_kernel(function):
 def compile_for(function, *examples) -> None:
     """Compile (or load from the cache) the kernel ``function`` for the numba types of the
     values ``examples``, as a call with them would, without calling it; nothing while the
-    kernels run interpreted. For a compile shared among processes (``sim/precompile.py``):
+    kernels run interpreted. An example that is a numba type is that type (a constant:
+    ``literal(3)``). For a compile shared among processes (``sim/precompile.py``):
     the types must be those its caller passes it, or this compiles an overload nobody calls."""
     if interpreted() or not hasattr(function, 'compile'):
         return
-    function.compile(tuple(numba.typeof(e) for e in examples))
+    function.compile(tuple(e if isinstance(e, types.Type) else numba.typeof(e)
+                           for e in examples))
+
+
+def literal(value):
+    """The numba type of the constant ``value`` (for ``compile_for``): what a kernel passing a
+    global or a closure's constant hands its callee."""
+    return types.literal(value)
 
 
 def compiling() -> bool:
@@ -170,6 +179,41 @@ def literal_switch(cases: dict):
     return decorate
 
 
+def literal_gate(needed: int, absent):
+    """Make a plain Python function ``f(tests, ...)`` one whose body kernels compile only where
+    it can run: called from a kernel with a constant ``tests`` (an int literal: a global, or a
+    closure's constant, handed down as an argument), the call compiles ``f`` when ``tests``
+    holds every bit of ``needed``, else a function returning ``absent`` (nothing of ``f``'s
+    body, nor of what it calls). In the interpreter, and from Python, the same: ``absent``
+    unless ``tests`` holds ``needed``, else ``f``. For a dispatch whose cases a run may never
+    meet (the contact tests of the pairs of shapes a scene does not have). numba wants the
+    first parameter of both named alike: ``f``'s must be ``tests``."""
+    def decorate(function):
+        name = function.__name__
+        if function.__code__.co_varnames[:1] != ('tests',):
+            raise TypeError(f'literal_gate: the first parameter of {name} must be named tests')
+
+        @functools.wraps(function)
+        def gate(tests, *args):
+            if tests & needed != needed:
+                return absent
+            return function(tests, *args)
+
+        def nothing(tests, *args):
+            return absent
+
+        @functools.wraps(function)  # numba reads the overload's signature through it
+        def typer(tests, *args):
+            if not isinstance(tests, types.IntegerLiteral):
+                raise errors.TypingError(f'{name}: its first argument must be an int constant '
+                                         f"(a global or a closure's constant), got {tests}")
+            return function if tests.literal_value & needed == needed else nothing
+
+        overload(gate, jit_options=dict(fastmath=False, error_model='python'))(typer)
+        return gate
+    return decorate
+
+
 # A constant passed from one kernel to another is typed as a literal, and numba compiles the
 # callee once more for every literal value it meets (a big kernel twice, for True and False):
 # kernels pass bool(True), int(1), float(0.0) instead, which are typed as plain values.
@@ -235,6 +279,19 @@ def _marker(part: str) -> Path | None:
     key = hashlib.sha256(f'{process_stamp()} {numba.__version__} {sys.implementation.cache_tag} '
                          f'{machine}'.encode())
     return where / f'precompiled-{part}-{key.hexdigest()[:20]}'
+
+
+def marked_parts(prefix: str) -> list[str]:
+    """The parts whose names start with ``prefix`` that ``mark_precompiled`` marked, for these
+    sources, this numba and this machine, in the cache this process uses (sorted)."""
+    probe = _marker('')
+    if probe is None:
+        return []
+    head, key = 'precompiled-', probe.name.rsplit('-', 1)[1]
+    found = []
+    for path in probe.parent.glob(f'{head}{glob.escape(prefix)}*-{key}'):
+        found.append(path.name[len(head):-len(key) - 1])
+    return sorted(found)
 
 
 def precompiled(parts) -> bool:

@@ -885,6 +885,8 @@ def advance_body_split(src, dst, p, c, i, n, checked, status, taken, bad, work):
 # compile-time constant (``body_step``), so that a run compiles its own family's step only.
 FAMILY_SPLIT, FAMILY_TWO, FAMILY_K = 1, 2, 3
 FAMILIES = (FAMILY_TWO, FAMILY_K, FAMILY_SPLIT)
+# Their names, in the names of the kernel parts (``sim/precompile.py``).
+FAMILY_NAMES = {FAMILY_TWO: 'two-step', FAMILY_K: 'k-step', FAMILY_SPLIT: 'splitting'}
 
 
 def family_of(steps: int) -> int:

@@ -69,9 +69,10 @@ from rb_sim_ros.ros.diagnostics import Diagnostics
 from rb_sim_ros.ros.ros_messages import TF, TF_STATIC
 from rb_sim_ros.sim import precompile
 from rb_sim_ros.sim.scene import load_scene
-from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, kernels_after,
-                                       Reset, SetTwist, SetWrench, Simulation, Spawn,
-                                       warm_up_bodies, warm_up_contacts)
+from rb_sim_ros.sim.simulation import (BodySpec, Config, config_after, contact_tests,
+                                       ContactSettings, kernels_after, Reset, SetTwist,
+                                       SetWrench, Simulation, Spawn, warm_up_bodies,
+                                       warm_up_contacts)
 
 __all__ = ['APPLIED_QOS', 'SimulatorNode', 'main']
 
@@ -315,8 +316,9 @@ class SimulatorNode(Node):
         # then step the bodies compiled (or loaded) now, before the lock, not while the step
         # loop waits (a scene's start compiled the kernels of its own kind only).
         kind = kernels_after(self.sim, event)
-        if kind == 'contact':
-            warm_up_contacts(self.config)
+        if kind == 'contact':  # the world's step with the tests the bodies then need
+            after = config_after(self.config, event)
+            warm_up_contacts(after, contact_tests(after, self.sim.world))
         elif kind is not None:
             warm_up_bodies(self.config, blocks=kind == 'blocks')
         with self._lock:
@@ -533,7 +535,7 @@ class SimulatorNode(Node):
                 if why:
                     self.get_logger().warning(f'{why}; compiling in this process instead (the '
                                               'step loop waits for it)')
-                elif not jit.precompiled(precompile.parts_of(self.sim.config)):
+                elif not jit.precompiled(precompile.parts_of(self.sim.config, self.sim.world)):
                     # a spawn or delete meanwhile needs the other part (a first moving
                     # collider, or none left)
                     self.get_logger().warning(

@@ -7,7 +7,10 @@
 The kernels come in parts (``PARTS``): the step of a family of integrators (``step_kernel``:
 two-step, k-step, splitting) for bodies without colliders, and the collision world's step
 (``world_step.world_steps_two`` and its twins) with that family's body step inside (its
-longest kernels compiled in two processes side by side, ``_contact_leaves_beside``). A kernel
+longest kernels compiled in two processes side by side, ``_contact_leaves_beside``). The
+collision parts of ``PARTS`` hold every contact test; a scene's own part
+(``world_step.contact_part``, 'contact-two-step:sphere-plane', what ``parts_of`` names when
+no precompiled part holds its tests) only the tests of the pairs of shapes it has. A kernel
 is compiled the first time a run calls it, so a run compiles its parts only; this compiles
 the parts asked for (by default all of them) and caches them where the package caches them
 (``core/jit.py``), leaving a marker for each (``jit.precompiled``): a later start of the
@@ -31,16 +34,16 @@ import tempfile
 import threading
 import time
 
-from rb_sim_ros.contact import world_step as ws
+from rb_sim_ros.contact import narrow_kernels as nk, world_step as ws
 from rb_sim_ros.core import jit, multistep, step_kernel as K
-from rb_sim_ros.sim.simulation import Config, contact_probe, warm_up_bodies
+from rb_sim_ros.sim.simulation import Config, contact_probe, contact_tests, warm_up_bodies
 
 
 # One integrator of each family of the step kernel: the kernels compiled for it serve the
 # family's others (lie3 and lie4, eq27 and taylor1, flow2 and flow4).
 FAMILY_METHODS = {K.FAMILY_TWO: multistep.EQ27.name, K.FAMILY_K: multistep.LIE4.name,
                   K.FAMILY_SPLIT: multistep.FLOW4.name}
-FAMILY_NAMES = {K.FAMILY_TWO: 'two-step', K.FAMILY_K: 'k-step', K.FAMILY_SPLIT: 'splitting'}
+FAMILY_NAMES = K.FAMILY_NAMES
 # The kinds of parts: the body step of a few bodies, of many bodies a block at a time (two-step
 # methods only: ``step_kernel.blocked``), and the collision world's step.
 KINDS = ('bodies', 'blocks', 'contact')
@@ -64,42 +67,62 @@ def parts(integrators=None, contact: bool = True) -> list[str]:
             if _exists(kind, f)]
 
 
-def parts_of(config: Config) -> list[str]:
-    """The parts a run of ``config`` steps with: the collision world's of its family when a
+def parts_of(config: Config, world=None) -> list[str]:
+    """The parts a run of ``config`` (its collision ``world`` if it has one) steps with: the
+    collision world's of its family and contact tests (``simulation.contact_tests``: the
+    world's, else a precompiled part that holds those its shapes need, else its own) when a
     moving body has colliders, else its family's body step, and the block step too with
     ``step_kernel.BLOCK_MIN`` moving bodies or more (two-step methods). The others only a
-    spawn or a delete can call for (a first moving collider, the last one deleted, the
-    BLOCK_MIN-th body); the node then compiles (or loads) them (``sim.kernels_after``)."""
+    spawn or a delete can call for (a first moving collider, a new kind of shape, the last
+    collider deleted, the BLOCK_MIN-th body); the node then compiles (or loads) them
+    (``sim.kernels_after``)."""
     family = K.family_of(multistep.method_by_name(config.integrator).steps)
     if any(b.colliders for b in config.moving_bodies):
-        return [f'contact-{FAMILY_NAMES[family]}']
+        return [ws.contact_part(family, contact_tests(config, world))]
     many = len(config.moving_bodies) >= K.BLOCK_MIN
     return [f'{kind}-{FAMILY_NAMES[family]}' for kind in ('bodies', 'blocks')
             if kind == 'bodies' or (many and _exists(kind, family))]
+
+
+def part(name: str) -> tuple[str, int, int]:
+    """(kind, family, contact tests) of the part ``name``: one of ``PARTS`` (every contact
+    test) or a collision part of some tests (``world_step.contact_part``); ValueError (one
+    line) for another."""
+    if name in PARTS:
+        kind, family_name = name.split('-', 1)
+        family = next(f for f, n in FAMILY_NAMES.items() if n == family_name)
+        return kind, family, nk.PAIRS_ALL
+    try:
+        family, tests = ws.part_tests(name)
+    except ValueError as e:
+        raise ValueError(f'no kernel part {name!r}: one of {", ".join(PARTS)}, or a contact '
+                         "part of some tests, as 'contact-two-step:sphere-sphere+sphere-plane' "
+                         f'({e})') from None
+    return 'contact', family, tests
 
 
 def precompile(names=None, progress=None) -> dict[str, float]:
     """Compile (or load) the kernels of the parts ``names`` (None: all of ``PARTS``), marking
     each once it is cached: the seconds each took. ``progress(part, seconds)`` after each."""
     took = {}
-    for part in PARTS if names is None else names:
-        if part not in PARTS:
-            raise ValueError(f'no kernel part {part!r}: one of {", ".join(PARTS)}')
-        kind, family_name = part.split('-', 1)
-        family = next(f for f, n in FAMILY_NAMES.items() if n == family_name)
+    names = list(PARTS if names is None else names)
+    for name in names:
+        part(name)  # every name checked before anything compiles
+    for name in names:
+        kind, family, tests = part(name)
         start = time.perf_counter()
         config = Config(integrator=FAMILY_METHODS[family])
         if kind == 'contact':
-            world = contact_probe(config)  # what warm_up_contacts warms up
-            if not jit.precompiled([part]):
-                _contact_leaves_beside(world, config.integrator)
+            world = contact_probe(config, tests)  # what warm_up_contacts warms up
+            if not jit.precompiled([name]):
+                _contact_leaves_beside(world, name)
             world.warm_up()
         else:
             warm_up_bodies(config, blocks=kind == 'blocks')
-        jit.mark_precompiled(part)
-        took[part] = time.perf_counter() - start
+        jit.mark_precompiled(name)
+        took[name] = time.perf_counter() - start
         if progress is not None:
-            progress(part, took[part])
+            progress(name, took[name])
     return took
 
 
@@ -111,7 +134,7 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
-def _contact_leaves_beside(world, integrator: str) -> None:
+def _contact_leaves_beside(world, name: str) -> None:
     """With two cores or more, the first group of the collision world's longest kernels
     (``world_step.LEAF_GROUPS``) compiled in a child beside this process, which compiles the
     others; then ``world.warm_up()`` loads them (about a third less time to wait on two
@@ -122,14 +145,15 @@ def _contact_leaves_beside(world, integrator: str) -> None:
     The two processes never compile one kernel at the same time: numba's cache index is
     read, extended and written back without a lock, and two processes saving two overloads
     of one kernel at once could leave an index naming the other's code. So ``world``, the
-    probe world of ``integrator`` (``contact_probe``), is built before (building it compiles
-    a few step kernels, which the child then loads), and the groups share no kernel."""
+    probe world of the collision part ``name`` (``contact_probe``), is built before (building
+    it compiles a few step kernels, which the child then loads), and the groups share no
+    kernel."""
     if (_cores() < 2 or not jit.compiling() or jit.interpreted()
             or jit.cache_directory() is None):
         return
     first, *rest = ws.LEAF_GROUPS
-    child = _python_m('--parent', str(os.getpid()), '--leaves', first,
-                      '--integrator', integrator, out=None)
+    child = _python_m('--parent', str(os.getpid()), '--leaves', first, '--part', name,
+                      out=None)
     try:
         for group in rest:
             world.compile_leaves(group)
@@ -205,6 +229,15 @@ def _exit_with(parent: int) -> None:
     os._exit(1)
 
 
+def _part_name(name: str) -> str:
+    """``--part``'s check: a part's name (``part``), else argparse's one-line error."""
+    try:
+        part(name)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return name
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog='python -m rb_sim_ros.sim.precompile',
@@ -218,11 +251,14 @@ def main(argv: list[str] | None = None) -> int:
                         help='only the kernels of these integrators (default: every family)')
     parser.add_argument('--no-contact', action='store_true',
                         help='not the collision world (a run without colliders)')
-    parser.add_argument('--part', nargs='+', choices=PARTS, metavar='PART',
-                        help=f'exactly these parts: {", ".join(PARTS)}')
+    parser.add_argument('--part', nargs='+', type=_part_name, metavar='PART',
+                        help=f'exactly these parts: {", ".join(PARTS)}, or a collision part '
+                             'with the contact tests of some pairs of shapes alone, as '
+                             "'contact-two-step:sphere-sphere+sphere-plane' (pairs of "
+                             f'{", ".join(nk.KIND_NAMES)})')
     parser.add_argument('--leaves', choices=ws.LEAF_GROUPS, metavar='GROUP',
-                        help="only this group of the collision world's kernels, for the first "
-                             'integrator given (a part compiled in two processes: '
+                        help="only this group of the collision world's kernels, for the "
+                             'collision part given (a part compiled in two processes: '
                              f'{", ".join(ws.LEAF_GROUPS)})')
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
     if args.parent and args.parent != os.getppid():
@@ -230,18 +266,20 @@ def main(argv: list[str] | None = None) -> int:
     if args.parent:
         threading.Thread(target=_exit_with, args=(args.parent,), daemon=True).start()
     if args.leaves:
-        if args.part or args.no_contact or len(args.integrator or ()) > 1:
-            parser.error('--leaves: with one --integrator at most, and no --part or '
+        if (len(args.part or ()) != 1 or part(args.part[0])[0] != 'contact' or args.no_contact
+                or args.integrator):
+            parser.error('--leaves: with one collision --part, and no --integrator or '
                          '--no-contact')
-        integrator = args.integrator[0] if args.integrator else FAMILY_METHODS[K.FAMILY_TWO]
-        contact_probe(Config(integrator=integrator)).compile_leaves(args.leaves)
+        _, family, tests = part(args.part[0])
+        contact_probe(Config(integrator=FAMILY_METHODS[family]), tests).compile_leaves(
+            args.leaves)
         return 0
     names = args.part or parts(args.integrator, not args.no_contact)
     where = jit.cache_directories()
     print(f'rb_sim_ros: compiling {len(names)} kernel parts into the first writable of '
           f'{", ".join(str(w) for w in where)}', flush=True)
-    took = precompile(names, lambda part, s: print(
-        f'rb_sim_ros: {part}: compiled or loaded in {s:.1f} s', flush=True))
+    took = precompile(names, lambda name, s: print(
+        f'rb_sim_ros: {name}: compiled or loaded in {s:.1f} s', flush=True))
     print(f'rb_sim_ros: kernels compiled or loaded in {sum(took.values()):.1f} s', flush=True)
     return 0
 

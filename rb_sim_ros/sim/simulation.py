@@ -14,9 +14,10 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 from typing import Any, Union
 
+from rb_sim_ros.contact import world_step
 from rb_sim_ros.contact.bodies import BodySpec, ContactSettings, make_steppers, MAX_COLLIDERS
 from rb_sim_ros.contact.collision_shapes import shape_from_dict, shape_to_dict, Sphere
-from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.collision_world import CollisionWorld, pairs_met
 from rb_sim_ros.core import multistep, step_kernel as K
 from rb_sim_ros.core.rigid_body import finite_floats, State, Wrench, ZERO_WRENCH
 from rb_sim_ros.core.stepper import carry_over, step_all, Stepper
@@ -24,7 +25,7 @@ from rb_sim_ros.core.stepper import carry_over, step_all, Stepper
 __all__ = ['BodySpec', 'body_from_dict', 'body_to_dict', 'Config', 'ContactSettings', 'Delete',
            'Event', 'make_steppers', 'Reset', 'SetPose', 'SetTwist', 'SetWrench', 'Simulation',
            'Spawn', 'MAX_BODIES', 'warm_up_bodies', 'warm_up_contacts',
-           'contact_probe', 'kernels_after']
+           'contact_probe', 'kernels_after', 'contact_tests', 'config_after']
 
 
 @dataclass(frozen=True)
@@ -216,12 +217,14 @@ class Simulation:
     first body's (the single-body case); ``steppers`` maps every moving body's name to its own.
     When a body has colliders, ``world`` is the ``collision_world.CollisionWorld`` that steps
     them (its Steppers are ``steppers``) and teleports go through it; else ``world`` is None
-    and no collision code runs.
+    and no collision code runs. ``tests``: the contact tests its step is compiled with, at
+    least (``narrow_kernels.PAIR_BIT``; None: ``world_step.tests_for`` chooses); the bits are
+    the same with any.
     """
 
-    def __init__(self, config: Config) -> None:
+    def __init__(self, config: Config, tests: int | None = None) -> None:
         self._step_count = 0
-        self._use(config, *_build(config))
+        self._use(config, *_build(config, tests))
         self.spawned: list[str] = []  # bodies spawned and not deleted since, in order
 
     def _use(self, config: Config, world, steppers, static) -> None:
@@ -232,7 +235,7 @@ class Simulation:
         """Go on with the bodies of ``config``: those of the run keep their motion bit for
         bit, a new one starts at its initial state (see CollisionWorld.rebuilt). Built in
         full before anything changes: a ValueError leaves the run as it was."""
-        world, steppers, static = _build(config)
+        world, steppers, static = _build(config, None)
         if world is not None:
             world.carry(self.world, self.steppers, self._step_count, recheck)
             if self.world is None:
@@ -426,24 +429,52 @@ class Simulation:
         return events[i:]
 
 
-def warm_up_contacts(config: Config) -> None:
+def warm_up_contacts(config: Config, tests: int | None = None) -> None:
     """Compile (or load from the cache) the collision kernels a run like ``config`` (its dt
-    and method) would need, touching no run: what a first spawn with colliders would
-    otherwise do in its step."""
-    _probe_run(config, _BALL).warm_up()
+    and method) would need, with the contact tests ``tests`` (None: those a run of
+    ``config`` steps with, ``contact_tests``), touching no run: what a spawn bringing them
+    would otherwise do in its step."""
+    if tests is None:
+        tests = contact_tests(config)
+    _probe_run(config, _BALL, tests=tests).warm_up()
+
+
+def contact_tests(config: Config, current=None) -> int:
+    """The contact tests (``narrow_kernels.PAIR_BIT``) a collision world of ``config``'s
+    bodies steps with: those of ``current`` (a world of the run, whose step is compiled or
+    loaded) if they hold those the bodies need, else ``world_step.tests_for`` them."""
+    needed = pairs_met(config.bodies)
+    if current is not None and current.enabled and needed & ~current.pair_tests == 0:
+        return current.pair_tests
+    family = K.family_of(multistep.method_by_name(config.integrator).steps)
+    return world_step.tests_for(family, needed)
+
+
+def config_after(config: Config, event) -> Config:
+    """``config`` with the bodies a Spawn or Delete ``event`` leaves (unchecked: what the
+    kernels after it are worked out from)."""
+    if isinstance(event, Spawn):
+        return replace(config, bodies=config.bodies + (event.spec,))
+    if isinstance(event, Delete):
+        return replace(config, bodies=tuple(b for b in config.bodies if b.name != event.body))
+    return config
 
 
 def kernels_after(sim: 'Simulation', event) -> str | None:
     """The kernels a run steps with after ``event``, if they change: 'contact' for a Spawn
     bringing ``sim``'s first moving body with colliders (a collision world then steps the
-    bodies; colliders on static bodies alone do not make one); 'bodies' for a Delete taking
-    the last one away (the step kernel then steps them), 'blocks' if it leaves
+    bodies; colliders on static bodies alone do not make one), or colliders that need
+    contact tests the world's step was not compiled with (``contact_tests``); 'bodies' for a
+    Delete taking the last one away (the step kernel then steps them), 'blocks' if it leaves
     ``step_kernel.BLOCK_MIN`` moving bodies or more, or for a Spawn making them that many
     without a collision world (``warm_up_bodies(blocks=True)``); else None."""
     enabled = sim.world is not None and sim.world.enabled
     moving = sim.config.moving_bodies
     if isinstance(event, Spawn):
-        if event.spec.static or enabled:
+        if enabled:
+            tests = contact_tests(config_after(sim.config, event), sim.world)
+            return None if tests == sim.world.pair_tests else 'contact'
+        if event.spec.static:
             return None
         if event.spec.colliders:
             return 'contact'
@@ -455,12 +486,13 @@ def kernels_after(sim: 'Simulation', event) -> str | None:
     return None
 
 
-def contact_probe(config: Config):
-    """The collision world of a run like ``config`` (its dt and method) of one ball, touching
-    no run: its ``compile_leaves(group)`` compiles (or loads) one group of the kernels its
-    step calls (``world_step.LEAF_GROUPS``), and ``warm_up_contacts`` then loads them.
-    Building it compiles (or loads) the few kernels a new body's state needs."""
-    return _probe_run(config, _BALL).world
+def contact_probe(config: Config, tests: int):
+    """The collision world of a run like ``config`` (its dt and method) of one ball, its
+    step compiled with the contact tests ``tests``, touching no run: its
+    ``compile_leaves(group)`` compiles (or loads) one group of the kernels its step calls
+    (``world_step.LEAF_GROUPS``), and its ``warm_up`` then loads them. Building it compiles
+    (or loads) the few kernels a new body's state needs."""
+    return _probe_run(config, _BALL, tests=tests).world
 
 
 def warm_up_bodies(config: Config, blocks: bool | None = None) -> None:
@@ -479,17 +511,20 @@ def warm_up_bodies(config: Config, blocks: bool | None = None) -> None:
 _BALL = BodySpec('probe', colliders=(Sphere(0.1),))
 
 
-def _probe_run(config: Config, *probes: BodySpec) -> 'Simulation':
-    """A run of ``probes`` alone with ``config``'s dt, output period and method, touching no
-    other run: what the warm-ups compile (or load) a run's kernels with."""
+def _probe_run(config: Config, *probes: BodySpec, tests: int | None = None) -> 'Simulation':
+    """A run of ``probes`` alone with ``config``'s dt, output period and method (and the
+    contact tests ``tests``, if they collide), touching no other run: what the warm-ups
+    compile (or load) a run's kernels with."""
     return Simulation(Config(dt=config.dt, steps_per_publish=config.steps_per_publish,
-                             integrator=config.integrator, bodies=probes))
+                             integrator=config.integrator, bodies=probes), tests)
 
 
-def _build(config: Config):
+def _build(config: Config, tests: int | None):
     """(collision world or None, steppers by name, static states by name) of ``config``'s
-    bodies at their initial states."""
+    bodies at their initial states; the world's step compiled with the contact tests
+    ``tests`` (and those its bodies need; None: ``world_step.tests_for`` chooses)."""
     if config.collides:
-        world = CollisionWorld.from_config(config, **config.contact.world_arguments())
+        world = CollisionWorld.from_config(config, pair_tests=tests,
+                                           **config.contact.world_arguments())
         return world, world.steppers, world.static
     return (None, *make_steppers(config.bodies, config.dt, config.integrator, config.gravity))
