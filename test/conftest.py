@@ -52,6 +52,9 @@ def pytest_pycollect_makemodule(module_path, parent):
 
 
 def pytest_configure(config):
+    # The suite meets many scenes: every contact test compiled once, not a world step for each
+    # scene's set (world_step.tests_for); the tests of that choice unset it.
+    os.environ.setdefault('RB_SIM_ROS_CONTACT_TESTS', 'all')
     config.addinivalue_line(
         'markers', 'slow: seconds to minutes each: a real node over DDS (every test that uses '
         'the installed package), a benchmark or a long search; the fast set is -m "not slow"')

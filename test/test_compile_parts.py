@@ -20,7 +20,8 @@ from rb_sim_ros.contact.collision_world import CollisionWorld, pairs_met
 from rb_sim_ros.core import jit, step_kernel as K
 from rb_sim_ros.sim import precompile
 from rb_sim_ros.sim.scene import load_scene
-from rb_sim_ros.sim.simulation import BodySpec, Config, Delete, kernels_after, Simulation, Spawn
+from rb_sim_ros.sim.simulation import (BodySpec, Config, contact_tests, Delete, kernels_after,
+                                       Simulation, Spawn)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -103,26 +104,30 @@ def test_a_collision_part_compiles_in_two_processes_and_each_kernel_once(tmp_pat
     its two contact tests and none of the others, in either process; a run of that scene
     then names that part, precompiled."""
     cache = tmp_path / 'cache'
+    env = {k: v for k, v in os.environ.items() if k != ws.ALL_TESTS_VARIABLE}
     out = subprocess.run([sys.executable, '-c', CONTACT_PART, BALLS_PART], cwd=tmp_path,
-                         env={**os.environ, 'NUMBA_CACHE_DIR': str(cache)},
+                         env={**env, 'NUMBA_CACHE_DIR': str(cache)},
                          capture_output=True, text=True, timeout=1800)
     assert out.returncode == 0, out.stderr[-3000:]
     found = json.loads(out.stdout.splitlines()[-1])
     compiled = found['compiled']
     entry = f'world_step.world_steps_two_{nk.pairs_named(["sphere-sphere", "sphere-plane"])}'
+    assert '=' not in BALLS_PART and ':' in BALLS_PART
     assert entry in compiled
     for here in ('solver_kernels.solve_arrays', 'step_kernel.advance_body_2'):
         assert compiled.count(here) == 1, here
         # before world_steps (events in the order they start): not inside its compile
         assert compiled.index(here) < compiled.index(entry), here
+    balls = nk.pairs_named(['sphere-sphere', 'sphere-plane'])
     if found['cores'] >= 2:
-        for child in ('narrow_kernels.collide_pairs_of', 'narrow_kernels.collide_pair_of',
-                      'broad_phase.stable_order', 'broad_phase.sorted_copy'):
+        for child in (f'narrow_kernels.collide_pairs_{balls}', 'broad_phase.stable_order',
+                      'broad_phase.sorted_copy'):
             assert child not in compiled, child
     # Cached by either process: the two tests of the scene, not one of the others.
     cached = {p.name.split('-')[0] for p in (cache / 'rb_sim_ros').glob('*.nbi')}
     assert {'narrow_kernels._sphere_sphere', 'narrow_kernels._sphere_plane',
-            'narrow_kernels.collide_pairs_of'} <= cached
+            f'narrow_kernels.collide_pairs_{balls}'} <= cached
+    assert 'narrow_kernels.collide_pairs' not in cached  # every test
     others = {'_sphere_box', '_sphere_capsule', '_capsule_capsule', '_capsule_box',
               '_capsule_plane', '_box_box', '_box_plane', '_face_contacts', '_clip'}
     assert not {f'narrow_kernels.{k}' for k in others} & cached
@@ -132,7 +137,7 @@ def test_a_collision_part_compiles_in_two_processes_and_each_kernel_once(tmp_pat
              'Config; p = precompile.parts_of(Config(bodies=BALLS)); '
              'print(p, jit.precompiled(p))')
     out = subprocess.run([sys.executable, '-c', check], cwd=Path(__file__).parent,
-                         env={**os.environ, 'NUMBA_CACHE_DIR': str(cache)},
+                         env={**env, 'NUMBA_CACHE_DIR': str(cache)},
                          capture_output=True, text=True, timeout=600)
     assert out.stdout.split() == [f"['{BALLS_PART}']", 'True'], out.stderr[-2000:]
 
@@ -270,10 +275,35 @@ def test_a_set_of_contact_tests_compiles_those_alone_and_refuses_the_others(tmp_
     assert found['mine'] == found['every'] and found['mine'][0] == 3
     assert 'not in the set its kernels were compiled for' in found['boxed']
     if tier == 'compiled':
-        assert {'_sphere_sphere', '_sphere_plane', 'collide_pair_of'} <= set(found['compiled'])
+        tests = nk.pairs_named(['sphere-sphere', 'sphere-plane'])
+        assert {'_sphere_sphere', '_sphere_plane', f'collide_pairs_{tests}'} <= set(
+            found['compiled'])
         assert not set(found['compiled']) & {
             '_sphere_box', '_box_box', '_box_plane', '_capsule_box', '_capsule_capsule',
-            '_capsule_plane', '_sphere_capsule', 'collide_pair'}
+            '_capsule_plane', '_sphere_capsule', 'collide_pair', 'collide_pairs'}
+
+
+def test_a_spawn_of_shapes_whose_tests_the_world_lacks_names_the_collision_kernels(
+        tmp_path, monkeypatch):
+    """A world compiled for balls on the ground: another ball needs no other step, a crate
+    does (a set holding the balls' tests and its own), and nothing is compiled here."""
+    monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path))  # no part precompiled
+    monkeypatch.delenv(ws.ALL_TESTS_VARIABLE, raising=False)
+    balls = nk.pairs_named(['sphere-sphere', 'sphere-plane'])
+    world = CollisionWorld(BALLS, dt=1e-3)
+    assert world.pair_tests == world.pairs_needed == balls
+    sim = type('Run', (), {'world': world, 'config': Config(bodies=BALLS)})()
+    ball3 = replace(BALLS[1], name='ball3', initial_position=(3.0, 0.0, 1.0))
+    crate = BodySpec('crate', colliders=(Box((0.4, 0.3, 0.2)),), initial_position=(-3, 0, 1))
+    assert kernels_after(sim, Spawn(ball3)) is None
+    assert kernels_after(sim, Spawn(crate)) == 'contact'
+    with_crate = Config(bodies=BALLS + (crate,))
+    assert contact_tests(with_crate, world) == balls | nk.pairs_named(
+        ['sphere-box', 'box-plane'])
+    assert kernels_after(sim, Delete('ball2')) is None  # sphere-plane alone: the same step
+    # A world rebuilt around the crate has those tests; one around a ball keeps its own.
+    assert world.rebuilt(BALLS + (crate,), True).pair_tests == contact_tests(with_crate, world)
+    assert world.rebuilt(BALLS[:2], False).pair_tests == balls
 
 
 def test_a_spawn_or_delete_names_the_kernels_the_run_then_steps_with():

@@ -13,8 +13,9 @@ from numba.core import event
 import numpy as np
 import pytest
 
+from rb_sim_ros.contact import narrow_kernels as nk, world_step as ws
 from rb_sim_ros.contact.collision_shapes import Sphere
-from rb_sim_ros.core import jit, so3
+from rb_sim_ros.core import jit, so3, step_kernel as K
 from rb_sim_ros.core.batch import BatchStepper
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.sim import precompile
@@ -43,8 +44,13 @@ def _kernels_in_source() -> set:
             if isinstance(node, ast.FunctionDef) and any(
                     isinstance(d, ast.Name) and d.id in DECORATORS for d in node.decorator_list):
                 out.add((module, node.name))
-    # and the collision world's entries, one a family, made by a factory (world_step)
-    out |= {('rb_sim_ros.contact.world_step', f'world_steps_{f}') for f in ('two', 'k', 'split')}
+    # and the kernels factories make, on demand too: the collision world's entries, one a
+    # family and set of contact tests (world_step), and the narrow phase's, one a set
+    for name, module in list(sys.modules.items()):
+        if name in ('rb_sim_ros.contact.world_step', 'rb_sim_ros.contact.narrow_kernels'):
+            out |= {(name, key) for key in vars(module)
+                    if key.startswith('world_steps_') or key == 'collide_pairs'
+                    or key.startswith('collide_pairs_') and key[len('collide_pairs_'):].isdigit()}
     return out
 
 
@@ -65,16 +71,26 @@ def _kernel_globals() -> tuple[set, set]:
 
 
 def test_a_tier_rebinds_every_global_naming_a_kernel():
+    made = ws.entry(K.FAMILY_TWO, 5), nk.pairs_kernel(5).__name__  # on demand, not compiled
     compiled, interpreted = _kernel_globals()
     assert not interpreted and len(compiled) > 50  # kernels made at import are compiled
     assert ('rb_sim_ros.contact.world_step', 'world_steps_split') in compiled
+    assert ('rb_sim_ros.contact.world_step', made[0]) in compiled
+    assert ('rb_sim_ros.contact.narrow_kernels', made[1]) in compiled
     assert ('rb_sim_ros.core.step_kernel', 'advance_bodies_two') in compiled
     jit.run_interpreted()
-    assert jit.interpreted()
-    assert _kernel_globals() == (set(), compiled)
-    jit.run_compiled()
+    try:
+        assert jit.interpreted()
+        # made while interpreted: bound to its Python function, and rebound with the others
+        late = ws.entry(K.FAMILY_K, 6), nk.pairs_kernel(6).__name__
+        now_compiled, now_interpreted = _kernel_globals()
+        assert not now_compiled
+        assert now_interpreted == compiled | {('rb_sim_ros.contact.world_step', late[0]),
+                                              ('rb_sim_ros.contact.narrow_kernels', late[1])}
+    finally:
+        jit.run_compiled()
     assert not jit.interpreted()
-    assert _kernel_globals() == (compiled, set())
+    assert _kernel_globals() == (now_interpreted, set())
 
 
 def _demo(segments) -> str:

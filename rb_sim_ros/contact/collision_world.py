@@ -225,6 +225,7 @@ class CollisionWorld:
         self._build(planes)
         # The contact tests its bodies can meet, and those its step is compiled with.
         self.pairs_needed = needed = pairs_met(bodies, planes)
+        self._entry = (-1, '')  # (tests, the name of world_steps' entry for them)
         if pair_tests is not None:
             self.pair_tests = pair_tests | needed
         elif self.enabled:
@@ -498,8 +499,11 @@ class CollisionWorld:
         """``world_steps`` for n steps from the world's clock and arrays as they are now."""
         self._status[ws.S_STEP] = self._step_count
         self._status[ws.S_UNCHECKED] = int(self._unchecked)
-        return ws.steps(self._world(), n, self._warm_keys, self._warm_normal,
-                        self._warm_tangent, K.family(self._store.coefficients), self.pair_tests)
+        if self._entry[0] != self.pair_tests:  # (a world's tests change in carry only)
+            self._entry = (self.pair_tests,
+                           ws.entry(K.family(self._store.coefficients), self.pair_tests))
+        return ws.steps(self._entry[1], self._world(), n, self._warm_keys, self._warm_normal,
+                        self._warm_tangent)
 
     def _world(self) -> tuple:
         """The world's arrays for the step kernel (the store's, as they are now), in the order
@@ -645,9 +649,12 @@ class CollisionWorld:
         ``steppers`` by name) at ``step_count``: see ``rebuilt``."""
         carry_over(self.steppers, steppers, step_count)
         self._step_count = step_count
-        if (old is not None and old.enabled and self.enabled
-                and self.pairs_needed & ~old.pair_tests == 0):
-            self.pair_tests = old.pair_tests  # the step the run has compiled (or loaded) serves
+        if old is not None and old.enabled and self.enabled:
+            # the step the run has compiled (or loaded), if it serves; else one that holds
+            # its tests too (shapes that come and go then need no other)
+            self.pair_tests = (old.pair_tests if self.pairs_needed & ~old.pair_tests == 0 else
+                               ws.tests_for(K.family(self._store.coefficients),
+                                            self.pairs_needed | old.pair_tests))
         self._unchecked = True if recheck or old is None else old._unchecked
         if old is not None:
             self.totals, self.last_stats = old.totals, old.last_stats

@@ -56,7 +56,7 @@ import math
 
 import numpy as np
 
-from rb_sim_ros.core.jit import kernel, literal_gate
+from rb_sim_ros.core.jit import inline_kernel, kernel, literal_entry, literal_gate, made_global
 
 KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE = 0, 1, 2, 3
 # geom row: (radius, half_length, hx, hy, hz); a plane's unit normal in place of (hx, hy, hz).
@@ -1022,12 +1022,12 @@ def _pair_box_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_
                       point, normal, depth, feature, start)
 
 
-@kernel
+@inline_kernel
 def collide_pair_of(tests, kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, centre_b, rot_b,
                     margin, point, normal, depth, feature, start):
     """``collide_pair`` with the contact tests of the set ``tests`` alone (``PAIR_BIT``; a
-    constant where a kernel calls it: see ``jit.literal_gate``); a pair outside it is a
-    ValueError, as two planes are."""
+    constant: see ``jit.literal_gate``); a pair outside it is a ValueError, as two planes
+    are. Compiled into its callers (each with its own constant), never on its own."""
     rows = start + MAX_CONTACTS_PER_PAIR
     if (start < 0 or point.shape[0] < rows or normal.shape[0] < rows or depth.shape[0] < rows
             or feature.shape[0] < rows or point.shape[1] < 3 or normal.shape[1] < 3):
@@ -1094,60 +1094,79 @@ def collide_pair(kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, centre_b, rot_
                            centre_b, rot_b, margin, point, normal, depth, feature, start)
 
 
-@kernel
-def collide_pairs(pair_a, pair_b, kinds, geoms, centres, rotations, margins,
-                  point, normal, depth, feature, source):
-    """``collide_pairs_of`` with every contact test."""
-    return collide_pairs_of(PAIRS_ALL, pair_a, pair_b, kinds, geoms, centres, rotations,
-                            margins, point, normal, depth, feature, source)
+def _collide_pairs_for(tests, name):
+    """``collide_pairs`` (below) with the contact tests ``tests``, a constant in it; ``name``,
+    its name and the name of its cache entry."""
+
+    def collide_pairs(pair_a, pair_b, kinds, geoms, centres, rotations, margins,
+                      point, normal, depth, feature, source):
+        """The contacts of P candidate pairs of colliders, pair k being colliders pair_a[k] and
+        pair_b[k] (int64, indices into kinds (C,) int64, geoms (C, 5), centres (C, 3), rotations
+        (C, 9), as in the module doc) within margins[k] (m): written pair after pair to the rows of
+        point (K, 3), normal (K, 3) (from pair_a's collider to pair_b's), depth (K,), feature (K,)
+        int64 and source (K,) int64 (= k), K >= P * MAX_CONTACTS_PER_PAIR; returns their number.
+        ValueError (before anything is written) for an index out of range or arrays too small.
+        Only the contact tests ``tests`` are compiled in (another pair: ValueError)."""
+        n_pairs = pair_a.shape[0]
+        colliders = kinds.shape[0]
+        rows = n_pairs * MAX_CONTACTS_PER_PAIR
+        if (pair_b.shape[0] < n_pairs or margins.shape[0] < n_pairs or geoms.shape[0] < colliders
+                or centres.shape[0] < colliders or rotations.shape[0] < colliders
+                or geoms.shape[1] < GEOM_WIDTH or centres.shape[1] < 3 or rotations.shape[1] < 9):
+            raise ValueError('collide_pairs: per-pair or per-collider arrays too short')
+        if (point.shape[0] < rows or normal.shape[0] < rows or depth.shape[0] < rows
+                or feature.shape[0] < rows or source.shape[0] < rows):
+            raise ValueError('collide_pairs: the outputs need P * MAX_CONTACTS_PER_PAIR rows')
+        for k in range(n_pairs):
+            i, j = int(pair_a[k]), int(pair_b[k])
+            if i < 0 or i >= colliders or j < 0 or j >= colliders:
+                raise ValueError('collide_pairs: a collider index out of range')
+        # The two colliders' rows are copied into arrays made once: a row view (geoms[i]) handed
+        # to a call costs numba two reference counts, more than the copy.
+        geom_a, geom_b = np.empty(GEOM_WIDTH), np.empty(GEOM_WIDTH)
+        centre_a, centre_b = np.empty(3), np.empty(3)
+        rot_a, rot_b = np.empty(9), np.empty(9)
+        total = int(0)
+        for k in range(n_pairs):
+            i, j = int(pair_a[k]), int(pair_b[k])
+            for q in range(GEOM_WIDTH):
+                geom_a[q], geom_b[q] = geoms[i, q], geoms[j, q]
+            for q in range(3):
+                centre_a[q], centre_b[q] = centres[i, q], centres[j, q]
+            for q in range(9):
+                rot_a[q], rot_b[q] = rotations[i, q], rotations[j, q]
+            count = collide_pair_of(tests, int(kinds[i]), geom_a, centre_a, rot_a, int(kinds[j]),
+                                    geom_b, centre_b, rot_b, float(margins[k]), point, normal,
+                                    depth, feature, total)
+            for row in range(total, total + count):
+                source[row] = k
+            total += count
+        return total
+
+    collide_pairs.__name__ = collide_pairs.__qualname__ = name
+    return kernel(collide_pairs)
 
 
-@kernel
+def pairs_kernel(tests: int):
+    """``collide_pairs`` with the contact tests ``tests`` (``PAIR_BIT``): a kernel of its own
+    for each set, made the first time it is asked for (``jit.made_global``)."""
+    if isinstance(tests, bool) or not isinstance(tests, int) or not 0 <= tests <= PAIRS_ALL:
+        raise ValueError(f'tests must be a set of PAIR_BIT (an int in [0, {PAIRS_ALL}]), '
+                         f'got {tests!r}')
+    name = 'collide_pairs' if tests == PAIRS_ALL else f'collide_pairs_{tests}'
+    return made_global(globals(), name, lambda: _collide_pairs_for(tests, name))
+
+
+@literal_entry(pairs_kernel)
 def collide_pairs_of(tests, pair_a, pair_b, kinds, geoms, centres, rotations, margins,
                      point, normal, depth, feature, source):
-    """The contacts of P candidate pairs of colliders, pair k being colliders pair_a[k] and
-    pair_b[k] (int64, indices into kinds (C,) int64, geoms (C, 5), centres (C, 3), rotations
-    (C, 9), as in the module doc) within margins[k] (m): written pair after pair to the rows of
-    point (K, 3), normal (K, 3) (from pair_a's collider to pair_b's), depth (K,), feature (K,)
-    int64 and source (K,) int64 (= k), K >= P * MAX_CONTACTS_PER_PAIR; returns their number.
-    ValueError (before anything is written) for an index out of range or arrays too small.
-    ``tests``: the set of contact tests compiled (``collide_pair_of``; a constant in a
-    kernel)."""
-    n_pairs = pair_a.shape[0]
-    colliders = kinds.shape[0]
-    rows = n_pairs * MAX_CONTACTS_PER_PAIR
-    if (pair_b.shape[0] < n_pairs or margins.shape[0] < n_pairs or geoms.shape[0] < colliders
-            or centres.shape[0] < colliders or rotations.shape[0] < colliders
-            or geoms.shape[1] < GEOM_WIDTH or centres.shape[1] < 3 or rotations.shape[1] < 9):
-        raise ValueError('collide_pairs: per-pair or per-collider arrays too short')
-    if (point.shape[0] < rows or normal.shape[0] < rows or depth.shape[0] < rows
-            or feature.shape[0] < rows or source.shape[0] < rows):
-        raise ValueError('collide_pairs: the outputs need P * MAX_CONTACTS_PER_PAIR rows')
-    for k in range(n_pairs):
-        i, j = int(pair_a[k]), int(pair_b[k])
-        if i < 0 or i >= colliders or j < 0 or j >= colliders:
-            raise ValueError('collide_pairs: a collider index out of range')
-    # The two colliders' rows are copied into arrays made once: a row view (geoms[i]) handed
-    # to a call costs numba two reference counts, more than the copy.
-    geom_a, geom_b = np.empty(GEOM_WIDTH), np.empty(GEOM_WIDTH)
-    centre_a, centre_b = np.empty(3), np.empty(3)
-    rot_a, rot_b = np.empty(9), np.empty(9)
-    total = int(0)
-    for k in range(n_pairs):
-        i, j = int(pair_a[k]), int(pair_b[k])
-        for q in range(GEOM_WIDTH):
-            geom_a[q], geom_b[q] = geoms[i, q], geoms[j, q]
-        for q in range(3):
-            centre_a[q], centre_b[q] = centres[i, q], centres[j, q]
-        for q in range(9):
-            rot_a[q], rot_b[q] = rotations[i, q], rotations[j, q]
-        count = collide_pair_of(tests, int(kinds[i]), geom_a, centre_a, rot_a, int(kinds[j]),
-                                geom_b, centre_b, rot_b, float(margins[k]), point, normal,
-                                depth, feature, total)
-        for row in range(total, total + count):
-            source[row] = k
-        total += count
-    return total
+    """``collide_pairs`` with the contact tests ``tests`` alone (``PAIR_BIT``; a constant
+    where a kernel calls it, which then calls ``pairs_kernel(tests)``); a pair outside them is
+    a ValueError."""
+
+
+# every contact test (a kernel named collide_pairs)
+collide_pairs = pairs_kernel(PAIRS_ALL)
 
 
 @kernel

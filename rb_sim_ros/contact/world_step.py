@@ -34,14 +34,13 @@ from __future__ import annotations
 from collections import namedtuple
 import math
 import os
-import threading
 
 import numpy as np
 
 from rb_sim_ros.contact import broad_phase as bp, narrow_kernels as nk, solver_kernels as sk
 from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.core import jit, step_kernel as K
-from rb_sim_ros.core.jit import compile_for, inline_kernel, kernel, literal
+from rb_sim_ros.core.jit import compile_for, inline_kernel, kernel
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
 FEATURE_BITS = 12
@@ -369,8 +368,8 @@ def compile_leaves(arrays, family, tests, group: str) -> None:
     f1, f2 = np.zeros(0), np.zeros((0, 3))
     i1, b1 = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_)
     if group == 'narrow':
-        compile_for(nk.collide_pairs_of, literal(tests), i1, i1, w.kinds, w.geoms,
-                    w.centres, w.rotations, f1, f2, f2, f1, i1, i1)
+        compile_for(nk.pairs_kernel(tests), i1, i1, w.kinds, w.geoms, w.centres, w.rotations,
+                    f1, f2, f2, f1, i1, i1)
         compile_for(bp.stable_order, f1)  # sweep_and_prune's, _check_solve's
         compile_for(bp.stable_order, i1)  # _store_warm's
         compile_for(bp.sorted_copy, i1)  # sweep_and_prune's
@@ -390,7 +389,6 @@ def compile_leaves(arrays, family, tests, group: str) -> None:
 # family -> the name of its entry with every contact test (the others: ``entry``).
 WORLD_STEPS = {K.FAMILY_TWO: 'world_steps_two', K.FAMILY_K: 'world_steps_k',
                K.FAMILY_SPLIT: 'world_steps_split'}
-_making = threading.Lock()
 
 
 def entry(family, tests) -> str:
@@ -401,9 +399,7 @@ def entry(family, tests) -> str:
     if not 0 <= tests <= nk.PAIRS_ALL:
         raise ValueError(f'tests must be a set of narrow_kernels.PAIR_BIT, got {tests!r}')
     name = WORLD_STEPS[family] + ('' if tests == nk.PAIRS_ALL else f'_{tests}')
-    with _making:
-        if name not in globals():
-            globals()[name] = _world_steps_of(family, tests, name)
+    jit.made_global(globals(), name, lambda: _world_steps_of(family, tests, name))
     return name
 
 
@@ -460,9 +456,9 @@ def tests_for(family, needed: int) -> int:
     return needed if best is None else best
 
 
-def steps(arrays, n, warm_keys, warm_normal, warm_tangent, family, tests):
-    """``world_steps`` from Python: the entry of the family and contact tests."""
-    return globals()[entry(family, tests)](arrays, n, warm_keys, warm_normal, warm_tangent)
+def steps(name, arrays, n, warm_keys, warm_normal, warm_tangent):
+    """``world_steps`` from Python: the entry named ``name`` (``entry``)."""
+    return globals()[name](arrays, n, warm_keys, warm_normal, warm_tangent)
 
 
 # The stages take the arrays they use, never ``w``, and steps 2 - 5 are written out in

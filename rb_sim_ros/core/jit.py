@@ -59,7 +59,7 @@ _OPTIONS = dict(cache=True, fastmath=False, error_model='python', nogil=True)
 # round (by id, so that no module global's own __hash__ or __eq__ runs in a swap).
 _PY_FUNCS: dict = {}
 _KERNELS: dict = {}
-_tier = threading.Lock()
+_tier = threading.RLock()
 _interpreted = False
 
 
@@ -93,22 +93,56 @@ def parallel_kernel(function):
     return _made(numba.njit(parallel=True, **_OPTIONS)(function))
 
 
+def made_global(space: dict, name: str, make):
+    """``space[name]`` (a module's globals), made by ``make()`` (which makes a kernel, as
+    ``kernel`` does) the first time: for kernels made on demand (one for each constant a
+    factory bakes in), so that a tier swap finds them like the others. Under the lock the
+    swaps take: a kernel made as the tier changes is bound to the new tier's function."""
+    with _tier:
+        if name not in space:
+            space[name] = make()
+        return space[name]
+
+
+def literal_entry(entry):
+    """Make a plain Python function ``f(value, ...)`` one that calls the kernel
+    ``entry(value)`` with the other arguments: a kernel made for that value (``made_global``,
+    a constant baked in), with a cache entry of its own. Called from a kernel with a constant
+    ``value`` (an int literal: a global, or a closure's constant), the call is typed as a call
+    of that kernel; from Python, in either tier, ``entry(value)`` is looked up and called.
+    Unlike a kernel taking the value as a literal argument, whose overloads for every value
+    share one cache index (which two processes compiling two values at once could leave
+    naming the other's code), each value's kernel has its own index."""
+    def decorate(function):
+        name = function.__name__
+
+        @functools.wraps(function)
+        def call(value, *args):
+            return entry(value)(*args)
+
+        def typer(value, *args):
+            if not isinstance(value, types.IntegerLiteral):
+                raise errors.TypingError(f'{name}: its first argument must be an int constant '
+                                         f"(a global or a closure's constant), got {value}")
+            target = entry(value.literal_value)
+
+            def impl(value, *args):
+                return target(*args)
+            return impl
+
+        overload(call, jit_options=dict(fastmath=False, error_model='python'))(typer)
+        return call
+    return decorate
+
+
 def compile_for(function, *examples) -> None:
     """Compile (or load from the cache) the kernel ``function`` for the numba types of the
     values ``examples``, as a call with them would, without calling it; nothing while the
-    kernels run interpreted. An example that is a numba type is that type (a constant:
-    ``literal(3)``). For a compile shared among processes (``sim/precompile.py``):
+    kernels run interpreted. For a compile shared among processes (``sim/precompile.py``):
     the types must be those its caller passes it, or this compiles an overload nobody calls."""
     if interpreted() or not hasattr(function, 'compile'):
         return
-    function.compile(tuple(e if isinstance(e, types.Type) else numba.typeof(e)
-                           for e in examples))
-
-
-def literal(value):
-    """The numba type of the constant ``value`` (for ``compile_for``): what a kernel passing a
-    global or a closure's constant hands its callee."""
-    return types.literal(value)
+    function.compile(tuple(numba.typeof(e) for e in examples))
 
 
 def compiling() -> bool:
@@ -278,7 +312,8 @@ def _marker(part: str) -> Path | None:
     machine = repr(cpu_target.target_context.codegen().magic_tuple())
     key = hashlib.sha256(f'{process_stamp()} {numba.__version__} {sys.implementation.cache_tag} '
                          f'{machine}'.encode())
-    return where / f'precompiled-{part}-{key.hexdigest()[:20]}'
+    # (':' is not allowed in a Windows file name: '=' in its place)
+    return where / f'precompiled-{part.replace(":", "=")}-{key.hexdigest()[:20]}'
 
 
 def marked_parts(prefix: str) -> list[str]:
@@ -289,8 +324,8 @@ def marked_parts(prefix: str) -> list[str]:
         return []
     head, key = 'precompiled-', probe.name.rsplit('-', 1)[1]
     found = []
-    for path in probe.parent.glob(f'{head}{glob.escape(prefix)}*-{key}'):
-        found.append(path.name[len(head):-len(key) - 1])
+    for path in probe.parent.glob(f'{head}{glob.escape(prefix.replace(":", "="))}*-{key}'):
+        found.append(path.name[len(head):-len(key) - 1].replace('=', ':'))
     return sorted(found)
 
 
