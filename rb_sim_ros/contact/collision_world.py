@@ -217,11 +217,8 @@ class CollisionWorld:
         self._warm_normal = np.zeros(0)
         self._warm_tangent = np.zeros((0, 3))
         self._unchecked = True
-        if pair_tests is not None and (
-                not isinstance(pair_tests, int) or isinstance(pair_tests, bool)
-                or not 0 <= pair_tests <= nk.PAIRS_ALL):
-            raise ValueError(f'pair_tests must be a set of narrow_kernels.PAIR_BIT (an int in '
-                             f'[0, {nk.PAIRS_ALL}]) or None, got {pair_tests!r}')
+        if pair_tests is not None:
+            nk.checked_tests(pair_tests, 'pair_tests')
         self._build(planes)
         # The contact tests its bodies can meet, and those its step is compiled with.
         self.pairs_needed = needed = pairs_met(bodies, planes)
@@ -650,11 +647,8 @@ class CollisionWorld:
         carry_over(self.steppers, steppers, step_count)
         self._step_count = step_count
         if old is not None and old.enabled and self.enabled:
-            # the step the run has compiled (or loaded), if it serves; else one that holds
-            # its tests too (shapes that come and go then need no other)
-            self.pair_tests = (old.pair_tests if self.pairs_needed & ~old.pair_tests == 0 else
-                               ws.tests_for(K.family(self._store.coefficients),
-                                            self.pairs_needed | old.pair_tests))
+            self.pair_tests = ws.tests_keeping(K.family(self._store.coefficients),
+                                               self.pairs_needed, old.pair_tests)
         self._unchecked = True if recheck or old is None else old._unchecked
         if old is not None:
             self.totals, self.last_stats = old.totals, old.last_stats

@@ -907,6 +907,15 @@ def pair_set(kinds_of_bodies, moving) -> int:
     return bits
 
 
+def checked_tests(tests, what: str = 'tests') -> int:
+    """``tests`` if it is a set of contact tests (an int of ``PAIR_BIT`` bits), else a
+    ValueError naming ``what``."""
+    if isinstance(tests, bool) or not isinstance(tests, int) or not 0 <= tests <= PAIRS_ALL:
+        raise ValueError(f'{what} must be a set of narrow_kernels.PAIR_BIT (an int in '
+                         f'[0, {PAIRS_ALL}]), got {tests!r}')
+    return tests
+
+
 def pair_names(pairs: int) -> list[str]:
     """The pairs of the set ``pairs`` as 'sphere-box' and the like, in ``PAIR_KINDS`` order."""
     return [f'{KIND_NAMES[a]}-{KIND_NAMES[b]}' for (a, b) in PAIR_KINDS
@@ -1150,9 +1159,7 @@ def _collide_pairs_for(tests, name):
 def pairs_kernel(tests: int):
     """``collide_pairs`` with the contact tests ``tests`` (``PAIR_BIT``): a kernel of its own
     for each set, made the first time it is asked for (``jit.made_global``)."""
-    if isinstance(tests, bool) or not isinstance(tests, int) or not 0 <= tests <= PAIRS_ALL:
-        raise ValueError(f'tests must be a set of PAIR_BIT (an int in [0, {PAIRS_ALL}]), '
-                         f'got {tests!r}')
+    checked_tests(tests)
     name = 'collide_pairs' if tests == PAIRS_ALL else f'collide_pairs_{tests}'
     return made_global(globals(), name, lambda: _collide_pairs_for(tests, name))
 

@@ -396,8 +396,7 @@ def entry(family, tests) -> str:
     tests ``tests`` (none, for a world of one body), made now if it is not there yet: looked
     up at each call, since ``jit.run_interpreted`` rebinds the module's globals. Not
     compiled here."""
-    if not 0 <= tests <= nk.PAIRS_ALL:
-        raise ValueError(f'tests must be a set of narrow_kernels.PAIR_BIT, got {tests!r}')
+    nk.checked_tests(tests)
     name = WORLD_STEPS[family] + ('' if tests == nk.PAIRS_ALL else f'_{tests}')
     jit.made_global(globals(), name, lambda: _world_steps_of(family, tests, name))
     return name
@@ -440,12 +439,9 @@ def tests_for(family, needed: int) -> int:
     ``needed`` itself (every test with RB_SIM_ROS_CONTACT_TESTS=all)."""
     if os.environ.get(ALL_TESTS_VARIABLE, '').strip().lower() == 'all':
         return nk.PAIRS_ALL
-    if jit.precompiled([contact_part(family, nk.PAIRS_ALL)]):
-        best = nk.PAIRS_ALL
-    else:
-        best = None
-    prefix = contact_part(family, 0).rsplit(':', 1)[0] + ':'
-    for part in jit.marked_parts(prefix):
+    every = contact_part(family, nk.PAIRS_ALL)
+    best = nk.PAIRS_ALL if jit.precompiled([every]) else None
+    for part in jit.marked_parts(every + ':'):
         try:
             f, tests = part_tests(part)
         except ValueError:
@@ -454,6 +450,18 @@ def tests_for(family, needed: int) -> int:
                 best is None or (bin(tests).count('1'), tests) < (bin(best).count('1'), best)):
             best = tests
     return needed if best is None else best
+
+
+def tests_keeping(family, needed: int, current: int | None) -> int:
+    """The contact tests a world of ``family`` whose bodies need ``needed`` steps with when
+    it goes on from a world of the run compiled with ``current`` (None: none): ``current``
+    if it holds them (its step is compiled or loaded already), else ``tests_for`` them and
+    ``current``'s together (shapes that come and go then need no other)."""
+    if current is None:
+        return tests_for(family, needed)
+    if needed & ~current == 0:
+        return current
+    return tests_for(family, needed | current)
 
 
 def steps(name, arrays, n, warm_keys, warm_normal, warm_tangent):

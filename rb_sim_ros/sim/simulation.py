@@ -444,13 +444,10 @@ def contact_tests(config: Config, current=None) -> int:
     bodies steps with: those of ``current`` (a world of the run, whose step is compiled or
     loaded) if they hold those the bodies need, else ``world_step.tests_for`` them (and
     ``current``'s)."""
-    needed = pairs_met(config.bodies)
-    if current is not None and current.enabled:
-        if needed & ~current.pair_tests == 0:
-            return current.pair_tests
-        needed |= current.pair_tests  # as CollisionWorld.carry does
     family = K.family_of(multistep.method_by_name(config.integrator).steps)
-    return world_step.tests_for(family, needed)
+    return world_step.tests_keeping(family, pairs_met(config.bodies),
+                                    current.pair_tests if current is not None
+                                    and current.enabled else None)  # as CollisionWorld.carry
 
 
 def config_after(config: Config, event) -> Config:
