@@ -12,7 +12,11 @@ the noisy sensor, with ``source:=imu``) and sends the body-frame torque
 
     tau = -K_p sign(e_w) e_v - K_d w,    e = q_target^-1 q  (the error quaternion)
 
-on ``wrench_stamped`` (frame_id: the body's frame, as odom names it). This law is globally
+on ``wrench_stamped`` (frame_id: the body's frame, as odom names it), stamped with the stamp of
+the state it was computed from: through ``rb_sim_ros.ros.control_loop.ControlLoop``, so that
+it is the answer a simulator in lockstep waits for (``-p lockstep:=true``: the run is then
+the same bits on any machine and under any load), and an ordinary command without lockstep.
+This law is globally
 stabilising for a rigid body (Wie, Weiss and Arapostathis 1989). With the gains per axis
 K_p = 2 I wn^2 and K_d = 2 zeta wn I, small errors (e_v ~ theta / 2) follow
 theta'' + 2 zeta wn theta' + wn^2 theta = 0: settling to 2 % in about 4 / (zeta wn) and
@@ -21,15 +25,18 @@ principal moments, as the simulator's parameter (a diagonal tensor).
 """
 
 import math
+import random
 import sys
+import time
 
-from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor
 import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import Imu
+
+from rb_sim_ros.ros.control_loop import ControlLoop
 
 
 def quaternion_from_rpy(roll: float, pitch: float, yaw: float) -> tuple:
@@ -74,43 +81,38 @@ class AttitudeController(Node):
         zeta = param('damping_ratio', 0.8, 'Closed-loop damping ratio zeta.')
         self.max_torque = param('max_torque', 10.0, 'Largest torque per axis (N m).')
         source = param('source', 'odom', "Read the state from 'odom' (ground truth) or 'imu'.")
-        values = list(rpy) + list(inertia) + [wn, zeta, self.max_torque]
+        self.jitter = param('answer_delay_max', 0.0, 'Wait a random wall time up to this (s) '
+                            'before each answer: in lockstep the run stays the same bits.')
+        values = list(rpy) + list(inertia) + [wn, zeta, self.max_torque, self.jitter]
         if len(rpy) != 3 or len(inertia) != 3 or not all(
                 isinstance(v, (int, float)) and math.isfinite(v) for v in values) or \
                 min(inertia) <= 0 or wn <= 0 or zeta <= 0 or self.max_torque <= 0 or \
-                source not in ('odom', 'imu'):
+                source not in ('odom', 'imu') or not 0 <= self.jitter <= 10:
             raise ValueError('target_rpy needs 3 angles, inertia 3 moments > 0; '
                              'natural_frequency, damping_ratio and max_torque must be > 0, '
-                             "source 'odom' or 'imu'")
+                             "source 'odom' or 'imu', answer_delay_max from 0 to 10 s")
         self.target = quaternion_from_rpy(*rpy)
         self.kp = [2.0 * i * wn * wn for i in inertia]
         self.kd = [2.0 * zeta * wn * i for i in inertia]
-        self.pub = self.create_publisher(WrenchStamped, 'wrench_stamped', 10)
-        if source == 'odom':
-            self.create_subscription(Odometry, 'odom', self._on_odom, 10)
-        else:
-            self.create_subscription(Imu, 'imu', self._on_imu, 10)
+        self._random = random.Random()  # unseeded: the delays differ from run to run
+        self.loop = ControlLoop(self, self.law, *(
+            (Odometry, 'odom') if source == 'odom' else (Imu, 'imu')))
         self.get_logger().info(f'pointing at rpy {list(rpy)} with wn {wn} rad/s, zeta {zeta}, '
                                f'from {source}')
 
-    def _on_odom(self, msg: Odometry) -> None:
-        o, w = msg.pose.pose.orientation, msg.twist.twist.angular  # odom's twist: body frame
-        self._command(msg.header.stamp, msg.child_frame_id, (o.x, o.y, o.z, o.w),
-                      (w.x, w.y, w.z))
-
-    def _on_imu(self, msg: Imu) -> None:
-        o, w = msg.orientation, msg.angular_velocity
-        self._command(msg.header.stamp, msg.header.frame_id, (o.x, o.y, o.z, o.w),
-                      (w.x, w.y, w.z))
-
-    def _command(self, stamp, frame: str, q, w) -> None:
+    def law(self, msg):
+        """The body-frame torque for a state (Odometry or Imu); None (no change) for a state
+        that is not finite."""
+        if isinstance(msg, Odometry):
+            o, w = msg.pose.pose.orientation, msg.twist.twist.angular  # odom's twist: body
+        else:
+            o, w = msg.orientation, msg.angular_velocity
+        q, w = (o.x, o.y, o.z, o.w), (w.x, w.y, w.z)
+        if self.jitter:
+            time.sleep(self._random.uniform(0.0, self.jitter))
         if not all(math.isfinite(c) for c in q + w) or not any(q):
-            return
-        out = WrenchStamped()
-        out.header.stamp, out.header.frame_id = stamp, frame
-        t = out.wrench.torque
-        t.x, t.y, t.z = pd_torque(self.target, q, w, self.kp, self.kd, self.max_torque)
-        self.pub.publish(out)
+            return None
+        return (0.0, 0.0, 0.0), pd_torque(self.target, q, w, self.kp, self.kd, self.max_torque)
 
 
 def main(args=None) -> int:

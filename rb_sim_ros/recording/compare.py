@@ -33,14 +33,21 @@ def message_values(msg) -> tuple:
         return repr(msg)
 
 
-def difference(a: str, b: str) -> str:
-    """'' if recordings ``a`` and ``b`` hold the same, else the first difference, one line."""
+def difference(a: str, b: str, metadata_view=None, message_view=None) -> str:
+    """'' if recordings ``a`` and ``b`` hold the same, else the first difference, one line.
+
+    ``metadata_view(path, name, record)`` and ``message_view(path, topic, message)``, when
+    given, say what of a metadata record (a dict) and of a message is compared (e.g. without
+    the file's own name): what they return is compared instead."""
     ra, rb = RecordingReader(a), RecordingReader(b)
     if ra.library != rb.library:
         return f'writer {ra.library!r} != {rb.library!r}'
-    if ra.metadata != rb.metadata:
-        names = sorted(n for n in set(ra.metadata) | set(rb.metadata)
-                       if ra.metadata.get(n) != rb.metadata.get(n))
+    ma, mb = ra.metadata, rb.metadata
+    if metadata_view is not None:
+        ma = {n: metadata_view(a, n, dict(r)) for n, r in ma.items()}
+        mb = {n: metadata_view(b, n, dict(r)) for n, r in mb.items()}
+    if ma != mb:
+        names = sorted(n for n in set(ma) | set(mb) if ma.get(n) != mb.get(n))
         return f'metadata {names} differs'
     if ra.topics != rb.topics:
         return f'topics differ: {sorted(set(ra.topics) ^ set(rb.topics)) or "their info"}'
@@ -50,6 +57,9 @@ def difference(a: str, b: str) -> str:
         if (x.topic, x.log_time_ns, x.publish_time_ns, x.sequence) != \
                 (y.topic, y.log_time_ns, y.publish_time_ns, y.sequence):
             return f'message {k}: {x.topic} at {x.log_time_ns} != {y.topic} at {y.log_time_ns}'
-        if message_values(x.message) != message_values(y.message):
+        vx, vy = x.message, y.message
+        if message_view is not None:
+            vx, vy = message_view(a, x.topic, vx), message_view(b, y.topic, vy)
+        if message_values(vx) != message_values(vy):
             return f'message {k} on {x.topic} at {x.log_time_ns} ns: the fields differ'
     return ''

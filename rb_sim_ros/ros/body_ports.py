@@ -22,6 +22,7 @@ from sensor_msgs.msg import Imu
 
 from rb_sim_ros.core.rigid_body import Frame
 from rb_sim_ros.ros import node_params, ros_messages
+from rb_sim_ros.ros.lockstep import HOLD
 from rb_sim_ros.sim.imu import ImuSensor
 from rb_sim_ros.sim.simulation import SetPose, SetWrench
 
@@ -85,9 +86,14 @@ class BodyPorts:
 
     def __init__(self, node, name: str, prefix: str, world_frame: str, body_frame: str,
                  twist_frame: str, settings, queue, reject, points=(), moving: bool = True,
-                 imu_noise=None, index: int = 0) -> None:
+                 imu_noise=None, index: int = 0, answer=None, answers_group=None) -> None:
         """``moving``: the body can move (a static one gets no imu or accel); ``imu_noise``:
-        a sim.imu.ImuNoise; ``index``: the body's index in the scene (its noise stream)."""
+        a sim.imu.ImuNoise; ``index``: the body's index in the scene (its noise stream);
+        ``answer(body, stamp_ns, event or HOLD)``: in lockstep, the node's, handed every
+        wrench_stamped first (True: it was a lockstep answer, taken or refused), whose
+        subscription is then made in ``answers_group`` (taken_inputs: the step loop takes its
+        messages)."""
+        self._answer, self._answers_group = answer, answers_group
         self.name = name
         self.points = dict(points)  # name -> (x, y, z) m, body frame
         self.world_frame, self.body_frame = world_frame, body_frame
@@ -106,6 +112,7 @@ class BodyPorts:
         self._pubs: dict = {}  # topic (relative) -> publisher
         self.motion_pubs = self.state_pubs = ()
         self._subs: list = []
+        self.answers = None
         try:
             self._create(node, prefix, qos, moving)
         except BaseException:  # a bad QoS override of one topic: none of them stays
@@ -129,8 +136,12 @@ class BodyPorts:
         callbacks = {'wrench': self._on_wrench, 'wrench_stamped': self._on_wrench_stamped,
                      'set_pose': self._on_set_pose, 'set_twist': self._on_set_twist}
         for topic, msg_type, _ in SUBSCRIBED:
+            group = self._answers_group if topic == 'wrench_stamped' else None
             self._subs.append(node.create_subscription(msg_type, prefix + topic,
-                                                       callbacks[topic], qos(), **over))
+                                                       callbacks[topic], qos(),
+                                                       callback_group=group, **over))
+            if topic == 'wrench_stamped':
+                self.answers = self._subs[-1]  # where lockstep answers come
 
     def destroy(self, node) -> None:
         """Take the body's topics off ``node`` (a deleted body's)."""
@@ -140,6 +151,7 @@ class BodyPorts:
             node.destroy_publisher(pub)
         self._subs, self._pubs = [], {}
         self.motion_pubs = self.state_pubs = ()
+        self.answers = None
         self.pub_applied = None
 
     def topics(self) -> dict[str, str]:
@@ -147,7 +159,18 @@ class BodyPorts:
         return {kind: pub.topic_name for kind, pub in self._pubs.items()
                 if kind in RECORDED}
 
-    def publish(self, sim, recorder=None) -> bool:
+    def answering(self) -> int:
+        """Publishers matched on the body's wrench_stamped (its lockstep input)."""
+        return self.answers.get_publisher_count() if self.answers is not None else 0
+
+    def republish(self) -> None:
+        """The messages of the last publish again, to whoever listens now (lockstep: to a
+        controller whose subscription matched after it); nothing drawn, nothing recorded."""
+        for pub, msg in self.state_pubs + self.motion_pubs:
+            if pub.get_subscription_count():
+                pub.publish(msg)
+
+    def publish(self, sim, recorder=None, fill: bool = False) -> bool:
         """Publish the body's state, and for a moving body its imu and accel, to whoever
         listens: a topic with no subscriber (and no recording) costs neither a fill nor a
         serialisation. The IMU's noise is drawn at every publish that goes out, listened to or
@@ -161,13 +184,13 @@ class BodyPorts:
         pubs = [p for p in self.state_pubs if p[0].get_subscription_count()]
         motion = [p for p in self.motion_pubs if p[0].get_subscription_count()]
         sensor = self.sensor
-        if not (pubs or motion or recorder is not None):
+        if not (pubs or motion or recorder is not None or fill):
             if sensor is not None:  # unheard, but drawn: the noise follows publishes only
                 sensor.sample(time_ns)
             return True
         if not self.out.fill(time_ns, *pose_twist):
             return False
-        if motion or (recorder is not None and self.motion_pubs):
+        if motion or ((recorder is not None or fill) and self.motion_pubs):
             a, b = sim.accelerations(self.name)
             # The noise is drawn only for a publish that goes out (and so is recorded, as
             # replay draws it): taken back if the values are not finite.
@@ -196,10 +219,28 @@ class BodyPorts:
 
     # -- callbacks -------------------------------------------------------------------------
     def _on_wrench(self, msg: WrenchMsg) -> None:
-        self._queue_wrench(msg, Frame.parse(self.settings['wrench_frame']))
+        event = self._wrench_event(msg, Frame.parse(self.settings['wrench_frame']), 'wrench')
+        if event is not None:
+            self._queue(event)
 
     def _on_wrench_stamped(self, msg: WrenchStamped) -> None:
         fid = msg.header.frame_id.lstrip('/')
+        event = HOLD if fid == HOLD else self._stamped_event(msg.wrench, fid)
+        # In lockstep an answer, refused or not, is the node's: a bad wrench answers with
+        # no change (the refusal said), so that the loop goes on as it would every time.
+        if self._answer is not None and self._answer(
+                self.name, msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec,
+                HOLD if event is None else event):
+            return
+        if event is HOLD:
+            self._reject('wrench_stamped', ValueError(
+                f"frame_id '{HOLD}' answers a state in lockstep, and this is not a lockstep "
+                'input'))
+        elif event is not None:
+            self._queue(event)
+
+    def _stamped_event(self, wrench_msg: WrenchMsg, fid: str):
+        """The SetWrench of a wrench_stamped in frame ``fid``, or None (refused and said)."""
         if fid == '':
             frame = Frame.parse(self.settings['wrench_frame'])
         elif fid in (self.world_frame, 'world'):
@@ -208,28 +249,27 @@ class BodyPorts:
             frame = Frame.BODY
         elif fid in self.points:  # at an application point: force there, axes the body's
             try:
-                wrench = ros_messages.wrench_at_point(msg.wrench, self.points[fid],
+                wrench = ros_messages.wrench_at_point(wrench_msg, self.points[fid],
                                                       self.settings['max_wrench'])
             except ValueError as e:
                 self._reject('wrench_stamped', e)
-                return
-            self._queue(SetWrench(wrench, self.name))
-            return
+                return None
+            return SetWrench(wrench, self.name)
         else:
             points = f", nor a point ({', '.join(sorted(self.points))})" if self.points else ''
             self._reject('wrench_stamped', ValueError(
                 f"frame_id '{fid}' is neither '{self.world_frame}' nor '{self.body_frame}'"
                 f'{points} (no tf lookup here)'))
-            return
-        self._queue_wrench(msg.wrench, frame)
+            return None
+        return self._wrench_event(wrench_msg, frame, 'wrench_stamped')
 
-    def _queue_wrench(self, wrench_msg: WrenchMsg, frame: Frame) -> None:
+    def _wrench_event(self, wrench_msg: WrenchMsg, frame: Frame, what: str):
         try:
             wrench = ros_messages.wrench_from_msg(wrench_msg, frame, self.settings['max_wrench'])
         except ValueError as e:
-            self._reject('wrench', e)
-            return
-        self._queue(SetWrench(wrench, self.name))
+            self._reject(what, e)
+            return None
+        return SetWrench(wrench, self.name)
 
     def _on_set_pose(self, msg: PoseStamped) -> None:
         fid = msg.header.frame_id.lstrip('/')

@@ -25,6 +25,7 @@ class Diagnostics:
         self.recording_error = ''  # why the recording stopped; stays
         self.contacts = None  # collision_world.StepStats of the last step, when bodies collide
         self.compiling = ''  # which process compiles the kernels while they run interpreted
+        self.lockstep = None  # the node's lockstep.Lockstep, in lockstep
         self._dropped_interpreted = 0  # periods dropped until then (expected: not a warning)
         self.ticks = 0
         self.late_ticks = 0
@@ -87,10 +88,22 @@ class Diagnostics:
             values['contacts'] = self.contacts.contacts
             values['active_contacts'] = self.contacts.active
             values['sleeping_bodies'] = self.contacts.sleeping
+        waiting = ''
+        if self.lockstep is not None:
+            ls = self.lockstep
+            waiting = ls.describe()
+            values['lockstep_inputs'] = ', '.join(ls.inputs()) or 'none yet'
+            values['lockstep_waiting_for'] = ', '.join(ls.missing()) or 'nothing'
+            values['lockstep_waited_s'] = ls.waited() if waiting else 0.0
+            values['lockstep_refused_total'] = ls.counters.refused
+            values['lockstep_repeated_total'] = ls.counters.repeated
+            values['lockstep_timeouts_total'] = ls.counters.timeouts
         status = DiagnosticStatus(name='rb_sim: simulator', hardware_id='rb_sim_ros')
         error = '; '.join(e for e in (self.error, self.recording_error) if e)
         if error:
             status.level, status.message = DiagnosticStatus.ERROR, error
+        elif waiting and self.lockstep.waited() >= 1.0:  # a stalled controller: said
+            status.level, status.message = DiagnosticStatus.WARN, f'lockstep: {waiting}'
         elif self.compiling:
             status.level = DiagnosticStatus.OK
             status.message = 'running in the interpreter while the kernels compile'

@@ -184,6 +184,30 @@ def _integrator(name: str, v: Any) -> None:
                          f'got {v!r}')
 
 
+def _one_of(choices: tuple):
+    def check(name: str, v: Any) -> None:
+        if v not in choices:
+            raise ValueError(f"{name} must be one of {', '.join(map(repr, choices))}, "
+                             f'got {v!r}')
+    return check
+
+
+def names_list(v: Any) -> list[str]:
+    """The entries of a list of names given as a list of strings or one comma-separated
+    string (empty entries dropped)."""
+    items = v.split(',') if isinstance(v, str) else list(v)
+    return [item.strip() for item in items if item.strip()]
+
+
+def _names(name: str, v: Any) -> None:
+    if not (isinstance(v, str) or (isinstance(v, (list, tuple)) and
+                                   all(isinstance(c, str) for c in v))):
+        raise ValueError(f'{name} must be a list of names or a comma-separated string, '
+                         f'got {v!r}')
+    if len(v) > 100_000 or any(len(c) > 1024 for c in names_list(v)):
+        raise ValueError(f'{name}: too long')
+
+
 @dataclass(frozen=True)
 class Param:
     name: str
@@ -279,6 +303,29 @@ PARAMS = (
           'and endpoints cost time and memory to create: the rest are simulated, recorded '
           "only through their effect on the others, and published together on 'poses'.",
           True, _integer(0, 100_000)),
+    Param('lockstep', False, 'Lockstep with controllers: after each publish the node waits '
+          'until every lockstep input has answered the state with a WrenchStamped stamped as '
+          "that state (frame_id 'hold': no change), applies the answers at the next step and "
+          'only then steps on, so a closed-loop run is the same on any machine, under any '
+          'load, at any real_time_factor (README, "Lockstep").', True, _bool),
+    Param('lockstep_inputs', '', 'The lockstep inputs: bodies or their wrench_stamped topics, '
+          "as a list or comma-separated ('ball, box/wrench_stamped'); step 0 waits for every "
+          "one. Empty: every body's wrench_stamped that has a publisher when step 0 is taken "
+          '(then a controller that joins later is in from its first answer).', True,
+          _names),
+    Param('lockstep_delay', 0, 'Periods (0 to 1000) between a state and the step its answers '
+          'take effect at, after the first step after it: a controller latency, '
+          'deterministic.', True, _integer(0, 1000)),
+    Param('lockstep_timeout', 0.0, 'Wall seconds (0 to 1e6) to wait for the answers to a '
+          'state; 0 waits for ever. Then lockstep_on_timeout says what happens, and the '
+          'recording notes it.', False, _within(0.0, 1e6, '0 and 1e6 s')),
+    Param('lockstep_on_timeout', 'error', "After lockstep_timeout: 'error' pauses the node "
+          'with an ERROR in /diagnostics (and ends a run with stop_after, exit code 3); '
+          "'hold' steps on with the wrenches of the inputs that did not answer held.",
+          False, _one_of(('error', 'hold'))),
+    Param('stop_after', 0.0, 'Sim seconds (0 to 1e9) after which the node stops by itself: '
+          'it steps to that time, publishes, finishes the recording and exits 0 (a run for '
+          'CI). 0: never.', True, _within(0.0, 1e9, '0 and 1e9 s')),
     Param('record', '', 'Path of an MCAP file to record the run to; empty: no recording.', True,
           _string),
     Param('record_overwrite', False, 'Overwrite an existing recording file.', True, _bool),

@@ -23,7 +23,9 @@ One MCAP file (profile ros2, cdr, ros2msg schemas; see ``recording/``):
   ``accel`` on the topics the node published them on (``output_topics`` in the metadata;
   recordings made before imu and accel existed have the first three), log time = sim time;
   with publish_tf, ``/tf`` (tf2_msgs/TFMessage) at every publish and ``/tf_static`` once at
-  step 0 (``tf_topics`` in the metadata).
+  step 0 (``tf_topics`` in the metadata);
+* in lockstep, ``/rb_sim/lockstep`` (std_msgs/String, JSON ``{"event": "timeout" or "left",
+  "inputs": [bodies]}``) at the step where a controller's answer was not waited for.
 
 Inputs are everything that changed the run; with ``config`` they re-simulate it bit for bit,
 and the outputs are what to compare against.
@@ -43,6 +45,7 @@ from std_msgs.msg import String
 from rb_sim_ros import __version__
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.recording import RecordingWriter, WriterError
+from rb_sim_ros.recording.compare import difference
 from rb_sim_ros.ros.ros_messages import tf_qos, time_msg
 from rb_sim_ros.sim.simulation import (body_from_dict, body_to_dict, Config, Delete, Reset,
                                        SetPose, SetTwist, SetWrench, Spawn)
@@ -67,6 +70,9 @@ TF_TYPE = 'tf2_msgs/msg/TFMessage'
 # drop): latched, as a late subscriber or a bag reader wants it.
 RUN_DEFINITION = '/rb_sim/run_definition'
 RUN_DEFINITION_TYPE = 'std_msgs/msg/String'
+# What happened to lockstep's inputs (timeouts, controllers gone), at its step: a JSON object
+# {"event": "timeout" or "left", "inputs": [bodies]}.
+LOCKSTEP = '/rb_sim/lockstep'
 RUN_DEFINITION_QOS = {'history': 'keep_last', 'depth': 1, 'reliability': 'reliable',
                       'durability': 'transient_local'}
 
@@ -80,6 +86,34 @@ def run_definition(config: Config, parameters: dict, output_topics: dict,
             'parameters': json.dumps(parameters, sort_keys=True),
             'output_topics': json.dumps(output_topics, sort_keys=True),
             'tf_topics': json.dumps(sorted(tf_topics))}
+
+
+# Parameters that change how a run is made, not what it is: two recordings of one run may
+# differ in them (the file, the pace, how long lockstep waits).
+RUN_NEUTRAL = ('record', 'record_overwrite', 'real_time_factor', 'max_catchup',
+               'compile_in_background', 'lockstep_timeout', 'lockstep_on_timeout')
+
+
+def same_run(a: str, b: str) -> str:
+    """'' if recordings ``a`` and ``b`` are the same run, bit for bit, else the first
+    difference (recording.compare.difference): every message and metadata record, but for the
+    RUN_NEUTRAL parameters and the files' own names."""
+    def definition(text: str) -> str:
+        data = json.loads(text)
+        params = json.loads(data.get('parameters', '{}'))
+        data['parameters'] = json.dumps({k: v for k, v in params.items()
+                                         if k not in RUN_NEUTRAL}, sort_keys=True)
+        return json.dumps(data, sort_keys=True)
+
+    def metadata(path, name, record):
+        if name == METADATA:
+            return json.loads(definition(json.dumps(record)))
+        # rosbag2's record names the file itself
+        return {k: v.replace(os.path.basename(path), '<file>') for k, v in record.items()}
+
+    def message(path, topic, msg):
+        return String(data=definition(msg.data)) if topic == RUN_DEFINITION else msg
+    return difference(a, b, metadata, message)
 
 
 def input_topic(body: str, kind: str) -> str:
@@ -298,6 +332,19 @@ class NodeRecorder:
             return
         for kind, topic in self._outputs[body].items():
             w.write(topic, getattr(out, kind), time_ns, sequence=step)
+
+    def lockstep(self, step: int, time_ns: int, what: str, bodies: list) -> None:
+        """What happened to lockstep's inputs at ``step`` (a timeout, one that left), on
+        LOCKSTEP: not an input (the wrenches held are what they were), but part of the run."""
+        if self._writer.error is not None:
+            return
+        try:
+            self._register(LOCKSTEP, String)
+        except WriterError as e:
+            self._closed_error = self._closed_error or str(e)
+            return
+        self._writer.write(LOCKSTEP, String(data=json.dumps(
+            {'event': what, 'inputs': list(bodies)}, sort_keys=True)), time_ns, sequence=step)
 
     def tf(self, topic: str, step: int, time_ns: int, msg) -> None:
         """A TFMessage the node published on ``topic`` (/tf or /tf_static)."""

@@ -86,6 +86,7 @@ class Verification:
     truncated: bool = False
     last_time_ns: int = 0
     integration_error: str = ''  # the run went non-finite (the node paused there too)
+    lockstep_notes: list = field(default_factory=list)  # (step, JSON): timeouts, inputs gone
 
     @property
     def identical(self) -> bool:
@@ -109,6 +110,7 @@ class Recording:
     qos: dict = field(default_factory=dict)  # output topic -> recorded_qos(...) of its channel
     types: dict = field(default_factory=dict)  # output topic -> 'pkg/msg/Type'
     last_output_ns: int = 0  # log time of the last recorded output
+    lockstep_notes: list = field(default_factory=list)  # (step, JSON) of /rb_sim/lockstep
 
     def frames(self, body: str, spawned: bool = False) -> tuple[str, str]:
         """(world frame, body frame) the node stamped ``body``'s outputs with (a spawned body
@@ -488,6 +490,11 @@ def load(path: str) -> Recording:
         parsed = node_recorder.parse_input_topic(topic)
         if topic == RUN_DEFINITION:
             continue  # its type: checked with it
+        if topic == node_recorder.LOCKSTEP:  # notes of a lockstep run (no input)
+            if type_name != 'std_msgs/msg/String':
+                raise ReaderError(f'{path}: topic {topic} has type {type_name}, not '
+                                  'std_msgs/msg/String')
+            continue
         if parsed is not None:
             want = INPUT_TYPES[parsed[1]]
         elif topic in by_topic:
@@ -504,6 +511,7 @@ def load(path: str) -> Recording:
     # keep none. The first message that has one, and the first without one.
     sequenced = unsequenced = None
     outputs, last_step, published, last_output_ns = 0, None, 0, 0
+    lockstep_notes: list = []  # (step, JSON text) of /rb_sim/lockstep
     # Outputs are checked here as bytes (their time stamps, counts and channels) and
     # deserialised when iterated; inputs are deserialised and kept.
     for raw in reader.raw_messages():
@@ -526,6 +534,9 @@ def load(path: str) -> Recording:
             raise ReaderError(f'{path}: {topic0} at {log_time0} ns has sequence 0, not its '
                               f'step {step0}')
         if topic == RUN_DEFINITION:
+            continue
+        if topic == node_recorder.LOCKSTEP:
+            lockstep_notes.append((step, reader.deserialize(raw).message.data))
             continue
         parsed = node_recorder.parse_input_topic(topic)
         if parsed is None:  # an output: checked and counted now, read again when iterated
@@ -581,7 +592,8 @@ def load(path: str) -> Recording:
     qos = {t: recorded_qos(reader.topics[t].offered_qos_profiles)
            for t in by_topic if t in reader.topics}
     return Recording(config, parameters, inputs, Outputs(reader, by_topic, dt_ns, outputs),
-                     reader.truncated, path, recorded, qos, types, last_output_ns)
+                     reader.truncated, path, recorded, qos, types, last_output_ns,
+                     lockstep_notes)
 
 
 def _xyz(v) -> tuple:
@@ -735,7 +747,7 @@ def verify(path: str) -> Verification:
     as it is read (memory bounded whatever the length)."""
     rec = load(path)
     result = Verification(inputs=len(rec.inputs), truncated=rec.truncated,
-                          recorded=len(rec.outputs),
+                          recorded=len(rec.outputs), lockstep_notes=rec.lockstep_notes,
                           per_topic={t: [0, n] for t, n in rec.recorded_per_topic.items()})
     errors: list[str] = []
     for step, kind, topic, msg, mine, log_time in resimulate(rec, errors):
@@ -1049,6 +1061,10 @@ def _print_verification(path: str, r: Verification) -> int:
     if r.integration_error:
         print(f'  the run went non-finite, as the node did (it paused there): '
               f'{r.integration_error}')
+    for step, text in r.lockstep_notes[:10]:  # what the run did without an answer
+        print(f'  lockstep at step {step}: {text[:200]}')
+    if len(r.lockstep_notes) > 10:
+        print(f'  ... and {len(r.lockstep_notes) - 10} more lockstep notes')
     if r.identical:
         print('identical: every output message re-simulated bit for bit')
         return 0

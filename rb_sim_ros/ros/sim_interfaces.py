@@ -591,26 +591,42 @@ class SimulationInterfaces:
                            f'steps must be from 1 to {most}{more}, got {steps}')
         return None
 
-    def _chunks(self, steps: int):
+    def _chunks(self, steps: int, wait: bool = False):
         """Take ``steps`` physics steps in publish periods (the last one shorter), publishing
         after each; yields the steps done after each period, and returns the Result (a
         failure pauses the node with its reason, given here too). One at a time
-        (``stepping``); a change of the simulation state or a reset stops it."""
+        (``stepping``); a change of the simulation state or a reset stops it. In lockstep,
+        before each period the answers to the last state: ``wait`` yields None while they
+        are not in (the caller gives the executor a turn to take them in); without it, a
+        failure then."""
         epoch = self._epoch
         self.stepping = True
         try:
-            return (yield from self._periods(steps, epoch))
+            return (yield from self._periods(steps, epoch, wait))
         finally:
             self.stepping = False
 
-    def _periods(self, steps: int, epoch: int):
+    def _periods(self, steps: int, epoch: int, wait: bool):
         node = self.node
         done = 0
+        lockstep = node._lockstep
         while done < steps and not node._stop.is_set():
             if not node._paused or self._epoch != epoch:
                 return _result(Result.RESULT_OPERATION_FAILED,
                                f'the simulation state changed after {done} of {steps} steps: '
                                'stopped there')
+            if lockstep is not None and not lockstep.ready.is_set():
+                if node._error_paused:  # a lockstep timeout that errs
+                    return _result(Result.RESULT_OPERATION_FAILED, node.diagnostics.error)
+                if not wait:
+                    return _result(Result.RESULT_OPERATION_FAILED, (
+                        f'lockstep: {lockstep.describe()}, after {done} of {steps} steps; '
+                        'step_simulation holds the executor the answers come through: use '
+                        'the simulate_steps action, or step'))
+                with node._lock:
+                    node.lockstep_poll()
+                yield None
+                continue
             node._wait_for_recorder()  # as the step loop: never outpace the recording
             chunk = min(steps - done, node.config.steps_per_publish)
             with node._lock:
@@ -656,7 +672,7 @@ class SimulationInterfaces:
             result.result = problem
             goal_handle.abort()
             return result
-        chunks = self._chunks(steps)
+        chunks = self._chunks(steps, wait=True)
         while True:
             if goal_handle.is_cancel_requested and not self.stepping:  # before it began
                 result.result = _result(Result.RESULT_OK, 'cancelled before any step')
@@ -667,6 +683,15 @@ class SimulationInterfaces:
             except StopIteration as end:
                 result.result = end.value
                 break
+            if done is None:  # lockstep: the executor takes the answers in meanwhile
+                await self._executor_turn(0.001)
+                if goal_handle.is_cancel_requested:
+                    chunks.close()
+                    result.result = _result(Result.RESULT_OK, 'cancelled while waiting for '
+                                            "lockstep's answers")
+                    goal_handle.canceled()
+                    return result
+                continue
             goal_handle.publish_feedback(SimulateSteps.Feedback(
                 completed_steps=done, remaining_steps=steps - done))
             await self._executor_turn()
@@ -681,7 +706,7 @@ class SimulationInterfaces:
             goal_handle.abort()
         return result
 
-    def _executor_turn(self) -> Future:
+    def _executor_turn(self, delay: float = 0.0) -> Future:
         """A future the executor completes on its next turn (a one-shot timer): awaiting it
         lets the executor serve what waits (a cancel, other services) in between."""
         future = Future()
@@ -690,5 +715,5 @@ class SimulationInterfaces:
             timer.cancel()
             self.node.destroy_timer(timer)
             future.set_result(None)
-        timer = self.node.create_timer(0.0, fire, callback_group=self._turns)
+        timer = self.node.create_timer(delay, fire, callback_group=self._turns)
         return future

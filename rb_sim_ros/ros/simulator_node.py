@@ -66,7 +66,9 @@ from rb_sim_ros.ros import body_ports, node_params, ros_arguments, ros_messages
 from rb_sim_ros.ros.body_ports import APPLIED_QOS, BodyPorts, OVERRIDABLE, TwistInput
 from rb_sim_ros.ros.collision_markers import CollisionMarkers
 from rb_sim_ros.ros.diagnostics import Diagnostics
+from rb_sim_ros.ros.lockstep import HOLD, Lockstep
 from rb_sim_ros.ros.ros_messages import TF, TF_STATIC
+from rb_sim_ros.ros.taken_inputs import TakenInputs
 from rb_sim_ros.sim import precompile
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import (BodySpec, Config, config_after, contact_tests,
@@ -131,8 +133,10 @@ class SimulatorNode(Node):
 
     def __init__(self, **kwargs) -> None:
         super().__init__('rb_sim', **kwargs)
-        self._thread = self._recorder = None
+        self._thread = self._recorder = self._lockstep = self._taken = None
         self._stop = threading.Event()
+        self.done = threading.Event()  # the run ended by itself (stop_after, or its error)
+        self.exit_code = 0
         self._chunk = _CHUNK_STEPS  # steps between two looks at the stop flag (next_chunk)
         try:
             self._start()
@@ -208,8 +212,18 @@ class SimulatorNode(Node):
         self._error_paused = False  # paused by an error (not by a user): reset resumes
         self._failures = 0
         self._periods = 0
+        # For run_summary: when the first period began, and the time spent in periods.
+        self._first_period, self._first_periods, self._work_s = None, 0, 0.0
         self._paused = bool(values['start_paused'])
         self._timeout_steps = 0
+        self._stop_step = math.ceil(values['stop_after'] / self.config.dt - 1e-9) \
+            if values['stop_after'] else 0
+        self._lockstep = Lockstep(None, values['lockstep_delay']) if values['lockstep'] \
+            else None
+        self._resent = 0.0  # when a state was last sent again to a controller not heard yet
+        self._polled = 0  # when lockstep_poll last ran (monotonic ns)
+        # In lockstep the step loop takes the answers itself, not the executor.
+        self._taken = TakenInputs(self.context) if self._lockstep is not None else None
         self.ports: dict[str, BodyPorts] = {}
         single = self._scene is None
         self._noise = node_params.imu_noise(values)
@@ -219,6 +233,9 @@ class SimulatorNode(Node):
                 self.config.bodies[:values['max_body_topics'] if not single else 1]):
             self._add_ports(spec, '' if single else spec.name + '/', single, index)
         self._apply_settings()
+        if self._lockstep is not None:
+            self._declare_inputs(values['lockstep_inputs'])
+            self.diagnostics.lockstep = self._lockstep
         self._tf = self._tf_msg = self._tf_static = self._pub_tf_static = None
         self._tf_static_frames: list = []
         self._tf_static_due = False
@@ -255,6 +272,8 @@ class SimulatorNode(Node):
         # /clock, /tf, poses, ...) never creates, nor truncates, the file.
         self._recorder = _open_recorder(self, values)
         self._set_rate()
+        if self._lockstep is not None:
+            self._lockstep.expect(self.sim.time_ns)
         self._publish()
         self._thread = threading.Thread(target=self._loop, name='rb_sim_step_loop', daemon=True)
         self._thread.start()
@@ -265,6 +284,44 @@ class SimulatorNode(Node):
             f'{values["real_time_factor"]}')
         if self._recorder is not None:
             self.get_logger().info(f"recording to '{os.path.abspath(values['record'])}'")
+        if self._lockstep is not None:
+            declared = self._lockstep.declared
+            self.get_logger().info(
+                'lockstep: each state waits for the answers of ' +
+                (', '.join(f"'{self.ports[b].answers.topic_name}'" for b in declared)
+                 if declared else 'every wrench_stamped with a publisher at step 0') +
+                (f' ({values["lockstep_delay"]} periods of delay)'
+                 if values['lockstep_delay'] else ''))
+        if self._stop_step:
+            self.get_logger().info(f'stopping at t = {self._stop_step * self.config.dt:.9g} s '
+                                   '(stop_after)')
+
+    def _declare_inputs(self, value) -> None:
+        """lockstep_inputs: body names or their wrench_stamped topics (relative to the
+        node's namespace, or absolute); ValueError naming an entry that is neither."""
+        names = node_params.names_list(value)
+        if not names:
+            return
+        topics = {port.answers.topic_name: body for body, port in self.ports.items()
+                  if port.answers is not None}
+        bodies = []
+        for name in names:
+            body = name if name in self.ports else None
+            if body is None:
+                try:
+                    body = topics.get(self.resolve_topic_name(name))
+                except Exception:  # noqa: B902 - rcl's error for a name that is not one
+                    body = None
+            if body is None:
+                raise ValueError(
+                    f"lockstep_inputs: '{name}' is neither a body with topics nor its "
+                    f"wrench_stamped (there are {', '.join(sorted(topics)) or 'none'})")
+            if not self.sim.is_moving(body):
+                raise ValueError(f"lockstep_inputs: '{name}' is a static body: nothing to "
+                                 'command')
+            bodies.append(body)
+        self._lockstep.declared = sorted(set(bodies))
+        self._lockstep.join(self._lockstep.declared)
 
     def _add_ports(self, spec: BodySpec, prefix: str, single: bool, stream: int,
                    moving: bool | None = None) -> None:
@@ -273,7 +330,11 @@ class SimulatorNode(Node):
         self.ports[spec.name] = BodyPorts(
             self, spec.name, prefix, v['world_frame'],
             node_params.body_frame(v, spec.name, single), v['twist_frame'], _Settings(self),
-            self._queue, self._reject, spec.points, moving, self._noise, stream)
+            self._queue, self._reject, spec.points, moving, self._noise, stream,
+            answer=self._answer if self._lockstep is not None else None,
+            answers_group=self._taken.group if self._taken is not None else None)
+        if self._taken is not None:
+            self._taken.add(self.ports[spec.name].answers)
 
     @property
     def templates(self) -> tuple:
@@ -339,7 +400,7 @@ class SimulatorNode(Node):
                 self.sim.apply(event)
             except (ValueError, IntegrationError) as e:
                 if spawn is not None:
-                    self.ports.pop(spawn.name).destroy(self)
+                    self._drop_ports(spawn.name)
                 return str(e)
             self.config = self.sim.config
             step, t_ns = self.sim.step_count, self.sim.time_ns
@@ -349,13 +410,21 @@ class SimulatorNode(Node):
                     topics = self.ports[spawn.name].topics() if not spawn.static else {}
                     self._recorder.spawned(step, t_ns, event, topics)
             else:
-                port = self.ports.pop(event.body, None)
-                if port is not None:
-                    port.destroy(self)
+                self._drop_ports(event.body)
+                if self._lockstep is not None and self._lockstep.leave(event.body):
+                    self.get_logger().info(f"lockstep: '{event.body}' deleted: its answers "
+                                           'are not waited for any more')
                 if self._recorder is not None:
                     self._recorder.deleted(step, t_ns, event.body)
             self._bodies_changed()
         return ''
+
+    def _drop_ports(self, name: str) -> None:
+        port = self.ports.pop(name, None)
+        if port is not None:
+            if self._taken is not None:
+                self._taken.remove(port.answers)
+            port.destroy(self)
 
     def _bodies_changed(self) -> None:
         """What follows the set of bodies: tf, poses, collision markers."""
@@ -424,6 +493,8 @@ class SimulatorNode(Node):
         self._drain()  # inputs queued while paused take effect at this step
         self._paused = self._error_paused = False
         self.diagnostics.error = ''
+        if self._lockstep is not None:  # lockstep_timeout counts from now again
+            self._lockstep.rearm()
         self._anchor()
         self._wake.set()
 
@@ -464,6 +535,10 @@ class SimulatorNode(Node):
             response.success = False
             response.message = 'not paused: call pause with data: true first'
             return response
+        if self._lockstep is not None and not self._lockstep.ready.is_set():
+            response.success = False
+            response.message = f'lockstep: {self._lockstep.describe()}'
+            return response
         with self._lock:
             failures = self._failures
             self._guarded(self._period)
@@ -502,10 +577,15 @@ class SimulatorNode(Node):
         if self._compiling is not None:
             self._check_compiling()
         if self._paused:
-            self._wake.wait(0.1)
-            self._wake.clear()
+            if self._taken is not None:  # lockstep: its answers are taken while paused too
+                self._taken.take(0.02)
+            else:
+                self._wake.wait(0.1)
+                self._wake.clear()
             with self._lock:  # /diagnostics goes on while paused (it may say why)
                 self.diagnostics.maybe_publish(self, self._v['real_time_factor'])
+        elif self._lockstep is not None:
+            self._lockstep_once()
         elif self._period_wall_ns == 0.0:  # as fast as possible
             self._wait_for_recorder()
             self._periods_now(10, as_fast_as_possible=True)
@@ -521,6 +601,34 @@ class SimulatorNode(Node):
             with self._lock:
                 due = self._tick(now, now - due_at)
             self._periods_now(due, as_fast_as_possible=False)
+
+    def _lockstep_once(self) -> None:
+        """The step loop in lockstep: it takes the answers itself (taken_inputs), and steps
+        a period once they are all in (as soon as they are at real_time_factor 0, else when
+        the period is due too); while they are not, it says who is missing now and then."""
+        ls = self._lockstep
+        now = time.monotonic_ns()
+        if ls.ready.is_set():
+            if self._period_wall_ns == 0.0:
+                self._wait_for_recorder()
+                self._periods_now(1, as_fast_as_possible=True)
+                return
+            due_at = self._anchor_wall + (self._periods + 1 - self._anchor_period) * \
+                self._period_wall_ns
+            if now < due_at:
+                self._taken.take(min((due_at - now) * 1e-9, 0.05))
+                return
+            self._wait_for_recorder()
+            with self._lock:
+                due = self._tick(now, now - due_at)
+            self._periods_now(due, as_fast_as_possible=False)
+            return
+        self._taken.take(0.05)
+        if not ls.ready.is_set() and now - self._polled >= 50_000_000:
+            self._polled = now
+            with self._lock:
+                if not self._paused and not ls.ready.is_set():
+                    self.lockstep_poll()
 
     def _check_compiling(self) -> None:
         """Once the child compiling the kernels is done, go on with them (loaded from the
@@ -554,10 +662,12 @@ class SimulatorNode(Node):
     def _periods_now(self, count: int, as_fast_as_possible: bool) -> None:
         """Up to ``count`` periods, the lock taken for each (a service waits one at most);
         stops early on a pause, on shutdown, or when real_time_factor changes mode."""
+        lockstep = self._lockstep
         for _ in range(count):
             with self._lock:
                 if self._paused or self._stop.is_set() or \
-                        (self._period_wall_ns == 0.0) != as_fast_as_possible:
+                        (self._period_wall_ns == 0.0) != as_fast_as_possible or \
+                        (lockstep is not None and not lockstep.ready.is_set()):
                     return
                 self._period()
 
@@ -587,6 +697,12 @@ class SimulatorNode(Node):
     def _period(self, steps: int | None = None) -> None:
         """One publish period (or ``steps`` physics steps): apply inputs, step, publish."""
         sim = self.sim
+        started = time.perf_counter()
+        if self._first_period is None:
+            self._first_period, self._first_periods = started, self._periods
+        if self._lockstep is not None:  # the answers due now, before any other input
+            for body, answer in self._lockstep.take():
+                self._answered(body, answer)
         self._drain()
         if self._timeout_steps:
             for port in self._moving:
@@ -599,6 +715,8 @@ class SimulatorNode(Node):
             # In chunks, so that a long period (many steps, many bodies) still stops at once
             # on shutdown; chunking does not change a run.
             end = start + (self.config.steps_per_publish if steps is None else steps)
+            if self._stop_step:
+                end = min(end, max(start, self._stop_step))
             while sim.step_count < end and not self._stop.is_set():
                 n = min(end - sim.step_count, self._chunk)
                 chunk_t0 = time.perf_counter()
@@ -616,8 +734,120 @@ class SimulatorNode(Node):
             self.diagnostics.recording_error = recorder.failed  # what, where, what to do
             self.get_logger().error(f'{recorder.failed}; simulating on without it')
             recorder.close()
-        if not self._stop.is_set():
-            self._publish()
+        if self._stop.is_set():
+            return
+        final = self._stop_step and sim.step_count >= self._stop_step
+        if self._lockstep is not None:  # (the last state's answers are taken, never applied)
+            self._lockstep.expect(sim.time_ns)  # before the state goes out: answers may race
+        self._publish()
+        self._work_s += time.perf_counter() - started
+        if final:
+            self.get_logger().info(f'stop_after: stepped to t = {sim.time_ns * 1e-9:.9f} s; '
+                                   'ending the run')
+            self._finish(0)
+
+    def run_summary(self) -> str:
+        """A run that ends by itself, or in lockstep: its periods a second from its first
+        step, the node's own work a period, and lockstep's counts ('' for other runs)."""
+        lockstep, first = self._lockstep, self._first_period
+        if not (self._stop_step or lockstep is not None) or first is None or \
+                self._periods <= self._first_periods:
+            return ''
+        n = self._periods - self._first_periods
+        wall = time.perf_counter() - first
+        text = (f'{n} periods in {wall:.3f} s ({n / wall:.0f} periods/s); the node'
+                f"'s own work {self._work_s / n * 1e6:.0f} us a period")
+        if lockstep is not None:
+            c = lockstep.counters
+            text += (f'; lockstep: {c.waited_ns * 1e-9 / wall:.0%} of the time waiting for '
+                     f'answers, refused {c.refused}, repeated {c.repeated}, timed out '
+                     f'{c.timeouts}')
+        return text
+
+    def _finish(self, code: int) -> None:
+        """End the run by itself (stop_after, or a lockstep timeout that ends it): the step
+        loop stops, and main() closes the node (the recording finished) and exits ``code``."""
+        self.exit_code = code
+        self._stop.set()
+        self.done.set()
+
+    # -- lockstep --------------------------------------------------------------------------
+    def _answer(self, body: str, stamp_ns: int, answer) -> bool:
+        """A wrench_stamped of ``body`` (the executor's thread): True if lockstep took it or
+        refused it, False if it is an ordinary input (not a lockstep input)."""
+        ls = self._lockstep
+        why = ls.offer(body, stamp_ns, answer)
+        if why == 'open':
+            return False
+        if why:
+            self.get_logger().warning(f"lockstep: refused an answer on '{body}': {why}",
+                                      throttle_duration_sec=1.0)
+        return True
+
+    def _answered(self, body: str, answer) -> None:
+        """Apply a lockstep answer now: a wrench, or HOLD (no change, but a command all the
+        same: command_timeout counts from it)."""
+        if answer is HOLD:
+            port = self.ports.get(body)
+            if port is not None:
+                port.last_command_step = self.sim.step_count
+        else:
+            self._apply(answer)
+
+    def lockstep_poll(self) -> None:
+        """While the answers to a state are not all in (the lock held): take in inputs that
+        came or went, send the state again to a controller not heard from yet, time out as
+        lockstep_timeout says, and keep /diagnostics saying what is awaited."""
+        ls = self._lockstep
+        if not ls.started:  # before step 0: every input there is (or was declared) waits
+            if ls.declared is None:
+                ls.join(b for b, p in self.ports.items()
+                        if self.sim.is_moving(b) and p.answering())
+            else:
+                ls.join(ls.declared)
+        for body in ls.missing():  # gone: no publisher any more (a controller that stopped)
+            port = self.ports.get(body)
+            if (ls.started or ls.declared is None) and (port is None or not port.answering()):
+                if ls.leave(body):
+                    self._lockstep_note('left', [body], f"'{body}' has no controller any "
+                                        'more: not waited for (its wrench held)')
+        now = time.monotonic()
+        if ls.unheard() and now - self._resent > 0.25:  # its subscription may have come late
+            self._resent = now
+            self._republish()
+        for note in ls.notes:
+            self.get_logger().info(f'lockstep: {note}')
+        ls.notes.clear()
+        timeout = self._v['lockstep_timeout']
+        if timeout and ls.waited() >= timeout and not ls.ready.is_set():
+            late = ls.missing()
+            who = ', '.join(late) if late else 'any controller (none has a publisher)'
+            if self._v['lockstep_on_timeout'] == 'hold':
+                ls.time_out()
+                self._lockstep_note('timeout', late, f'no answer from {who} within '
+                                    f'lockstep_timeout ({timeout:g} s): stepping on with '
+                                    'their wrenches held')
+            else:
+                self._lockstep_note('timeout', late, '')
+                self._fail(f'lockstep: no answer from {who} to t = {ls.awaited * 1e-9:.9f} s '
+                           f'within lockstep_timeout ({timeout:g} s)')
+                if self._stop_step:
+                    self._finish(3)
+        self.diagnostics.maybe_publish(self, self._v['real_time_factor'])
+
+    def _lockstep_note(self, what: str, bodies: list, text: str) -> None:
+        if text:
+            self.get_logger().warning(f'lockstep: {text}')
+        if self._recorder is not None:
+            self._recorder.lockstep(self.sim.step_count, self.sim.time_ns, what, bodies)
+
+    def _republish(self) -> None:
+        for port in self.ports.values():
+            port.republish()
+        if self._tf is not None and self._tf.get_subscription_count():
+            self._tf.publish(self._tf_msg)
+        if self._pub_clock is not None:
+            self._pub_clock.publish(self._clock_msg)
 
     def _apply(self, event, command: bool = True) -> None:
         if isinstance(event, EntityStateInput):  # pose and twist, now in the world frame
@@ -664,12 +894,14 @@ class SimulatorNode(Node):
         failed = False
         for port in self.ports.values():
             moving = sim.is_moving(port.name)  # a static body is not recorded: it never moves
-            if not port.publish(sim, self._recorder if moving else None):
+            if not port.publish(sim, self._recorder if moving else None,
+                                fill=self._lockstep is not None):
                 failed = True
                 self._fail(f"body '{port.name}' has a non-finite state at step "
                            f'{sim.step_count}; not published')
         if self._tf is not None and not failed and (
-                self._recorder is not None or self._tf.get_subscription_count()):
+                self._recorder is not None or self._lockstep is not None or
+                self._tf.get_subscription_count()):
             ros_messages.fill_tf(self._tf_msg, t_ns,
                                  [sim.pose_twist(p.name)[:2] for p in self._moving])
             self._tf.publish(self._tf_msg)
@@ -759,6 +991,9 @@ class SimulatorNode(Node):
         if thread is not None and thread.is_alive() and \
                 threading.current_thread() is not thread:
             thread.join()
+        summary = self.run_summary()
+        if summary:  # said on stderr, as below
+            print(f'[rb_sim] {summary}', file=sys.stderr)
         recorder, self._recorder = self._recorder, None
         if recorder is not None:
             recorder.close()
@@ -805,6 +1040,9 @@ def config_from(v: dict, scene=None) -> Config:
                 if name == v['world_frame']:
                     raise ValueError(f"body '{b.name}': point '{name}' is named like "
                                      'world_frame: rename one of them')
+                if name == HOLD and v.get('lockstep'):
+                    raise ValueError(f"body '{b.name}': point '{name}' is named like "
+                                     "lockstep's answer of no change: rename it")
         integrator = v['integrator'] or scene.integrator or integrator
     else:
         gravity = (0.0, 0.0, 0.0)
@@ -908,7 +1146,7 @@ def main(args=None) -> int:
         executor.add_node(node)
         running.append(node)
         starting[0] = False
-        while not stop.is_set():
+        while not stop.is_set() and not node.done.is_set():
             try:
                 executor.spin_once(timeout_sec=0.1)
             except (KeyboardInterrupt, ExternalShutdownException):
@@ -926,7 +1164,7 @@ def main(args=None) -> int:
         rclpy.try_shutdown()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
-    return 0
+    return node.exit_code if node is not None else 0
 
 
 if __name__ == '__main__':
