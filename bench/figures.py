@@ -335,6 +335,21 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     spawned = list(compiled['node balls, a crate spawned']['parts'].values())[-1]
     q.append((readme, "**Compiled for the scene's shapes**",
               f'a crate spawned among the balls: {spawned:.0f} s more'))
+    lock = load('lockstep_bench', folder)
+    one, two = lock['one_controller'], lock['two_controllers']
+    rec, op = lock['one_recorded'], lock['open_loop']
+    q.append((readme, '#Lockstep', 'one body and its controller make '
+              f"{one['periods_per_s']:,.0f} round trips a second "
+              f"({1e6 / one['periods_per_s'] / 1e3:.2f} ms each"))
+    q.append((readme, '#Lockstep', f"{rec['periods_per_s']:,.0f} when recorded; two bodies with "
+              f"a controller each {two['periods_per_s']:,.0f}."))
+    q.append((readme, '#Lockstep', f"open loop steps {op['periods_per_s']:,.0f} periods a second, "
+              f"so lockstep costs {op['periods_per_s'] / one['periods_per_s']:.0f}x"))
+    q.append((readme, '#Lockstep', f"makes {lock['rclpy_ping_pong_per_s']:,.0f} round trips a "
+              'second in the same run'))
+    q.append((readme, '#Lockstep', f"the node's own work is {one['own_work_us']:.0f} us"))
+    q.append((readme, '#Lockstep', 'are identical in every field'
+              if all(lock['identical'].values()) else 'are not all identical'))
     return q
 
 

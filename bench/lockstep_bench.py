@@ -4,7 +4,7 @@
 """Lockstep round trips a second, what they cost against the open loop, what bounds them, and
 whether a closed loop repeats bit for bit under load and at any pace.
 
-    python bench/lockstep_bench.py [--seconds 20] [--no-write]
+    python bench/lockstep_bench.py [--quick] [--seconds 20] [--no-write]
 
 Each case is a fresh simulator process (``python -m rb_sim_ros.ros.simulator_node``) run to
 ``stop_after`` at real_time_factor 0 (as fast as possible), with ``examples/
@@ -23,7 +23,7 @@ start-up not included):
 * four recordings of the same closed loop (idle and with both cores kept busy by two CPU-bound
   processes, at real_time_factor 0 and 1): compared field by field (``same_run``).
 
-Writes docs/bench/lockstep_bench.json (unless --no-write).
+Writes docs/bench/lockstep_bench.json (unless --no-write; --quick, 1 s runs, writes none).
 """
 
 from __future__ import annotations
@@ -102,17 +102,18 @@ def environment() -> dict:
 
 
 def run(sim_args, controllers, seconds: float, work: Path, name: str,
-        load: bool = False) -> dict:
+        load: bool = False, record: bool = True) -> dict:
     """One simulator run to ``seconds`` of sim time with the ``controllers`` (their extra
     arguments each); returns the figures of its exit line and the recording's path."""
     env = environment()
-    record = work / f'{name}.mcap'
+    path = work / f'{name}.mcap'
     burners = [subprocess.Popen([sys.executable, '-c', 'while True: pass'])
                for _ in range(2 if load else 0)]
     sim = subprocess.Popen(
         [sys.executable, '-m', 'rb_sim_ros.ros.simulator_node', '--ros-args',
          '-p', f'stop_after:={seconds}', '-p', f'inertia:={INERTIA}',
-         '-p', f'record:={record}', '-p', 'record_overwrite:=true', *sim_args],
+         *(['-p', f'record:={path}', '-p', 'record_overwrite:=true'] if record else []),
+         *sim_args],
         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=work)
     procs = [subprocess.Popen([sys.executable, str(CONTROLLER), '--ros-args',
                                '-p', f'inertia:={INERTIA}',
@@ -133,7 +134,7 @@ def run(sim_args, controllers, seconds: float, work: Path, name: str,
     return {'periods': int(periods), 'wall_s': float(wall),
             'periods_per_s': int(periods) / float(wall), 'own_work_us': float(own),
             'waiting_fraction': int(waiting) / 100 if waiting else 0.0,
-            'recording': str(record)}
+            'recording': str(path)}
 
 
 def ping_pong(n: int) -> float:
@@ -153,25 +154,32 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--seconds', type=float, default=20.0,
                         help='sim seconds of each rate run (100 periods a second)')
+    parser.add_argument('--quick', action='store_true', help='1 s runs; writes nothing')
     parser.add_argument('--no-write', action='store_true')
     opts = parser.parse_args()
+    if opts.quick:
+        opts.seconds, opts.no_write = 1.0, True
     from rb_sim_ros.ros.node_recorder import same_run
     work = Path(tempfile.mkdtemp(prefix='lockstep_bench_'))
     fast = ['-p', 'real_time_factor:=0.0']
     lock = ['-p', 'lockstep:=true']
     t0 = time.time()
     print("lockstep round trips (periods/s at real_time_factor 0, the node's own count):")
-    one = run(fast + lock, [[]], opts.seconds, work, 'one')
+    one = run(fast + lock, [[]], opts.seconds, work, 'one', record=False)
     print(f"  one body + its controller: {one['periods_per_s']:.0f} periods/s "
           f"({1e6 / one['periods_per_s']:.0f} us a round trip; the node's own work "
           f"{one['own_work_us']:.0f} us a period, waiting {one['waiting_fraction']:.0%})")
+    one_rec = run(fast + lock, [[]], opts.seconds, work, 'one-recorded')
+    print(f"  the same, recorded: {one_rec['periods_per_s']:.0f} periods/s (the node's own "
+          f"work {one_rec['own_work_us']:.0f} us a period)")
     scene = work / 'two.yaml'
     scene.write_text('bodies:\n  - {name: a, mass: 1.0, inertia: ' + INERTIA + '}\n'
                      '  - {name: b, mass: 1.0, inertia: ' + INERTIA + '}\n')
     two = run(fast + lock + ['-p', f'scene_file:={scene}', '-p', 'lockstep_inputs:=[a, b]'],
-              [['-r', '__ns:=/a'], ['-r', '__ns:=/b']], opts.seconds, work, 'two')
+              [['-r', '__ns:=/a'], ['-r', '__ns:=/b']], opts.seconds, work, 'two',
+              record=False)
     print(f"  two bodies + two controllers: {two['periods_per_s']:.0f} periods/s")
-    open_loop = run(fast, [], opts.seconds * 10, work, 'open')
+    open_loop = run(fast, [], opts.seconds * 10, work, 'open', record=False)
     print(f"  the same body open loop (no controller): {open_loop['periods_per_s']:.0f} "
           f"periods/s: lockstep costs {open_loop['periods_per_s'] / one['periods_per_s']:.0f}x")
     floor = ping_pong(int(max(1000, opts.seconds * 100)))
@@ -185,15 +193,20 @@ def main() -> int:
             runs[name] = run(lock + ['-p', f'real_time_factor:={rtf}',
                                      '-p', 'imu_gyro_noise:=0.01'],
                              [['-p', 'source:=imu', '-p', 'answer_delay_max:=0.002']],
-                             3.0, work, name, load=load)['recording']
+                             1.0 if opts.quick else 3.0, work, name,
+                             load=load)['recording']
     first = next(iter(runs))
     same = {name: same_run(runs[first], path) for name, path in runs.items()}
     for name, diff in same.items():
         print(f'  {name}: ' + ('identical to ' + first if not diff else f'DIFFERS: {diff}'))
     print(f'({time.time() - t0:.0f} s)')
     if not opts.no_write:
+        for row in (one, one_rec, two, open_loop):
+            row.pop('recording')  # (a temporary file)
         path = figures.write(figures.DOCS_BENCH / 'lockstep_bench.json', {
-            'seconds': opts.seconds, 'one_controller': one, 'two_controllers': two,
+            'quick': False, 'seconds': opts.seconds, 'one_controller': one,
+            'one_recorded': one_rec,
+            'two_controllers': two,
             'open_loop': open_loop, 'rclpy_ping_pong_per_s': floor,
             'identical': {name: not diff for name, diff in same.items()}})
         print(f'wrote {path}')

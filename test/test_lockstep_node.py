@@ -28,7 +28,7 @@ from ros_harness import stamp_ns
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'examples'))
 ctl = importlib.import_module('attitude_controller')
-loop = importlib.import_module('closed_loop_test')
+loop = importlib.import_module('closed_loop_ci')
 
 BURN = 'while True: pass'
 
@@ -212,3 +212,12 @@ def test_timeouts_and_a_controller_that_leaves_end_the_run_as_asked(start_sim, p
     notes = [json.loads(m.message.data) for m in
              RecordingReader(str(left)).messages(topics=[node_recorder.LOCKSTEP])]
     assert notes == [{'event': 'left', 'inputs': ['body']}]
+
+
+def test_the_closed_loop_ci_example_of_the_readme_passes(installed, ros_env, tmp_path,
+                                                         monkeypatch):
+    """examples/closed_loop_ci.py as a user runs it (pytest examples/closed_loop_ci.py), on
+    the suite's own ROS domain."""
+    monkeypatch.setattr(loop, 'ros_environment', lambda: dict(ros_env))
+    loop.test_the_attitude_controller_settles_as_its_gains_promise(tmp_path)
+    assert (tmp_path / 'run.mcap').stat().st_size > 0

@@ -138,6 +138,10 @@ class Lockstep:
             self._waiting_since = time.monotonic()
             self._update()
 
+    def sent(self) -> None:
+        """The awaited state is out: the wait for its answers starts now."""
+        self._waiting_since = time.monotonic()
+
     def _update(self) -> None:
         answered = all(m.answered == self.awaited for m in self.members.values()
                        if m.body not in self._timed_out)

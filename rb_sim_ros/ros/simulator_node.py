@@ -13,7 +13,11 @@ pose, twist, odom and /clock after each. The executor thread only queues inputs 
 services, so it sleeps while nothing arrives: rclpy's executor rebuilds its wait set on every
 wake-up (ros2/design#305), which at 1 kHz would cost most of a core if it also drove the steps.
 Inputs take effect at the start of the next period (at once while paused); what a run does
-depends only on the inputs and the step at which each took effect, never on scheduling.
+depends only on the inputs and the step at which each took effect, never on scheduling. In
+lockstep (ros/lockstep.py) the step loop also waits, after each publish, for every
+controller's answer to the state it published, and takes those answers itself
+(ros/taken_inputs.py): a closed loop then depends on what the controllers answered, never on
+when.
 
 Collisions. When a body of the scene has colliders the Simulation steps a CollisionWorld, and
 ``collision_markers`` (visualization_msgs/MarkerArray: the colliders and the last step's
@@ -740,6 +744,8 @@ class SimulatorNode(Node):
         if self._lockstep is not None:  # (the last state's answers are taken, never applied)
             self._lockstep.expect(sim.time_ns)  # before the state goes out: answers may race
         self._publish()
+        if self._lockstep is not None:
+            self._lockstep.sent()
         self._work_s += time.perf_counter() - started
         if final:
             self.get_logger().info(f'stop_after: stepped to t = {sim.time_ns * 1e-9:.9f} s; '
@@ -899,12 +905,14 @@ class SimulatorNode(Node):
                 failed = True
                 self._fail(f"body '{port.name}' has a non-finite state at step "
                            f'{sim.step_count}; not published')
+        listened = self._tf is not None and self._tf.get_subscription_count()
         if self._tf is not None and not failed and (
-                self._recorder is not None or self._lockstep is not None or
-                self._tf.get_subscription_count()):
+                self._recorder is not None or self._lockstep is not None or listened):
+            # (in lockstep filled all the same: a state not answered is sent again)
             ros_messages.fill_tf(self._tf_msg, t_ns,
                                  [sim.pose_twist(p.name)[:2] for p in self._moving])
-            self._tf.publish(self._tf_msg)
+            if listened or self._recorder is not None:
+                self._tf.publish(self._tf_msg)
             if self._recorder is not None:
                 self._recorder.tf(TF, sim.step_count, t_ns, self._tf_msg)
         if self._pub_poses.get_subscription_count():

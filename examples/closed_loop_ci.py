@@ -4,7 +4,7 @@
 """A closed-loop controller test for CI: the simulator in lockstep with the controller, a run
 that ends by itself, and assertions on its recording.
 
-    pytest examples/closed_loop_test.py       # (a ROS install sourced, or the venv's)
+    pytest examples/closed_loop_ci.py       # (a ROS install sourced, or the venv's)
 
 The simulator waits for the controller's answer to every state it publishes before it steps
 on (``lockstep:=true``), so the run is the same, bit for bit, on a laptop, on a loaded CI
@@ -100,9 +100,7 @@ def attitude_errors(path: Path, topic: str = '/odom', target_rpy=TARGET_RPY):
 
 def test_the_attitude_controller_settles_as_its_gains_promise(tmp_path):
     run = closed_loop(tmp_path / 'run.mcap', sim_args=['-p', 'real_time_factor:=0.0'])
-    t, angle = attitude_errors(run)
-    assert t[-1] == 4.0 and angle[0] > 1.0  # the whole run, from a large first turn
-    outside = np.nonzero(angle > 0.02 * angle[0])[0]
-    settled_at = t[outside[-1] + 1]
-    assert settled_at < 1.5 * 4.0 / (ZETA * WN)  # 2 % settling: 4 / (zeta wn) = 2.5 s
+    t, angle = attitude_errors(run)                    # from the recorded odom
+    settled_at = t[np.nonzero(angle > 0.02 * angle[0])[0][-1] + 1]
+    assert settled_at < 1.5 * 4.0 / (ZETA * WN)        # 2 % settling, with margin
     assert angle[-1] < 0.005
