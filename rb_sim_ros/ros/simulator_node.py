@@ -76,7 +76,7 @@ from rb_sim_ros.ros.taken_inputs import TakenInputs
 from rb_sim_ros.sim import precompile
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import (BodySpec, Config, config_after, contact_tests,
-                                       ContactSettings, kernels_after, Reset, SetTwist,
+                                       ContactSettings, Delete, kernels_after, Reset, SetTwist,
                                        SetWrench, Simulation, Spawn, warm_up_bodies,
                                        warm_up_contacts)
 
@@ -141,6 +141,10 @@ class SimulatorNode(Node):
         self._stop = threading.Event()
         self.done = threading.Event()  # the run ended by itself (stop_after, or its error)
         self.exit_code = 0
+        # For run_summary (close() may run on a node that did not finish starting): when the
+        # first period began, the periods then, the time spent in periods.
+        self._first_period, self._first_periods, self._work_s = None, 0, 0.0
+        self._periods = self._stop_step = 0
         self._chunk = _CHUNK_STEPS  # steps between two looks at the stop flag (next_chunk)
         try:
             self._start()
@@ -215,9 +219,6 @@ class SimulatorNode(Node):
         self._wake = threading.Event()
         self._error_paused = False  # paused by an error (not by a user): reset resumes
         self._failures = 0
-        self._periods = 0
-        # For run_summary: when the first period began, and the time spent in periods.
-        self._first_period, self._first_periods, self._work_s = None, 0, 0.0
         self._paused = bool(values['start_paused'])
         self._timeout_steps = 0
         self._stop_step = math.ceil(values['stop_after'] / self.config.dt - 1e-9) \
@@ -377,50 +378,80 @@ class SimulatorNode(Node):
         under the lock after the queued inputs (a pose relative to another body is resolved
         against that body's state then); its ValueError propagates and nothing changes.
         Returns '' or why it was refused (then nothing changed)."""
+        index, why, placing = self.change_all([(event, place)])
+        if placing:
+            raise ValueError(why)
+        return why
+
+    def change_all(self, changes) -> tuple[int, str, bool]:
+        """Apply every (event, place) of ``changes`` as change_bodies does, all at the same
+        step, or none: (-1, '', False) when all were applied, else (the index of the one
+        refused, why, whether its ``place`` refused it with a ValueError), the ones before it
+        taken back (each spawn then deleted at the same step: both recorded)."""
         # The first moving collider of the run, or the last one deleted: the kernels that
         # then step the bodies compiled (or loaded) now, before the lock, not while the step
         # loop waits (a scene's start compiled the kernels of its own kind only).
-        kind = kernels_after(self.sim, event)
-        if kind == 'contact':  # the world's step with the tests the bodies then need
-            after = config_after(self.config, event)
+        kinds = [kernels_after(self.sim, event) for event, _ in changes]
+        if 'contact' in kinds:  # the world's step with the tests the bodies then need
+            after = self.config
+            for event, _ in changes:
+                after = config_after(after, event)
             warm_up_contacts(after, contact_tests(after, self.sim.world))
-        elif kind is not None:
-            warm_up_bodies(self.config, blocks=kind == 'blocks')
+        elif any(k is not None for k in kinds):
+            warm_up_bodies(self.config, blocks='blocks' in kinds)
         with self._lock:
             if not self._guarded(self._drain):
-                return self.diagnostics.error
-            if place is not None:
-                event = Spawn(place(event.spec))
-            spawn = event.spec if isinstance(event, Spawn) else None
-            if spawn is not None:
-                if any(b.name == spawn.name for b in self.config.bodies):
-                    return f"there is a body named '{spawn.name}' already"
-                try:  # its topics first: a bad QoS override refuses the spawn whole
-                    self._add_ports(spawn, spawn.name + '/', False, self._next_stream,
-                                    moving=not spawn.static)
+                return 0, self.diagnostics.error, False
+            done = []
+            for index, (event, place) in enumerate(changes):
+                placing = False
+                try:
+                    if place is not None:
+                        event = Spawn(place(event.spec))
                 except ValueError as e:
-                    return str(e)
-            try:
-                self.sim.apply(event)
-            except (ValueError, IntegrationError) as e:
-                if spawn is not None:
-                    self._drop_ports(spawn.name)
+                    why, placing = str(e), True
+                else:
+                    why = self._change(event)
+                if why:
+                    for spawned in reversed(done):  # taken back: none of them
+                        self._change(Delete(spawned))
+                    return index, why, placing
+                if isinstance(event, Spawn):
+                    done.append(event.spec.name)
+        return -1, '', False
+
+    def _change(self, event) -> str:
+        """change_bodies' work, the lock held: '' or why nothing changed."""
+        spawn = event.spec if isinstance(event, Spawn) else None
+        if spawn is not None:
+            if any(b.name == spawn.name for b in self.config.bodies):
+                return f"there is a body named '{spawn.name}' already"
+            try:  # its topics first: a bad QoS override refuses the spawn whole
+                self._add_ports(spawn, spawn.name + '/', False, self._next_stream,
+                                moving=not spawn.static)
+            except ValueError as e:
                 return str(e)
-            self.config = self.sim.config
-            step, t_ns = self.sim.step_count, self.sim.time_ns
+        try:
+            self.sim.apply(event)
+        except (ValueError, IntegrationError) as e:
             if spawn is not None:
-                self._next_stream += 1
-                if self._recorder is not None:
-                    topics = self.ports[spawn.name].topics() if not spawn.static else {}
-                    self._recorder.spawned(step, t_ns, event, topics)
-            else:
-                self._drop_ports(event.body)
-                if self._lockstep is not None and self._lockstep.leave(event.body):
-                    self.get_logger().info(f"lockstep: '{event.body}' deleted: its answers "
-                                           'are not waited for any more')
-                if self._recorder is not None:
-                    self._recorder.deleted(step, t_ns, event.body)
-            self._bodies_changed()
+                self._drop_ports(spawn.name)
+            return str(e)
+        self.config = self.sim.config
+        step, t_ns = self.sim.step_count, self.sim.time_ns
+        if spawn is not None:
+            self._next_stream += 1
+            if self._recorder is not None:
+                topics = self.ports[spawn.name].topics() if not spawn.static else {}
+                self._recorder.spawned(step, t_ns, event, topics)
+        else:
+            self._drop_ports(event.body)
+            if self._lockstep is not None and self._lockstep.leave(event.body):
+                self.get_logger().info(f"lockstep: '{event.body}' deleted: its answers "
+                                       'are not waited for any more')
+            if self._recorder is not None:
+                self._recorder.deleted(step, t_ns, event.body)
+        self._bodies_changed()
         return ''
 
     def _drop_ports(self, name: str) -> None:
