@@ -22,11 +22,12 @@ from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import Imu
 from simulation_interfaces.action import SimulateSteps
 from simulation_interfaces.msg import (EntityCategory, EntityState, Result, SimulationState,
-                                       SimulatorFeatures)
+                                       SimulatorFeatures, SpawnResult)
+from simulation_interfaces.msg import SpawnEntity as SpawnRequest
 from simulation_interfaces.srv import (DeleteEntity, GetEntities, GetEntityState,
                                        GetSimulationState, GetSimulatorFeatures, GetSpawnables,
                                        ResetSimulation, SetEntityState, SetSimulationState,
-                                       SpawnEntity, StepSimulation)
+                                       SpawnEntities, SpawnEntity, StepSimulation)
 
 from rb_sim_ros.ros.body_ports import APPLIED_QOS
 from ros_harness import stamp_ns
@@ -48,7 +49,7 @@ def _bits(*values) -> bytes:
 
 
 def test_every_interface_has_jazzys_type_hash():
-    """The hashes rosidl gave our files equal those it gives the 1.2.0 release's own files
+    """The hashes rosidl gave our files equal those it gives the 1.5.1 release's own files
     (the fixture; how it was made is in its _source): real clients interoperate."""
     share = Path(importlib.util.find_spec('simulation_interfaces').origin).parents[3] / \
         'share' / 'simulation_interfaces'
@@ -60,7 +61,7 @@ def test_every_interface_has_jazzys_type_hash():
         name = f'simulation_interfaces/{f.parent.name}/{f.stem}'
         ours[name] = {h['type_name']: h['hash_string']
                       for h in json.loads(f.read_text())['type_hashes']}[name]
-    assert len(HASHES) == 35 and ours == HASHES
+    assert len(HASHES) == 38 and ours == HASHES
 
 
 def _state(probe, name):
@@ -483,3 +484,68 @@ def test_spawned_and_deleted_bodies_move_publish_and_replay(
     assert counts['/rb_sim/input/ball_2/delete'] == 1 and counts['/late/imu'] > 5
     assert counts['/ball/pose'] > 0
     assert counts['/tf_static'] == 3  # at the start, after post came and after it went
+
+
+def _many(probe, *requests):
+    """spawn_entities of (name, uri, resource, position, frame) requests: the call's result
+    code and each request's (code, name)."""
+    req = SpawnEntities.Request()
+    for name, uri, resource, position, frame in requests:
+        r = SpawnRequest(name=name)
+        r.entity_resource.uri, r.entity_resource.resource_string = uri, resource
+        p = r.initial_pose.pose.position
+        p.x, p.y, p.z = position
+        r.initial_pose.header.frame_id = frame
+        req.spawn_requests.append(r)
+    reply = probe.call(SpawnEntities, 'spawn_entities', req)
+    return reply.result.result, [(r.result.result, r.entity_name) for r in reply.results]
+
+
+def test_spawn_entities_spawns_all_at_one_step_or_none(start_sim, probe, tmp_path):
+    """simulation_interfaces 1.5's spawn_entities: every request or none, each refusal with
+    its code (the others saying they were not spawned because of it), all at the same step;
+    a later request may be placed in the frame of an earlier one. Recorded, and replayed bit
+    for bit, refusals at the step itself (taken back) included."""
+    from rb_sim_ros.recording.reader import RecordingReader
+    from rb_sim_ros.ros import replay
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(SPAWN_SCENE)
+    f = tmp_path / 'run.mcap'
+    sim = start_sim('-p', f'scene_file:={scene}', '-p', 'start_paused:=true',
+                    '-p', f'record:={f}', '-p', 'qos_overrides./bad/imu.publisher.depth:=-5')
+    features = probe.call(GetSimulatorFeatures, 'get_simulator_features',
+                          GetSimulatorFeatures.Request()).features.features
+    assert SimulatorFeatures.SPAWNING_ENTITIES in features
+    names = _names(probe)
+    failed, not_spawned = SpawnEntities.Response.ENTITIES_SPAWN_FAILED, \
+        Result.RESULT_OPERATION_FAILED
+    # Refused before the step: by its own code; nothing spawned.
+    code, results = _many(probe, ('a', 'ball', '', (0.0, 0.0, 1.0), ''),
+                          ('b', 'ball', '', (float('nan'), 0.0, 1.0), ''),
+                          ('a', 'ball', '', (1.0, 0.0, 1.0), ''))
+    assert code == failed and [c for c, _ in results] == \
+        [not_spawned, SpawnResult.INVALID_POSE, SpawnResult.NAME_NOT_UNIQUE]
+    code, results = _many(probe, ('c', 'ball', '', (0.0, 0.0, 1.0), ''),
+                          ('d', 'nothing', '', (0.0, 0.0, 1.0), ''))
+    assert code == failed and [c for c, _ in results] == \
+        [not_spawned, SpawnResult.UNSUPPORTED_FORMAT]
+    # Refused at the step (a topic cannot be made): the one before it taken back.
+    code, results = _many(probe, ('e', 'ball', '', (0.0, 0.0, 1.0), ''),
+                          ('bad', 'ball', '', (0.0, 0.0, 2.0), ''))
+    assert code == failed and results == [(not_spawned, ''), (not_spawned, '')]
+    assert _names(probe) == names
+    # All of them, the second placed in the frame of the first.
+    code, results = _many(probe, ('a', 'ball', '', (0.0, 0.0, 1.0), ''),
+                          ('b', '', '{mass: 1, inertia: [0.1, 0.1, 0.1]}', (0.0, 0.0, 1.0),
+                           'a'))
+    assert code == OK and results == [(OK, 'a'), (OK, 'b')]
+    assert _names(probe) == names + ['a', 'b']
+    assert _bits(*_pose(_state(probe, 'b'))[0]) == _bits(0.0, 0.0, 2.0)
+    assert probe.call(StepSimulation, 'step_simulation',
+                      StepSimulation.Request(steps=50)).result.result == OK
+    sim.stop()
+    events = sorted((m.topic, m.sequence) for m in RecordingReader(str(f)).messages()
+                    if m.topic.rpartition('/')[2] in ('spawn', 'delete'))
+    assert events == [('/rb_sim/input/a/spawn', 0), ('/rb_sim/input/b/spawn', 0),
+                      ('/rb_sim/input/e/delete', 0), ('/rb_sim/input/e/spawn', 0)]
+    assert replay.verify(str(f)).identical

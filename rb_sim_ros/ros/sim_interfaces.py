@@ -1,11 +1,12 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""The standard simulator API, simulation_interfaces (ROS 2 Jazzy, release 1.2.0), on the node.
+"""The standard simulator API, simulation_interfaces (ROS 2 Jazzy, release 1.5), on the node.
 
 Services (relative to the node's namespace): get_simulator_features, get_entities,
 get_entity_state, get_entities_states, set_entity_state, get_simulation_state,
-set_simulation_state, step_simulation, reset_simulation, spawn_entity, delete_entity,
-get_spawnables; the action simulate_steps. What is supported is what get_simulator_features
+set_simulation_state, step_simulation, reset_simulation, spawn_entity, spawn_entities (1.5:
+with a release before it, not served), delete_entity, get_spawnables; the action
+simulate_steps. What is supported is what get_simulator_features
 says, truthfully: no tags or bounds, no named poses, no worlds, no reset of sim time (time is
 step * dt, and recordings rely on it growing).
 
@@ -17,7 +18,11 @@ to a name in use. ``initial_pose`` places it (in ``world_frame`` or another body
 the step it appears); left at its default (identity, no frame) the entry's own pose holds.
 Its velocities are the entry's (world frame). The body gets the topics of a scene body
 (``<name>/pose``, ``<name>/wrench``, ...). reset_simulation with SCOPE_SPAWNED deletes what was
-spawned; SCOPE_STATE puts a spawned body back where it appeared.
+spawned; SCOPE_STATE puts a spawned body back where it appeared. spawn_entities spawns many
+bodies, each as spawn_entity would, all at the same step or none: if one is refused, the
+result is ENTITIES_SPAWN_FAILED and each request's own result says why it, or another, was
+refused (one refused at the step itself, after others were applied, takes them back: each
+such spawn is then deleted at the same step, and both are in the recording).
 
 Entities are the scene's bodies (the single body: its name 'body'); category STATIC_OBJECT for
 a static body, DYNAMIC_OBJECT for the others. States are ground truth in ``world_frame``:
@@ -50,6 +55,11 @@ from simulation_interfaces.srv import (DeleteEntity, GetEntities, GetEntitiesSta
                                        GetSimulatorFeatures, GetSpawnables, ResetSimulation,
                                        SetEntityState, SetSimulationState, SpawnEntity,
                                        StepSimulation)
+try:  # simulation_interfaces 1.5 (Jazzy's since 2026-04); not in an older install
+    from simulation_interfaces.msg import SpawnResult
+    from simulation_interfaces.srv import SpawnEntities
+except ImportError:  # then spawn_entities is not served, nor listed as a feature
+    SpawnEntities = SpawnResult = None
 try:  # a requirement (python3-regex); without it, a filter is a plain substring
     import regex
 except ImportError:  # pragma: no cover - an install without it
@@ -70,7 +80,10 @@ FEATURES = (SimulatorFeatures.ENTITY_CATEGORIES, SimulatorFeatures.ENTITY_STATE_
             SimulatorFeatures.STEP_SIMULATION_SINGLE, SimulatorFeatures.STEP_SIMULATION_MULTIPLE,
             SimulatorFeatures.STEP_SIMULATION_ACTION, SimulatorFeatures.SPAWNING,
             SimulatorFeatures.DELETING, SimulatorFeatures.SPAWNING_RESOURCE_STRING,
-            SimulatorFeatures.SPAWNABLES, SimulatorFeatures.SIMULATION_RESET_SPAWNED)
+            SimulatorFeatures.SPAWNABLES, SimulatorFeatures.SIMULATION_RESET_SPAWNED) + \
+    ((SimulatorFeatures.SPAWNING_ENTITIES,) if SpawnEntities is not None else ())
+# The most bodies one spawn_entities may ask for.
+MAX_SPAWN_REQUESTS = 1000
 SPAWN_FORMAT = 'yaml'  # a scene-file body entry
 # The services and the action: (name, type, the method serving it, what). Created from this
 # table, and ``simulator --help`` lists them from it.
@@ -85,10 +98,21 @@ SERVICES = (
     ('step_simulation', StepSimulation, '_step', 'steps, while paused'),
     ('reset_simulation', ResetSimulation, '_reset', 'SCOPE_STATE, SCOPE_SPAWNED'),
     ('spawn_entity', SpawnEntity, '_spawn', 'a body entry (YAML) or a template'),
+) + ((('spawn_entities', SpawnEntities, '_spawn_all', 'many, at one step, all or none'),)
+     if SpawnEntities is not None else ()) + (
     ('delete_entity', DeleteEntity, '_delete', 'a body'),
     ('get_spawnables', GetSpawnables, '_spawnables', "the scene's templates"),
 )
 ACTIONS = (('simulate_steps', SimulateSteps, '_simulate', 'steps with feedback, cancellable'),)
+
+
+def _pose_problem(pose) -> str:
+    """Why an initial_pose (PoseStamped) cannot place anything, or '' (its frame aside)."""
+    p, o = pose.pose.position, pose.pose.orientation
+    x, q = (p.x, p.y, p.z), (o.x, o.y, o.z, o.w)
+    if not all(math.isfinite(c) for c in x + q) or not any(q):
+        return f'initial_pose must be finite with a non-zero quaternion, got {x}, {q}'
+    return ''
 
 
 def _result(code: int = Result.RESULT_OK, message: str = '') -> Result:
@@ -500,8 +524,59 @@ class SimulationInterfaces:
             else ''
         return response
 
-    def _spawn_spec(self, request):
-        """(code, message, the BodySpec to spawn or None)."""
+    def _spawn_all(self, request, response):
+        """spawn_entities: each request as spawn_entity, all at the same step or none."""
+        requests = request.spawn_requests
+        failed = SpawnEntities.Response.ENTITIES_SPAWN_FAILED
+        if len(requests) > MAX_SPAWN_REQUESTS:
+            response.result = _result(failed, f'{len(requests)} requests: at most '
+                                      f'{MAX_SPAWN_REQUESTS} a call')
+            return response
+        results, changes, names = [], [], set(self._names())
+        for r in requests:
+            one = SpawnEntity.Request(
+                name=r.name, allow_renaming=r.allow_renaming, uri=r.entity_resource.uri,
+                resource_string=r.entity_resource.resource_string,
+                entity_namespace=r.entity_namespace, initial_pose=r.initial_pose)
+            code, message, spec = self._spawn_spec(one, names, len(changes))
+            if spec is not None and _pose_problem(one.initial_pose):  # (its frame: at the step)
+                code, message, spec = SpawnResult.INVALID_POSE, \
+                    _pose_problem(one.initial_pose), None
+            results.append(SpawnResult(result=_result(code, message)))
+            if spec is not None:
+                names.add(spec.name)
+                changes.append((Spawn(spec), self._placer(one.initial_pose)))
+                results[-1].entity_name = spec.name
+        bad = [k for k, r in enumerate(results) if r.result.result != Result.RESULT_OK]
+        if not bad and requests:
+            index, why, placing = self.node.change_all(changes)
+            if index >= 0:
+                bad = [index]
+                results[index].result = _result(
+                    SpawnResult.INVALID_POSE if placing else Result.RESULT_OPERATION_FAILED,
+                    why)
+        if bad:
+            for k, r in enumerate(results):
+                r.entity_name = ''
+                if k not in bad:
+                    r.result = _result(Result.RESULT_OPERATION_FAILED,
+                                       f'not spawned: request {bad[0]} was refused (all or '
+                                       'none)')
+            response.result = _result(failed, f'{len(bad)} of {len(requests)} requests '
+                                      f'refused, the first ({bad[0]}): '
+                                      f'{results[bad[0]].result.error_message}')
+        else:
+            response.result = _result()
+        response.results = results
+        return response
+
+    def _placer(self, pose):
+        """The ``place`` of change_bodies: a spec at ``pose`` (at the step it spawns)."""
+        return lambda spec: self._placed(spec, pose)
+
+    def _spawn_spec(self, request, names=None, more: int = 0):
+        """(code, message, the BodySpec to spawn or None); ``names``: those taken (default
+        the bodies'), ``more``: bodies to be spawned with it."""
         R = SpawnEntity.Response
         node = self.node
         if request.entity_namespace:
@@ -528,7 +603,7 @@ class SimulationInterfaces:
                 f'uri {request.uri[:200]!r} is not a template of the scene (have: '
                 f'{", ".join(sorted(templates)) or "none"}); files and URLs are not read: '
                 'put the body entry in resource_string'), None
-        names = set(self._names())
+        names = set(self._names()) if names is None else names
         if spec.name in names:
             if not request.allow_renaming:
                 return R.NAME_NOT_UNIQUE, (f"there is an entity named '{spec.name}' "
@@ -537,7 +612,7 @@ class SimulationInterfaces:
             while f'{spec.name[:scene.MAX_NAME - 8]}_{k}' in names:
                 k += 1
             spec = replace(spec, name=f'{spec.name[:scene.MAX_NAME - 8]}_{k}')
-        if len(node.config.bodies) >= scene.MAX_BODIES:
+        if len(node.config.bodies) + more >= scene.MAX_BODIES:
             return Result.RESULT_OPERATION_FAILED, (f'{len(node.config.bodies)} bodies: at '
                                                     f'most {scene.MAX_BODIES}'), None
         return Result.RESULT_OK, '', spec
@@ -550,9 +625,8 @@ class SimulationInterfaces:
         frame = pose.header.frame_id.lstrip('/')
         if not frame and x == (0.0, 0.0, 0.0) and q == (0.0, 0.0, 0.0, 1.0):
             return spec
-        if not all(math.isfinite(c) for c in x + q) or not any(q):
-            raise ValueError(f'initial_pose must be finite with a non-zero quaternion, got '
-                             f'{x}, {q}')
+        if _pose_problem(pose):
+            raise ValueError(_pose_problem(pose))
         node = self.node
         frames = {pt.body_frame: pt.name for pt in node.ports.values()}
         if frame not in ('', node._v['world_frame'], 'world'):
