@@ -75,9 +75,13 @@ def closed_loop(out: Path, sim_args=(), controller_args=(), controllers=None, en
         if sim.poll() is None:
             sim.kill()
             sim.wait()
-        for p in procs:
+        for p in procs:  # (a controller slow to stop on a loaded machine: killed)
             p.terminate()
-            p.wait(30)
+            try:
+                p.wait(30)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
         for f in logs + [sim_log]:
             f.close()
     assert code == 0, f'the simulator exited {code}:\n' + '\n'.join(
