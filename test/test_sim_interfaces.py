@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 # pypi-only: mcap rosbags
 # built-msgs: simulation_interfaces
-"""The standard simulator API (simulation_interfaces, Jazzy's 1.2.0) on the node: its type
+"""The standard simulator API (simulation_interfaces, Jazzy's 1.5.1) on the node: its type
 hashes against a build of the release's own files, each service against the physics it
 claims, refusals that change nothing, and a recording of it all that replays bit for bit."""
 

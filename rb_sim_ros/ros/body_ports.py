@@ -113,6 +113,7 @@ class BodyPorts:
         self.motion_pubs = self.state_pubs = ()
         self._subs: list = []
         self.answers = None
+        self.filled = False  # the last publish filled every message (republish may send it)
         try:
             self._create(node, prefix, qos, moving)
         except BaseException:  # a bad QoS override of one topic: none of them stays
@@ -165,7 +166,11 @@ class BodyPorts:
 
     def republish(self) -> None:
         """The messages of the last publish again, to whoever listens now (lockstep: to a
-        controller whose subscription matched after it); nothing drawn, nothing recorded."""
+        controller whose subscription matched after it); nothing drawn, nothing recorded.
+        Only if the last publish filled them all: a state that was not finite, or not filled
+        (nobody listened, nothing recorded, not in lockstep), is never sent."""
+        if not self.filled:
+            return
         for pub, msg in self.state_pubs + self.motion_pubs:
             if pub.get_subscription_count():
                 pub.publish(msg)
@@ -178,6 +183,7 @@ class BodyPorts:
         recorded ones). A non-finite state, or one whose body-frame twist or acceleration
         overflows, is never published: False then, and no noise drawn."""
         time_ns = sim.time_ns
+        self.filled = False  # (until this publish has filled every message)
         pose_twist = sim.pose_twist(self.name)
         if not all(math.isfinite(c) for vec in pose_twist for c in vec):
             return False
@@ -202,6 +208,8 @@ class BodyPorts:
                 return False
         elif sensor is not None:
             sensor.sample(time_ns)
+        # (the motion messages too, unless nobody listened to them and nothing asked)
+        self.filled = not self.motion_pubs or bool(motion) or recorder is not None or fill
         for pub, msg in pubs + motion:
             pub.publish(msg)
         if recorder is not None:
@@ -224,6 +232,8 @@ class BodyPorts:
             self._queue(event)
 
     def _on_wrench_stamped(self, msg: WrenchStamped) -> None:
+        if self._answer is not None and self.answers is None:
+            return  # a deleted body's, taken as it went: nothing to answer
         fid = msg.header.frame_id.lstrip('/')
         event = HOLD if fid == HOLD else self._stamped_event(msg.wrench, fid)
         # In lockstep an answer, refused or not, is the node's: a bad wrench answers with

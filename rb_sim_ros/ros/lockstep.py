@@ -13,6 +13,12 @@ controller's latency deterministically), and the node steps on. An answer for an
 refused and counted. A repeat of an answer already taken is ignored and counted apart, since
 the node re-sends a state to a controller that has not answered yet.
 
+What changes the state between two periods (a reset, set_entity_state, a spawn or delete,
+while paused or not) takes effect at its step and is recorded there; the answers already
+given to the state published before it stand and take effect as they would have, and the
+controllers see the changed state at the next period. Deterministic all the same: the change
+and the answers are both inputs at known steps, and replay applies them there.
+
 This module holds the bookkeeping only (no ROS): the node hands it each answer as it arrives
 (the executor's thread), and asks it, from the step loop, whether to step on and which answers
 take effect now. A wrench answer is whatever event the node made of the message (a SetWrench).
@@ -62,39 +68,55 @@ class Lockstep:
         self.members: dict[str, Member] = {}
         self.awaited: int | None = None  # the stamp answers must carry (ns)
         self.started = False  # step 0 is behind: the set of inputs is fixed but for leaving
+        # The inputs there are were looked for (join): until then step 0 waits, even if
+        # some controller answered already (another may have a publisher too).
+        self.gathered = False
+        self.ready_ns = 0  # when ready was last set (monotonic ns)
         self.ready = threading.Event()  # every member answered the awaited stamp
         self.counters = Counters()
         self._pipeline: collections.deque = collections.deque()
         self._lock = threading.Lock()
         self._waiting_since: float | None = None
         self._timed_out: set[str] = set()
+        self._taken: int | None = None  # the stamp whose answers take() queued last
         self.notes: list[str] = []  # what happened to the inputs (joined, left, timed out)
 
     # -- membership ------------------------------------------------------------------------
     def join(self, bodies) -> list[str]:
-        """Make the ``bodies`` (those with a publisher now) inputs, before step 0; returns
-        those that are new."""
+        """Make the ``bodies`` (those with a publisher now, or those declared) inputs, before
+        step 0; returns those that are new. Step 0 waits for a first join."""
         new = []
         with self._lock:
             for body in bodies:
                 if body not in self.members:
                     self.members[body] = Member(body)
                     new.append(body)
+            self.gathered = True
             self._update()
         return new
 
-    def leave(self, body: str) -> bool:
+    def leave(self, body: str, deleted: bool = False) -> bool:
         """Body ``body``'s input is gone (no publisher, or the body deleted); True if it was
-        one. The others are not waited for it any more."""
+        one. The others are not waited for it any more. A deleted body's answers still in
+        the delay pipeline are dropped too (there is nothing to apply them to)."""
         with self._lock:
             gone = self.members.pop(body, None) is not None
+            self._timed_out.discard(body)
+            if deleted:
+                for batch in self._pipeline:
+                    batch[:] = [(b, a) for b, a in batch if b != body]
             self._update()
         return gone
 
     # -- answers (the executor's thread) ---------------------------------------------------
     def offer(self, body: str, stamp_ns: int, answer) -> str | None:
         """An answer from ``body``'s wrench_stamped: None if taken (or a repeat of one taken),
-        else why it was refused. Not an input: 'open' (the node queues it as any input)."""
+        else why it was refused. Not an input: 'open' (the node queues it as any input).
+
+        Refused: an answer to another stamp; a second answer to one stamp that differs from
+        the first (two controllers on one input, or one that changed its mind: the first
+        stands, whichever came first would be a race); an answer from an input timed out on
+        the awaited stamp (the run stepped on without it: taking it would be a race too)."""
         with self._lock:
             member = self.members.get(body)
             if member is None:
@@ -114,10 +136,19 @@ class Lockstep:
                 else:
                     return self._refuse(stamp_ns)
             if stamp_ns == member.answered:
+                if answer != member.answer:
+                    self.counters.refused += 1
+                    return (f'a second answer to t = {stamp_ns * 1e-9:.9f} s, not the same '
+                            'as the first (which stands): is more than one controller '
+                            'publishing on it?')
                 self.counters.repeated += 1
                 return None
             if stamp_ns != self.awaited:
                 return self._refuse(stamp_ns)
+            if body in self._timed_out:
+                self.counters.refused += 1
+                return (f'the answer to t = {stamp_ns * 1e-9:.9f} s came after '
+                        'lockstep_timeout: the run stepped on without it')
             member.answered, member.answer, member.heard = stamp_ns, answer, True
             self._update()
         return None
@@ -145,7 +176,10 @@ class Lockstep:
     def _update(self) -> None:
         answered = all(m.answered == self.awaited for m in self.members.values()
                        if m.body not in self._timed_out)
-        if self.awaited is not None and answered and (self.members or self.started):
+        if self.awaited is not None and answered and (self.members or self.started) and \
+                (self.started or self.gathered):
+            if not self.ready.is_set():
+                self.ready_ns = time.monotonic_ns()
             self.ready.set()
         else:
             self.ready.clear()
@@ -193,10 +227,13 @@ class Lockstep:
 
     def take(self) -> list[tuple[str, object]]:
         """The answers of the awaited state (body, event or HOLD), queued; returns those due
-        now: the answers of ``delay`` periods ago (none in the first ``delay`` periods)."""
+        now: the answers of ``delay`` periods ago (none in the first ``delay`` periods). Once
+        a stamp: a second call before the next ``expect`` returns nothing and queues nothing
+        (a period cut short, then stepped again, does not take its answers twice)."""
         with self._lock:
-            if self.awaited is None:
+            if self.awaited is None or self.awaited == self._taken:
                 return []
+            self._taken = self.awaited
             batch = [(b, self.members[b].answer) for b in sorted(self.members)
                      if self.members[b].answered == self.awaited]
             if not self.started:  # the run's clock: from step 0

@@ -675,6 +675,8 @@ class SimulationInterfaces:
         failure then."""
         epoch = self._epoch
         self.stepping = True
+        if self.node._lockstep is not None:  # lockstep_timeout counts from the call
+            self.node._lockstep.rearm()
         try:
             return (yield from self._periods(steps, epoch, wait))
         finally:

@@ -227,8 +227,10 @@ class SimulatorNode(Node):
             else None
         self._resent = 0.0  # when a state was last sent again to a controller not heard yet
         self._polled = 0  # when lockstep_poll last ran (monotonic ns)
+        self._crowded: dict[str, int] = {}  # inputs with more than one publisher, said
         # In lockstep the step loop takes the answers itself, not the executor.
-        self._taken = TakenInputs(self.context) if self._lockstep is not None else None
+        self._taken = TakenInputs(self.context, self._callback_failed) \
+            if self._lockstep is not None else None
         self.ports: dict[str, BodyPorts] = {}
         single = self._scene is None
         self._noise = node_params.imu_noise(values)
@@ -446,7 +448,7 @@ class SimulatorNode(Node):
                 self._recorder.spawned(step, t_ns, event, topics)
         else:
             self._drop_ports(event.body)
-            if self._lockstep is not None and self._lockstep.leave(event.body):
+            if self._lockstep is not None and self._lockstep.leave(event.body, deleted=True):
                 self.get_logger().info(f"lockstep: '{event.body}' deleted: its answers "
                                        'are not waited for any more')
             if self._recorder is not None:
@@ -545,6 +547,10 @@ class SimulatorNode(Node):
             self.get_logger().error(f'and then: {reason}')
             return
         self.diagnostics.error = reason
+        if self._stop_step:  # a run that ends by itself has nobody to reset it: it ends
+            self.get_logger().error(f'{reason}; ending the run (stop_after): exit 3')
+            self._finish(3)
+            return
         self.get_logger().error(f'{reason}; paused at the last finite state (reset or unpause '
                                 'to go on)')
 
@@ -607,13 +613,15 @@ class SimulatorNode(Node):
                     return
                 with self._lock:
                     self._fail(f'step loop error: {type(e).__name__}: {e}')
+                self._stop.wait(0.1)  # (an error that comes back at once does not spin)
 
     def _loop_once(self) -> None:
         if self._compiling is not None:
             self._check_compiling()
         if self._paused:
-            if self._taken is not None:  # lockstep: its answers are taken while paused too
-                self._taken.take(0.02)
+            if self._taken is not None:  # lockstep: its answers are taken while paused too,
+                self._taken.take(0.02)  # and inputs that come and go are seen
+                self._lockstep_poll_now(timing=False)
             else:
                 self._wake.wait(0.1)
                 self._wake.clear()
@@ -626,44 +634,55 @@ class SimulatorNode(Node):
             self._periods_now(10, as_fast_as_possible=True)
             time.sleep(0)  # let the executor thread take the GIL for inputs
         else:
-            due_at = self._anchor_wall + (self._periods + 1 - self._anchor_period) * \
-                self._period_wall_ns
-            now = time.monotonic_ns()
-            if now < due_at:
-                self._stop.wait(min((due_at - now) * 1e-9, 1.0))
-                return
-            self._wait_for_recorder()
-            with self._lock:
-                due = self._tick(now, now - due_at)
-            self._periods_now(due, as_fast_as_possible=False)
+            self._paced(lambda s: self._stop.wait(min(s, 1.0)))
+
+    def _due_at(self) -> float:
+        """When the next period is due by the wall clock (monotonic ns; rtf > 0)."""
+        return self._anchor_wall + (self._periods + 1 - self._anchor_period) * \
+            self._period_wall_ns
+
+    def _paced(self, wait) -> None:
+        """At real_time_factor > 0: step the periods due by now, or ``wait(seconds)`` until
+        the next one is due."""
+        due_at = self._due_at()
+        now = time.monotonic_ns()
+        if now < due_at:
+            wait((due_at - now) * 1e-9)
+            return
+        self._wait_for_recorder()
+        with self._lock:
+            due = self._tick(now, now - due_at)
+        self._periods_now(due, as_fast_as_possible=False)
 
     def _lockstep_once(self) -> None:
         """The step loop in lockstep: it takes the answers itself (taken_inputs), and steps
         a period once they are all in (as soon as they are at real_time_factor 0, else when
         the period is due too); while they are not, it says who is missing now and then."""
         ls = self._lockstep
-        now = time.monotonic_ns()
         if ls.ready.is_set():
             if self._period_wall_ns == 0.0:
                 self._wait_for_recorder()
                 self._periods_now(1, as_fast_as_possible=True)
                 return
-            due_at = self._anchor_wall + (self._periods + 1 - self._anchor_period) * \
-                self._period_wall_ns
-            if now < due_at:
-                self._taken.take(min((due_at - now) * 1e-9, 0.05))
-                return
-            self._wait_for_recorder()
-            with self._lock:
-                due = self._tick(now, now - due_at)
-            self._periods_now(due, as_fast_as_possible=False)
+            if ls.ready_ns > self._due_at():
+                # The answers came after the period was due: it is due from then. The wait
+                # for a controller is neither lateness nor a period to drop.
+                self._anchor_wall = ls.ready_ns - self._period_wall_ns
+                self._anchor_period = self._periods
+            self._paced(lambda s: self._taken.take(min(s, 0.05)))
             return
         self._taken.take(0.05)
-        if not ls.ready.is_set() and now - self._polled >= 50_000_000:
-            self._polled = now
-            with self._lock:
-                if not self._paused and not ls.ready.is_set():
-                    self.lockstep_poll()
+        self._lockstep_poll_now(timing=True)
+
+    def _lockstep_poll_now(self, timing: bool) -> None:
+        """lockstep_poll, every 50 ms at most while an answer is missing."""
+        now = time.monotonic_ns()
+        if self._lockstep.ready.is_set() or now - self._polled < 50_000_000:
+            return
+        self._polled = now
+        with self._lock:
+            if self._paused == (not timing) and not self._lockstep.ready.is_set():
+                self.lockstep_poll(timing)
 
     def _check_compiling(self) -> None:
         """Once the child compiling the kernels is done, go on with them (loaded from the
@@ -831,10 +850,19 @@ class SimulatorNode(Node):
         else:
             self._apply(answer)
 
-    def lockstep_poll(self) -> None:
+    def lockstep_poll(self, timing: bool = True) -> None:
         """While the answers to a state are not all in (the lock held): take in inputs that
-        came or went, send the state again to a controller not heard from yet, time out as
-        lockstep_timeout says, and keep /diagnostics saying what is awaited."""
+        came or went, send the state again to a controller not heard from yet, and, if
+        ``timing`` (not while the user paused: the wait is the user's then), time out as
+        lockstep_timeout says; /diagnostics keeps saying what is awaited."""
+        self._lockstep_members()
+        self._lockstep_resend()
+        if timing:
+            self._lockstep_timeout()
+        self.diagnostics.maybe_publish(self, self._v['real_time_factor'])
+
+    def _lockstep_members(self) -> None:
+        """Inputs that came (before step 0) or went (no publisher any more), said."""
         ls = self._lockstep
         if not ls.started:  # before step 0: every input there is (or was declared) waits
             if ls.declared is None:
@@ -848,13 +876,41 @@ class SimulatorNode(Node):
                 if ls.leave(body):
                     self._lockstep_note('left', [body], f"'{body}' has no controller any "
                                         'more: not waited for (its wrench held)')
-        now = time.monotonic()
-        if ls.unheard() and now - self._resent > 0.25:  # its subscription may have come late
-            self._resent = now
-            self._republish()
+        for body in ls.inputs():  # two controllers on one input: the first answer stands
+            port = self.ports.get(body)
+            count = port.answering() if port is not None else 0
+            if count > 1 and self._crowded.get(body) != count:
+                self.get_logger().warning(
+                    f"lockstep: '{port.answers.topic_name}' has {count} publishers: the "
+                    'first answer to each state is taken, a different second one refused')
+            self._crowded[body] = count
         for note in ls.notes:
             self.get_logger().info(f'lockstep: {note}')
         ls.notes.clear()
+
+    def _lockstep_resend(self) -> None:
+        """The state again, every 0.25 s, to a controller never heard from: its subscription
+        may have matched after the state went out. A hint if that goes on."""
+        ls = self._lockstep
+        unheard = ls.unheard()
+        now = time.monotonic()
+        if not unheard or now - self._resent < 0.25:
+            return
+        self._resent = now
+        self._republish()
+        waited = ls.waited()
+        if waited >= 2.0:
+            topics = ', '.join(f"'{self.ports[b].answers.topic_name}'" for b in unheard
+                               if b in self.ports and self.ports[b].answering())
+            if topics:
+                self.get_logger().warning(
+                    f'lockstep: {topics} has a publisher but no answer in {waited:.0f} s: '
+                    'does its controller subscribe to the state (its topic, and a QoS that '
+                    'matches), and copy its stamp?', throttle_duration_sec=10.0)
+
+    def _lockstep_timeout(self) -> None:
+        """lockstep_timeout: step on with the wrenches held, or end in an error."""
+        ls = self._lockstep
         timeout = self._v['lockstep_timeout']
         if timeout and ls.waited() >= timeout and not ls.ready.is_set():
             late = ls.missing()
@@ -868,9 +924,11 @@ class SimulatorNode(Node):
                 self._lockstep_note('timeout', late, '')
                 self._fail(f'lockstep: no answer from {who} to t = {ls.awaited * 1e-9:.9f} s '
                            f'within lockstep_timeout ({timeout:g} s)')
-                if self._stop_step:
-                    self._finish(3)
-        self.diagnostics.maybe_publish(self, self._v['real_time_factor'])
+
+    def _callback_failed(self, error: Exception) -> None:
+        """An answer's callback raised (taken_inputs): said, and the loop goes on."""
+        self.get_logger().error(f'lockstep: handling an answer failed: '
+                                f'{type(error).__name__}: {error}', throttle_duration_sec=1.0)
 
     def _lockstep_note(self, what: str, bodies: list, text: str) -> None:
         if text:

@@ -1,6 +1,7 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
 """Subscriptions that no executor serves: the thread that waits on them takes their messages.
+(The node's step loop takes the lockstep answers so; a ControlLoop's thread takes its states.)
 
 In lockstep the node's step loop waits for the controllers' answers itself, on a wait set of
 the answer subscriptions alone, and steps the next period as soon as the last one is taken.
@@ -39,11 +40,13 @@ class NotExecuted(CallbackGroup):
 
 class TakenInputs:
     """The subscriptions of ``group`` (made with ``callback_group=group``), waited on and
-    taken by ``take`` in the calling thread."""
+    taken by ``take`` in the calling thread. ``on_error(exception)``: a callback that raised
+    (the others are still served; without it, the exception goes up)."""
 
-    def __init__(self, context) -> None:
+    def __init__(self, context, on_error=None) -> None:
         self.group = NotExecuted()
         self._context = context
+        self._on_error = on_error
         self._subs: list = []
         self._lock = threading.Lock()
         self._wait_set = None  # for the subscriptions of _made
@@ -93,5 +96,10 @@ class TakenInputs:
                     if got is None:
                         break
                     taken += 1
-                    sub.callback(got[0])
+                    try:
+                        sub.callback(got[0])
+                    except Exception as e:  # noqa: B902 - one bad callback stops no other
+                        if self._on_error is None:
+                            raise
+                        self._on_error(e)
         return taken
