@@ -346,8 +346,17 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((readme, '#Lockstep', f"open loop steps {op['periods_per_s']:,.0f} periods a second, "
               f"so lockstep costs {op['periods_per_s'] / one['periods_per_s']:.0f}x"))
     q.append((readme, '#Lockstep', f"makes {lock['rclpy_ping_pong_per_s']:,.0f} round trips a "
-              'second in the same run'))
-    q.append((readme, '#Lockstep', f"the node's own work is {one['own_work_us']:.0f} us"))
+              'second in the'))
+    q.append((readme, '#Lockstep', f"({1e6 / lock['rclpy_ping_pong_per_s']:.0f} us each; "
+              f"{lock['rclpy_ping_pong_executors_per_s']:,.0f} spun by executors)"))
+    q.append((readme, '#Lockstep', f"Of a lockstep round trip of {1e6 / one['periods_per_s']:.0f} "
+              f"us, the node's"))
+    q.append((readme, '#Lockstep', f"own work is {one['own_work_us']:.0f} us"))
+    rest = 1e6 / one['periods_per_s'] - one['own_work_us']
+    q.append((readme, '#Lockstep', f'the other {rest:.0f} us, the controller and DDS'))
+    ex = lock['one_controller_executed']
+    q.append((readme, '#Lockstep', f"({ex['periods_per_s']:,.0f} round trips a second through its "
+              f"executor instead: {one['periods_per_s'] / ex['periods_per_s']:.2f}x)"))
     q.append((readme, '#Lockstep', 'are identical in every field'
               if all(lock['identical'].values()) else 'are not all identical'))
     return q

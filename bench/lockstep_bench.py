@@ -13,11 +13,14 @@ of its own; the rates are the node's own count at its exit (from its first step 
 start-up not included):
 
 * one body and its controller in lockstep (the round trip: state out, answer in, one period);
+  the controller's ControlLoop in its own thread (the default), and through the node's
+  executor (``control_thread:=false``);
 * two bodies, each with its own controller process (``lockstep_inputs:=[a, b]``);
 * the same body open loop (no lockstep, no controller): the cost of lockstep is the ratio;
-* a bare rclpy ping-pong between two processes (an Odometry out, a WrenchStamped back, each
-  node spun by rclpy's SingleThreadedExecutor), in the same run: the floor of any round trip
-  between two rclpy nodes on this machine, whatever the simulator does;
+* a bare rclpy ping-pong between two processes (an Odometry out, a WrenchStamped back), in
+  the same run: each side spun by rclpy's SingleThreadedExecutor, and each side a wait set
+  on its one subscription (no executor: the leanest loop rclpy has). The second is the floor
+  of any round trip between two rclpy nodes on this machine, whatever they do;
 * the node's own work a period (stepping, filling and publishing; from its exit line): the rest
   of a round trip is the controller and DDS;
 * four recordings of the same closed loop (idle and with both cores kept busy by two CPU-bound
@@ -91,6 +94,50 @@ rclpy.spin(n)
 """
 
 
+# The leanest rclpy loop there is: one subscription, a wait set on it alone, no executor.
+LEAN = """
+import sys, time, rclpy
+from rclpy.node import Node
+from nav_msgs.msg import Odometry
+from geometry_msgs.msg import WrenchStamped
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+rclpy.init()
+ping = sys.argv[1] == 'ping'
+n = Node(sys.argv[1])
+out_type, in_type, out_topic, in_topic = ((Odometry, WrenchStamped, 'odom', 'wrench_stamped')
+                                          if ping else
+                                          (WrenchStamped, Odometry, 'wrench_stamped', 'odom'))
+pub = n.create_publisher(out_type, out_topic, 10)
+sub = n.create_subscription(in_type, in_topic, lambda m: None, 10)
+out = out_type()
+ws = _rclpy.WaitSet(1, 0, 0, 0, 0, 0, n.context.handle)
+def take():
+    while True:
+        with sub.handle:
+            ws.clear_entities()
+            ws.add_subscription(sub.handle)
+            ws.wait(5_000_000_000)
+            got = sub.handle.take_message(sub.msg_type, sub.raw)
+        if got is not None:
+            return got[0]
+while pub.get_subscription_count() < 1 or sub.get_publisher_count() < 1:
+    time.sleep(0.05)
+time.sleep(1.0)
+if ping:
+    N = int(sys.argv[2])
+    t = time.perf_counter()
+    for k in range(N):
+        out.header.stamp.nanosec = k
+        pub.publish(out)
+        take()
+    print(N / (time.perf_counter() - t))
+else:
+    while True:
+        out.header.stamp = take().header.stamp
+        pub.publish(out)
+"""
+
+
 def environment() -> dict:
     env = dict(os.environ)
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
@@ -137,12 +184,13 @@ def run(sim_args, controllers, seconds: float, work: Path, name: str,
             'recording': str(path)}
 
 
-def ping_pong(n: int) -> float:
+def ping_pong(n: int, lean: bool = False) -> float:
     env = environment()
-    pong = subprocess.Popen([sys.executable, '-c', PONG], env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    pong = subprocess.Popen([sys.executable, '-c', *((LEAN, 'pong') if lean else (PONG,))],
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        out = subprocess.run([sys.executable, '-c', PING, str(n)], env=env, check=True,
+        out = subprocess.run([sys.executable, '-c', *((LEAN, 'ping') if lean else (PING,)),
+                              str(n)], env=env, check=True,
                              capture_output=True, text=True, timeout=600).stdout
     finally:
         pong.kill()
@@ -169,6 +217,11 @@ def main() -> int:
     print(f"  one body + its controller: {one['periods_per_s']:.0f} periods/s "
           f"({1e6 / one['periods_per_s']:.0f} us a round trip; the node's own work "
           f"{one['own_work_us']:.0f} us a period, waiting {one['waiting_fraction']:.0%})")
+    executed = run(fast + lock, [['-p', 'control_thread:=false']], opts.seconds, work,
+                   'one-executed', record=False)
+    print(f"  the same, the controller's ControlLoop through its executor: "
+          f"{executed['periods_per_s']:.0f} periods/s (its own thread: "
+          f"{one['periods_per_s'] / executed['periods_per_s']:.2f}x)")
     one_rec = run(fast + lock, [[]], opts.seconds, work, 'one-recorded')
     print(f"  the same, recorded: {one_rec['periods_per_s']:.0f} periods/s (the node's own "
           f"work {one_rec['own_work_us']:.0f} us a period)")
@@ -182,9 +235,12 @@ def main() -> int:
     open_loop = run(fast, [], opts.seconds * 10, work, 'open', record=False)
     print(f"  the same body open loop (no controller): {open_loop['periods_per_s']:.0f} "
           f"periods/s: lockstep costs {open_loop['periods_per_s'] / one['periods_per_s']:.0f}x")
-    floor = ping_pong(int(max(1000, opts.seconds * 100)))
-    print(f'  a bare rclpy ping-pong between two processes: {floor:.0f} round trips/s '
-          f'({1e6 / floor:.0f} us): the floor of any rclpy round trip here')
+    spun = ping_pong(int(max(1000, opts.seconds * 100)))
+    floor = ping_pong(int(max(1000, opts.seconds * 200)), lean=True)
+    print(f'  a bare rclpy ping-pong between two processes: {spun:.0f} round trips/s '
+          f'({1e6 / spun:.0f} us) spun by executors; {floor:.0f} round trips/s '
+          f'({1e6 / floor:.0f} us) on a wait set each: the floor of any rclpy round trip '
+          'here')
     print('one closed loop four ways (idle / both cores busy, real_time_factor 0 / 1):')
     runs = {}
     for load in (False, True):
@@ -201,13 +257,14 @@ def main() -> int:
         print(f'  {name}: ' + ('identical to ' + first if not diff else f'DIFFERS: {diff}'))
     print(f'({time.time() - t0:.0f} s)')
     if not opts.no_write:
-        for row in (one, one_rec, two, open_loop):
+        for row in (one, executed, one_rec, two, open_loop):
             row.pop('recording')  # (a temporary file)
         path = figures.write(figures.DOCS_BENCH / 'lockstep_bench.json', {
             'quick': False, 'seconds': opts.seconds, 'one_controller': one,
-            'one_recorded': one_rec,
+            'one_controller_executed': executed, 'one_recorded': one_rec,
             'two_controllers': two,
-            'open_loop': open_loop, 'rclpy_ping_pong_per_s': floor,
+            'open_loop': open_loop, 'rclpy_ping_pong_executors_per_s': spun,
+            'rclpy_ping_pong_per_s': floor,
             'identical': {name: not diff for name, diff in same.items()}})
         print(f'wrote {path}')
     return 0 if not any(same.values()) else 1

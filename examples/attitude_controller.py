@@ -83,20 +83,24 @@ class AttitudeController(Node):
         source = param('source', 'odom', "Read the state from 'odom' (ground truth) or 'imu'.")
         self.jitter = param('answer_delay_max', 0.0, 'Wait a random wall time up to this (s) '
                             'before each answer: in lockstep the run stays the same bits.')
+        thread = param('control_thread', True, 'Answer each state in a thread of its own '
+                       "(faster); false: through the node's executor.")
         values = list(rpy) + list(inertia) + [wn, zeta, self.max_torque, self.jitter]
         if len(rpy) != 3 or len(inertia) != 3 or not all(
                 isinstance(v, (int, float)) and math.isfinite(v) for v in values) or \
                 min(inertia) <= 0 or wn <= 0 or zeta <= 0 or self.max_torque <= 0 or \
-                source not in ('odom', 'imu') or not 0 <= self.jitter <= 10:
+                source not in ('odom', 'imu') or not 0 <= self.jitter <= 10 or \
+                not isinstance(thread, bool):
             raise ValueError('target_rpy needs 3 angles, inertia 3 moments > 0; '
                              'natural_frequency, damping_ratio and max_torque must be > 0, '
-                             "source 'odom' or 'imu', answer_delay_max from 0 to 10 s")
+                             "source 'odom' or 'imu', answer_delay_max from 0 to 10 s, "
+                             'control_thread true or false')
         self.target = quaternion_from_rpy(*rpy)
         self.kp = [2.0 * i * wn * wn for i in inertia]
         self.kd = [2.0 * zeta * wn * i for i in inertia]
         self._random = random.Random()  # unseeded: the delays differ from run to run
         self.loop = ControlLoop(self, self.law, *(
-            (Odometry, 'odom') if source == 'odom' else (Imu, 'imu')))
+            (Odometry, 'odom') if source == 'odom' else (Imu, 'imu')), thread=thread)
         self.get_logger().info(f'pointing at rpy {list(rpy)} with wn {wn} rad/s, zeta {zeta}, '
                                f'from {source}')
 
@@ -128,6 +132,7 @@ def main(args=None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        node.loop.close()
         node.destroy_node()
         rclpy.try_shutdown()
     return 0

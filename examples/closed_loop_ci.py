@@ -59,6 +59,8 @@ def closed_loop(out: Path, sim_args=(), controller_args=(), controllers=None, en
     sim = subprocess.Popen(
         [sys.executable, '-m', 'rb_sim_ros.ros.simulator_node', '--ros-args',
          '-p', 'lockstep:=true', '-p', f'stop_after:={stop_after}', '-p', f'record:={out}',
+         # a controller that dies or never answers fails the test in a minute (exit 3)
+         '-p', 'lockstep_timeout:=60.0',
          '-p', 'record_overwrite:=true', '-p', f'inertia:={INERTIA}', *sim_args],
         env=env, stdout=sim_log, stderr=subprocess.STDOUT, cwd=log_dir)
     procs, logs = [], []

@@ -9,6 +9,7 @@ stamped as the state.
         def __init__(self):
             super().__init__('my_controller')
             self.loop = ControlLoop(self, self.law)          # odom in, wrench_stamped out
+                                                              # (last: it starts at once)
 
         def law(self, msg):                                   # an Odometry
             return (0.0, 0.0, 0.0), (0.0, 0.0, -0.5 * msg.twist.twist.angular.z)
@@ -22,18 +23,33 @@ command without lockstep (the same controller runs either way). The bookkeeping:
   from yet: its first one may have gone out before the subscription matched) gets the answer
   already sent, and the law is not called twice for one state (a law with memory, such as an
   integrator, sees each state once);
-* a state older than the last one answered is ignored (counted in ``stale``);
-* ``answered``, ``repeated`` and ``stale`` count what happened.
+* a state a little older than the last one answered (less than ``restart_after`` seconds:
+  delivered out of order) is ignored (counted in ``stale``);
+* a state much older than the last (a simulator started again, its clock back at 0) is a new
+  run: the loop forgets the last answer, calls ``on_restart()`` if given (a law with memory
+  resets it there) and answers it (counted in ``restarts``);
+* ``answered``, ``repeated``, ``stale`` and ``restarts`` count what happened.
+
+The loop has a thread of its own (``thread=True``, the default): it waits on the state
+subscription alone, calls the law and publishes the answer, while the node's executor
+(``rclpy.spin``) serves the rest (parameters, timers, other topics). Through the executor each
+state would cost a rebuild of its wait set over every entity of the node (bench/
+lockstep_bench.py measures both ways). The law
+then runs in that thread: make the ControlLoop last in the node's ``__init__``, once what the
+law reads is set. A law that raises is logged, and the state stays unanswered (in lockstep
+the simulator sends it again). ``thread=False``: the executor calls ``on_state``.
 """
 
 from __future__ import annotations
 
+import threading
 from typing import Callable
 
 from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 
 from rb_sim_ros.ros.lockstep import HOLD
+from rb_sim_ros.ros.taken_inputs import TakenInputs
 
 __all__ = ['ControlLoop', 'HOLD']
 
@@ -59,14 +75,47 @@ class ControlLoop:
 
     def __init__(self, node, law: Callable, state_type=Odometry, state_topic: str = 'odom',
                  command_topic: str = 'wrench_stamped', frame: str = 'body',
-                 qos=10) -> None:
+                 qos=10, restart_after: float = 1.0,
+                 on_restart: Callable[[], None] | None = None, thread: bool = True) -> None:
         self.law = law
+        self._node = node
         self.frame = frame
-        self.answered = self.repeated = self.stale = 0
+        self.on_restart = on_restart
+        self._restart_ns = int(restart_after * 1e9)
+        self.answered = self.repeated = self.stale = self.restarts = 0
         self._last: tuple[int, WrenchStamped] | None = None
         self.publisher = node.create_publisher(WrenchStamped, command_topic, qos)
+        self._taken = TakenInputs(node.context, self._failed) if thread else None
+        group = {'callback_group': self._taken.group} if thread else {}
         self.subscription = node.create_subscription(state_type, state_topic, self.on_state,
-                                                     qos)
+                                                     qos, **group)
+        self._closed = threading.Event()
+        self._thread = None
+        if thread:
+            self._taken.add(self.subscription)
+            self._thread = threading.Thread(target=self._run, name='control_loop',
+                                            daemon=True)
+            self._thread.start()
+
+    def _run(self) -> None:
+        context = self._node.context
+        while not self._closed.is_set() and context.ok():
+            try:
+                self._taken.take(0.1)
+            except Exception:  # noqa: B902 - the node or its context went away meanwhile
+                if self._closed.is_set() or not context.ok():
+                    return
+                raise
+
+    def _failed(self, error: Exception) -> None:
+        self._node.get_logger().error(f'control law failed: {type(error).__name__}: {error}',
+                                      throttle_duration_sec=1.0)
+
+    def close(self) -> None:
+        """Stop the loop's thread (before the node is destroyed)."""
+        self._closed.set()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(1.0)
 
     def on_state(self, msg) -> None:
         stamp = stamp_ns(msg.header.stamp)
@@ -75,9 +124,13 @@ class ControlLoop:
             if stamp == last[0]:  # the same state again: the same answer
                 self.repeated += 1
                 self.publisher.publish(last[1])
-            else:
+                return
+            if last[0] - stamp < self._restart_ns:
                 self.stale += 1
-            return
+                return
+            self.restarts += 1  # the clock went back: a new run
+            if self.on_restart is not None:
+                self.on_restart()
         out = self.command(msg, self.law(msg))
         self._last = (stamp, out)
         self.answered += 1

@@ -1015,9 +1015,10 @@ class SimulatorNode(Node):
         if self._markers is not None and self._pub_markers.get_subscription_count():
             poses = {b.name: sim.pose_twist(b.name)[:2] for b in self.config.bodies}
             self._pub_markers.publish(self._markers.fill(t_ns, poses, sim.last_contacts()))
-        if self._pub_clock is not None:
+        if self._pub_clock is not None:  # (best effort, no history: to whoever listens now)
             self._clock_msg.clock = ros_messages.time_msg(t_ns)
-            self._pub_clock.publish(self._clock_msg)
+            if self._pub_clock.get_subscription_count():
+                self._pub_clock.publish(self._clock_msg)
         self.diagnostics.maybe_publish(self, self._v['real_time_factor'])
 
     def _fill_poses(self, t_ns: int) -> None:
