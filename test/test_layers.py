@@ -1,6 +1,7 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""The layers import downward only: ros -> sim -> contact -> core, and ros -> recording.
+"""The layers import downward only: ros -> sim -> contact -> core, ros -> recording, and
+ros -> pictures -> sim (the pictures of a run draw with no ROS at all).
 
 Every import of this package's modules, at any depth of a module (a function's too), is read
 from the source with ast; an import of a layer above, or beside, fails here, and so does an
@@ -10,14 +11,17 @@ reason.
 
 import ast
 from pathlib import Path
+import subprocess
+import sys
 
 PACKAGE = Path(__file__).resolve().parents[1] / 'rb_sim_ros'
 ALLOWED = {
     'core': {'core'},
     'contact': {'contact', 'core'},
     'sim': {'sim', 'contact', 'core'},
-    'ros': {'ros', 'sim', 'contact', 'core', 'recording', ''},  # '': __version__
+    'ros': {'ros', 'sim', 'contact', 'core', 'recording', 'pictures', ''},  # '': __version__
     'recording': {'recording'},
+    'pictures': {'pictures', 'sim', 'contact', 'core'},
     '': {'core'},  # rb_sim_ros/__init__.py re-exports the core's public names
 }
 # (module, imported module): why it is imported in a function and not at the top.
@@ -94,3 +98,24 @@ def test_a_violation_is_caught(tmp_path):
     assert 'core/bad.py:1 (core) imports rb_sim_ros.sim.simulation (sim)' in found
     assert 'core/bad.py:5 defers the import of rb_sim_ros.core into a function' in found
     assert len(found) == 3  # and rb_sim_ros.sim.simulation.Config, a name of the sim layer
+
+
+def _ros_loaded_by(layer: str) -> list[str]:
+    """The ROS packages (rclpy, rosidl, message and interface packages) that importing every
+    module of ``layer`` loads, in a fresh interpreter."""
+    modules = sorted(f'rb_sim_ros.{layer}.{p.stem}' for p in (PACKAGE / layer).glob('*.py'))
+    code = ''.join(f'import {m}\n' for m in modules) + (
+        'import sys\n'
+        'print(sorted({n.split(".")[0] for n in sys.modules if n.split(".")[0] == "rclpy" or '
+        'n.startswith("rosidl") or n.split(".")[0].endswith(("_msgs", "_interfaces"))}))\n')
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         check=True, cwd=PACKAGE.parent)
+    return ast.literal_eval(out.stdout.strip())
+
+
+def test_the_core_the_physics_and_the_pictures_run_without_ros():
+    """What runs offline, on a machine with no ROS, loads none: the integrator, the contacts,
+    the simulation and the pictures of a run. (The check finds ROS where it is: ros/.)"""
+    for layer in ('core', 'contact', 'sim', 'pictures'):
+        assert _ros_loaded_by(layer) == [], layer
+    assert 'rclpy' in _ros_loaded_by('ros')

@@ -11,7 +11,7 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from rb_sim_ros.ros import render
+from rb_sim_ros.pictures import render
 from rb_sim_ros.sim.simulation import BodySpec, Config
 from recordings import record_offline
 

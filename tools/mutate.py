@@ -309,7 +309,7 @@ MUTANTS = [
      [('        if abs(squared - 1.0) > UNIT_TOLERANCE:', '        if True:')],
      [SPAWN + 'test_a_tilted_plane_is_the_same_bits_after_a_round_trip'],
      "a plane's normal normalised again when a recording's config is read back"),
-    ('plot-first-lifetime', 'rb_sim_ros/ros/plots.py',
+    ('plot-first-lifetime', 'rb_sim_ros/pictures/plots.py',
      [("        which = np.maximum(np.searchsorted(starts, a[:, 0], side='left') - 1, 0)",
        '        which = np.zeros(len(a), dtype=int)')],
      ['test/test_plots_render.py::'

@@ -89,6 +89,15 @@ def matrix_from_quaternion_xyzw(q) -> np.ndarray:
     ])
 
 
+def rotation9_from_unit_quaternion(q) -> tuple[float, ...]:
+    """9 row-major floats of the rotation of a unit quaternion (x, y, z, w), as given (not
+    normalised): what the node and the pictures turn a published or recorded one into."""
+    x, y, z, w = q
+    return (1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
+            2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+            2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y))
+
+
 def quaternion_xyzw_from_components(r00, r01, r02, r10, r11, r12, r20, r21, r22):
     """Unit quaternion (x, y, z, w), w >= 0, of a rotation matrix given row-major (floats)."""
     tr = r00 + r11 + r22

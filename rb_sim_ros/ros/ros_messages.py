@@ -76,12 +76,8 @@ def check_wrench(force, torque, max_wrench: float) -> None:
 rotate = so3.mul9_vec
 
 
-def rotation_from_quaternion(q):
-    """9 row-major floats of the rotation of a unit quaternion (x, y, z, w)."""
-    x, y, z, w = q
-    return (1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
-            2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
-            2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y))
+# 9 row-major floats of the rotation of a unit quaternion (x, y, z, w).
+rotation_from_quaternion = so3.rotation9_from_unit_quaternion
 
 
 class OutputMessages:

@@ -28,8 +28,8 @@ import sys
 
 import numpy as np
 
-from rb_sim_ros.ros.plots import lifetimes, rotation_matrices
-from rb_sim_ros.ros.ros_messages import rotation_from_quaternion
+from rb_sim_ros.core.so3 import rotation9_from_unit_quaternion as rotation_from_quaternion
+from rb_sim_ros.pictures.plots import lifetimes, rotation_matrices
 from rb_sim_ros.sim.simulation import Delete, Spawn
 
 VIEWS = ('iso', 'top', 'side')
