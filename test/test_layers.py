@@ -119,3 +119,19 @@ def test_the_core_the_physics_and_the_pictures_run_without_ros():
     for layer in ('core', 'contact', 'sim', 'pictures'):
         assert _ros_loaded_by(layer) == [], layer
     assert 'rclpy' in _ros_loaded_by('ros')
+
+
+LIVE_EXECUTABLES = ('rb_sim_ros.ros.simulator_node', 'rb_sim_ros.ros.send_wrench')
+
+
+def test_no_module_imports_a_live_executable():
+    """The offline tools (replay, sweep) and the rest take what they share with the live
+    node from modules of their own (node_config, wrench_profile), never from the node's or
+    send_wrench's executable module."""
+    found = [f'{path.relative_to(PACKAGE)}:{line} imports {name}'
+             for path in sorted(PACKAGE.rglob('*.py'))
+             for name, line, _, _ in _imports(path)
+             if name.startswith(LIVE_EXECUTABLES) and
+             path.with_suffix('').relative_to(PACKAGE.parent).as_posix().replace('/', '.')
+             not in LIVE_EXECUTABLES]
+    assert found == []

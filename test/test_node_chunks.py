@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from rb_sim_ros.ros import node_params
-from rb_sim_ros.ros.simulator_node import (_CHUNK_STEPS, _CHUNK_WALL_S, config_from,
-                                           describe_bodies, next_chunk)
+from rb_sim_ros.ros.node_config import config_from
+from rb_sim_ros.ros.simulator_node import _CHUNK_STEPS, _CHUNK_WALL_S, describe_bodies, \
+    next_chunk
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import Simulation
 

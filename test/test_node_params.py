@@ -8,7 +8,7 @@ from hypothesis import given, settings, strategies as st
 import pytest
 
 from rb_sim_ros.ros import node_params
-from rb_sim_ros.ros.simulator_node import config_from as _config
+from rb_sim_ros.ros.node_config import config_from as _config
 from rb_sim_ros.sim.imu import ImuNoise, ImuSensor, MAX_SIGMA
 
 DEFAULTS = {p.name: p.default for p in node_params.PARAMS}

@@ -63,7 +63,7 @@ except ImportError:  # then no simulation_interfaces services, said once at star
     class EntityStateInput:  # never made without them
         pass
 
-from rb_sim_ros.core import jit, multistep
+from rb_sim_ros.core import jit
 from rb_sim_ros.core.rigid_body import ZERO_WRENCH
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.ros import body_ports, node_params, ros_arguments, ros_messages
@@ -71,14 +71,14 @@ from rb_sim_ros.ros.body_ports import APPLIED_QOS, BodyPorts, OVERRIDABLE, Twist
 from rb_sim_ros.ros.collision_markers import CollisionMarkers
 from rb_sim_ros.ros.diagnostics import Diagnostics
 from rb_sim_ros.ros.lockstep import HOLD, Lockstep
+from rb_sim_ros.ros.node_config import config_from
 from rb_sim_ros.ros.ros_messages import TF, TF_STATIC
 from rb_sim_ros.ros.taken_inputs import TakenInputs
 from rb_sim_ros.sim import precompile
 from rb_sim_ros.sim.scene import load_scene
-from rb_sim_ros.sim.simulation import (BodySpec, Config, config_after, contact_tests,
-                                       ContactSettings, Delete, kernels_after, Reset, SetTwist,
-                                       SetWrench, Simulation, Spawn, warm_up_bodies,
-                                       warm_up_contacts)
+from rb_sim_ros.sim.simulation import (BodySpec, Config, config_after, contact_tests, Delete,
+                                       kernels_after, Reset, SetTwist, SetWrench, Simulation,
+                                       Spawn, warm_up_bodies, warm_up_contacts)
 
 __all__ = ['APPLIED_QOS', 'SimulatorNode', 'main']
 
@@ -1115,48 +1115,6 @@ class _Settings:
 
     def __getitem__(self, name: str):
         return self._node._v[name]
-
-
-def config_from(v: dict, scene=None) -> Config:
-    """The run's Config from the node's parameter values ``v`` and a scene (or the single
-    body of the parameters)."""
-    steps = 1.0 / (v['publish_rate'] * v['dt'])
-    # (1/(rate*dt) is a whole number up to rounding: 10 Hz at 1e-6 s is 100000.00000000001)
-    if not math.isfinite(steps) or steps > node_params.MAX_STEPS_PER_PERIOD * (1 + 1e-9):
-        raise ValueError(f"publish_rate {v['publish_rate']} Hz with dt {v['dt']} s makes "
-                         f'{steps:.3g} steps a period; at most '
-                         f'{node_params.MAX_STEPS_PER_PERIOD} (raise publish_rate or dt)')
-    if abs(steps - round(steps)) > 1e-6 * steps or round(steps) < 1:
-        raise ValueError(f"publish_rate {v['publish_rate']} Hz must divide 1/dt = "
-                         f"{1.0 / v['dt']:.9g} Hz into a whole number of steps >= 1")
-    contact = ContactSettings()
-    integrator = v['integrator'] or multistep.EQ27.name
-    if scene is not None:
-        gravity, bodies, contact = scene.gravity, scene.bodies, scene.contact
-        for b in bodies:  # a point named like a fixed frame would never be reached
-            for name, _ in b.points:
-                if name == v['world_frame']:
-                    raise ValueError(f"body '{b.name}': point '{name}' is named like "
-                                     'world_frame: rename one of them')
-                if name == HOLD and v.get('lockstep'):
-                    raise ValueError(f"body '{b.name}': point '{name}' is named like "
-                                     "lockstep's answer of no change: rename it")
-        integrator = v['integrator'] or scene.integrator or integrator
-    else:
-        gravity = (0.0, 0.0, 0.0)
-        bodies = (BodySpec(name='body', mass=float(v['mass']),
-                           inertia=tuple(float(c) for c in v['inertia']),
-                           initial_position=tuple(float(c) for c in v['initial_position']),
-                           initial_orientation_xyzw=tuple(
-                               float(c) for c in v['initial_orientation']),
-                           initial_linear_velocity=tuple(
-                               float(c) for c in v['initial_linear_velocity']),
-                           initial_angular_velocity=tuple(
-                               float(c) for c in v['initial_angular_velocity'])),)
-    for b in bodies:  # ValueError if a body's frame is world_frame
-        node_params.body_frame(v, b.name, scene is None)
-    return Config(dt=float(v['dt']), steps_per_publish=int(round(steps)),
-                  integrator=integrator, gravity=gravity, bodies=bodies, contact=contact)
 
 
 def _open_recorder(node: SimulatorNode, values: dict):
