@@ -6,8 +6,10 @@ state once; a state sent again gets the same answer; an old one is ignored, and 
 far back is a new run."""
 
 from nav_msgs.msg import Odometry
+import rclpy
 
 from rb_sim_ros.ros.control_loop import ControlLoop, HOLD
+from ros_harness import reserve_domain_id
 
 MS = 1_000_000
 
@@ -81,3 +83,21 @@ def test_an_old_state_is_ignored_and_a_clock_gone_far_back_is_a_new_run():
     assert node.pub.sent[-1].header.stamp.sec == 0
     loop.on_state(_state(10 * MS))  # and goes on from there
     assert len(seen) == 3 and loop.stale == 1
+
+
+def test_its_thread_ends_with_close_and_with_the_context():
+    """The loop's own thread (the default): close() ends it; a node destroyed without close()
+    leaves it waiting quietly, and the context's shutdown ends it."""
+    for closed in (True, False):
+        context = rclpy.Context()
+        rclpy.init(context=context, domain_id=reserve_domain_id())
+        node = rclpy.create_node('controller', context=context)
+        loop = ControlLoop(node, lambda msg: None)
+        assert loop._thread.is_alive()
+        if closed:
+            loop.close()
+            assert not loop._thread.is_alive()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        loop._thread.join(30.0)
+        assert not loop._thread.is_alive()

@@ -78,6 +78,9 @@ class TakenInputs:
                     live.append(sub)
                 except Exception:  # noqa: B902 - destroyed meanwhile (a deleted body's)
                     continue
+            if not live:  # all destroyed (the node going away): nothing to wait on
+                time.sleep(timeout_s)
+                return 0
             if tuple(live) != self._made:
                 self._wait_set = _rclpy.WaitSet(len(live), 0, 0, 0, 0, 0,
                                                 self._context.handle)
