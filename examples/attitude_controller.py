@@ -83,8 +83,8 @@ class AttitudeController(Node):
         source = param('source', 'odom', "Read the state from 'odom' (ground truth) or 'imu'.")
         self.jitter = param('answer_delay_max', 0.0, 'Wait a random wall time up to this (s) '
                             'before each answer: in lockstep the run stays the same bits.')
-        thread = param('control_thread', True, 'Answer each state in a thread of its own '
-                       "(faster); false: through the node's executor.")
+        thread = param('control_thread', True, 'Answer each state from a thread of its own, '
+                       "waiting on the state alone; false: through the node's executor.")
         values = list(rpy) + list(inertia) + [wn, zeta, self.max_torque, self.jitter]
         if len(rpy) != 3 or len(inertia) != 3 or not all(
                 isinstance(v, (int, float)) and math.isfinite(v) for v in values) or \

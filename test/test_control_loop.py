@@ -5,6 +5,8 @@ publisher and subscription. Each state gets one answer with its own stamp; the l
 state once; a state sent again gets the same answer; an old one is ignored, and a clock gone
 far back is a new run."""
 
+import threading
+
 from nav_msgs.msg import Odometry
 import rclpy
 
@@ -74,7 +76,8 @@ def test_no_change_is_hold_and_a_world_frame_is_named():
 def test_an_old_state_is_ignored_and_a_clock_gone_far_back_is_a_new_run():
     node, seen, restarts = _Node(), [], []
     loop = ControlLoop(node, lambda msg: seen.append(msg.header.stamp) or None,
-                       on_restart=lambda: restarts.append(len(seen)), thread=False)
+                       on_restart=lambda: restarts.append(len(seen)), thread=False,
+                       restart_after=1.0)
     loop.on_state(_state(5_000 * MS))
     loop.on_state(_state(4_990 * MS))  # out of order, a period old: ignored
     assert (loop.stale, len(seen), len(node.pub.sent)) == (1, 1, 1)
@@ -85,9 +88,30 @@ def test_an_old_state_is_ignored_and_a_clock_gone_far_back_is_a_new_run():
     assert len(seen) == 3 and loop.stale == 1
 
 
-def test_its_thread_ends_with_close_and_with_the_context():
+def test_by_default_any_older_state_is_a_new_run_and_a_law_that_raises_holds():
+    node, restarts = _Node(), []
+    failing = [False]
+
+    def law(msg):
+        if failing[0]:
+            raise ZeroDivisionError('a bug')
+        return (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)
+    loop = ControlLoop(node, law, on_restart=lambda: restarts.append(1), thread=False)
+    node.get_logger = lambda: type('L', (), {'error': lambda *a, **k: None})()
+    loop.on_state(_state(500 * MS))
+    loop.on_state(_state(490 * MS))  # a run started again, 10 ms ago in the last one's time
+    assert restarts == [1] and loop.stale == 0 and loop.answered == 2
+    failing[0] = True
+    loop.on_state(_state(500 * MS))
+    out = node.pub.sent[-1]
+    assert out.header.frame_id == HOLD and out.header.stamp.nanosec == 500 * MS
+
+
+def test_its_thread_ends_with_close_and_with_the_context(monkeypatch):
     """The loop's own thread (the default): close() ends it; a node destroyed without close()
-    leaves it waiting quietly, and the context's shutdown ends it."""
+    leaves it waiting quietly (no exception in it), and the context's shutdown ends it."""
+    raised = []
+    monkeypatch.setattr(threading, 'excepthook', raised.append)
     for closed in (True, False):
         context = rclpy.Context()
         rclpy.init(context=context, domain_id=reserve_domain_id())
@@ -98,6 +122,9 @@ def test_its_thread_ends_with_close_and_with_the_context():
             loop.close()
             assert not loop._thread.is_alive()
         node.destroy_node()
+        if not closed:
+            loop._thread.join(0.5)  # (it would have died in this time, not by a deadline)
+            assert loop._thread.is_alive() and raised == []
         rclpy.try_shutdown(context=context)
-        loop._thread.join(30.0)
-        assert not loop._thread.is_alive()
+        loop._thread.join()
+        assert raised == []

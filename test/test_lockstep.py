@@ -183,3 +183,13 @@ def test_unheard_inputs_are_those_never_heard_and_rearm_restarts_the_wait():
     ls.rearm()
     assert ls.waited() < 1.0
     assert 'waiting' in ls.describe() and 'a, b' in ls.describe()
+
+
+def test_a_declared_input_deleted_before_step_0_is_not_waited_for():
+    ls = Lockstep(['a', 'b'])
+    ls.join(['a', 'b'])
+    ls.expect(0)
+    ls.offer('a', 0, 'w')
+    assert ls.leave('b', deleted=True)
+    ls.join(ls.declared)  # what every poll before step 0 does
+    assert ls.ready.is_set() and ls.inputs() == ['a']

@@ -23,11 +23,13 @@ command without lockstep (the same controller runs either way). The bookkeeping:
   from yet: its first one may have gone out before the subscription matched) gets the answer
   already sent, and the law is not called twice for one state (a law with memory, such as an
   integrator, sees each state once);
-* a state a little older than the last one answered (less than ``restart_after`` seconds:
-  delivered out of order) is ignored (counted in ``stale``);
-* a state much older than the last (a simulator started again, its clock back at 0) is a new
-  run: the loop forgets the last answer, calls ``on_restart()`` if given (a law with memory
-  resets it there) and answers it (counted in ``restarts``);
+* a state older than the last one answered is a new run (a simulator started again, its clock
+  back at 0: one publisher's states never arrive out of order): the loop forgets the last
+  answer, calls ``on_restart()`` if given (a law with memory resets it there) and answers it
+  (counted in ``restarts``); with ``restart_after`` > 0, a state older by less than that many
+  seconds is ignored instead (counted in ``stale``: for states from several publishers);
+* a law that raises is logged and answered with "no change" (HOLD), so that a lockstep run
+  goes on, the same way every time;
 * ``answered``, ``repeated``, ``stale`` and ``restarts`` count what happened.
 
 The loop has a thread of its own (``thread=True``, the default): it waits on the state
@@ -36,8 +38,8 @@ subscription alone, calls the law and publishes the answer, while the node's exe
 state would cost a rebuild of its wait set over every entity of the node (bench/
 lockstep_bench.py measures both ways). The law
 then runs in that thread: make the ControlLoop last in the node's ``__init__``, once what the
-law reads is set. A law that raises is logged, and the state stays unanswered (in lockstep
-the simulator sends it again). ``thread=False``: the executor calls ``on_state``.
+law reads is set, and ``close()`` it before destroying the node. ``thread=False``: the
+executor calls ``on_state``.
 """
 
 from __future__ import annotations
@@ -75,7 +77,7 @@ class ControlLoop:
 
     def __init__(self, node, law: Callable, state_type=Odometry, state_topic: str = 'odom',
                  command_topic: str = 'wrench_stamped', frame: str = 'body',
-                 qos=10, restart_after: float = 1.0,
+                 qos=10, restart_after: float = 0.0,
                  on_restart: Callable[[], None] | None = None, thread: bool = True) -> None:
         self.law = law
         self._node = node
@@ -108,14 +110,15 @@ class ControlLoop:
                 raise
 
     def _failed(self, error: Exception) -> None:
-        self._node.get_logger().error(f'control law failed: {type(error).__name__}: {error}',
-                                      throttle_duration_sec=1.0)
+        self._node.get_logger().error(f'control law failed: {type(error).__name__}: {error}; '
+                                      'answered with no change', throttle_duration_sec=1.0)
 
     def close(self) -> None:
-        """Stop the loop's thread (before the node is destroyed)."""
+        """Stop the loop's thread (before the node is destroyed): it ends after the state it
+        is answering, if any."""
         self._closed.set()
         if self._thread is not None and self._thread is not threading.current_thread():
-            self._thread.join(1.0)
+            self._thread.join()
 
     def on_state(self, msg) -> None:
         stamp = stamp_ns(msg.header.stamp)
@@ -131,7 +134,12 @@ class ControlLoop:
             self.restarts += 1  # the clock went back: a new run
             if self.on_restart is not None:
                 self.on_restart()
-        out = self.command(msg, self.law(msg))
+        try:
+            wrench = self.law(msg)
+        except Exception as e:  # noqa: B902 - whatever the law did, the loop must answer
+            self._failed(e)
+            wrench = None
+        out = self.command(msg, wrench)
         self._last = (stamp, out)
         self.answered += 1
         self.publisher.publish(out)

@@ -19,9 +19,9 @@ given to the state published before it stand and take effect as they would have,
 controllers see the changed state at the next period. Deterministic all the same: the change
 and the answers are both inputs at known steps, and replay applies them there.
 
-This module holds the bookkeeping only (no ROS): the node hands it each answer as it arrives
-(the executor's thread), and asks it, from the step loop, whether to step on and which answers
-take effect now. A wrench answer is whatever event the node made of the message (a SetWrench).
+This module holds the bookkeeping only (no ROS): the node's step loop hands it each answer as
+it takes it (taken_inputs), and asks it whether to step on and which answers take effect now.
+A wrench answer is whatever event the node made of the message (a SetWrench).
 """
 
 from __future__ import annotations
@@ -103,12 +103,14 @@ class Lockstep:
             gone = self.members.pop(body, None) is not None
             self._timed_out.discard(body)
             if deleted:
+                if self.declared is not None and body in self.declared:
+                    self.declared.remove(body)  # (before step 0 it would join again)
                 for batch in self._pipeline:
                     batch[:] = [(b, a) for b, a in batch if b != body]
             self._update()
         return gone
 
-    # -- answers (the executor's thread) ---------------------------------------------------
+    # -- answers (the step loop's thread) ---------------------------------------------------
     def offer(self, body: str, stamp_ns: int, answer) -> str | None:
         """An answer from ``body``'s wrench_stamped: None if taken (or a repeat of one taken),
         else why it was refused. Not an input: 'open' (the node queues it as any input).

@@ -244,6 +244,7 @@ class SimulatorNode(Node):
             self._declare_inputs(values['lockstep_inputs'])
             self.diagnostics.lockstep = self._lockstep
         self._tf = self._tf_msg = self._tf_static = self._pub_tf_static = None
+        self._tf_filled = False  # the last publish filled /tf (a re-send may send it)
         self._tf_static_frames: list = []
         self._tf_static_due = False
         self._tf_on = bool(values['publish_tf'])
@@ -358,6 +359,7 @@ class SimulatorNode(Node):
         world = self._v['world_frame']
         self._tf_msg = ros_messages.tf_message(TFMessage, world,
                                                [p.body_frame for p in self._moving])
+        self._tf_filled = False  # (not sent again before a publish fills it)
         if self._moving and self._tf is None:
             self._tf = self._own(TF, ros_messages.tf_qos(TF), **over)
         static = [p for p in self.ports.values() if not self.sim.is_moving(p.name)]
@@ -664,11 +666,12 @@ class SimulatorNode(Node):
                 self._wait_for_recorder()
                 self._periods_now(1, as_fast_as_possible=True)
                 return
-            if ls.ready_ns > self._due_at():
-                # The answers came after the period was due: it is due from then. The wait
-                # for a controller is neither lateness nor a period to drop.
-                self._anchor_wall = ls.ready_ns - self._period_wall_ns
-                self._anchor_period = self._periods
+            with self._lock:
+                if ls.ready_ns > self._due_at():
+                    # The answers came after the period was due: it is due from then. The
+                    # wait for a controller is neither lateness nor a period to drop.
+                    self._anchor_wall = ls.ready_ns - self._period_wall_ns
+                    self._anchor_period = self._periods
             self._paced(lambda s: self._taken.take(min(s, 0.05)))
             return
         self._taken.take(0.05)
@@ -681,7 +684,7 @@ class SimulatorNode(Node):
             return
         self._polled = now
         with self._lock:
-            if self._paused == (not timing) and not self._lockstep.ready.is_set():
+            if self._paused != timing and not self._lockstep.ready.is_set():
                 self.lockstep_poll(timing)
 
     def _check_compiling(self) -> None:
@@ -786,8 +789,13 @@ class SimulatorNode(Node):
             recorder, self._recorder = self._recorder, None
             # Kept apart from the physics' error: reset and unpause do not clear it.
             self.diagnostics.recording_error = recorder.failed  # what, where, what to do
-            self.get_logger().error(f'{recorder.failed}; simulating on without it')
             recorder.close()
+            if self._stop_step:  # a run that ends by itself is for its recording: it ends
+                self.get_logger().error(f'{recorder.failed}; ending the run (stop_after): '
+                                        'exit 3')
+                self._finish(3)
+            else:
+                self.get_logger().error(f'{recorder.failed}; simulating on without it')
         if self._stop.is_set():
             return
         final = self._stop_step and sim.step_count >= self._stop_step
@@ -821,15 +829,18 @@ class SimulatorNode(Node):
         return text
 
     def _finish(self, code: int) -> None:
-        """End the run by itself (stop_after, or a lockstep timeout that ends it): the step
-        loop stops, and main() closes the node (the recording finished) and exits ``code``."""
+        """End the run by itself (stop_after: 0; any error of a stop_after run: 3): the step
+        loop stops, and main() closes the node (the recording finished) and exits ``code``.
+        The first end stands (an error in the last period is not undone by reaching it)."""
+        if self.done.is_set():
+            return
         self.exit_code = code
         self._stop.set()
         self.done.set()
 
     # -- lockstep --------------------------------------------------------------------------
     def _answer(self, body: str, stamp_ns: int, answer) -> bool:
-        """A wrench_stamped of ``body`` (the executor's thread): True if lockstep took it or
+        """A wrench_stamped of ``body`` (the step loop's thread): True if lockstep took it or
         refused it, False if it is an ordinary input (not a lockstep input)."""
         ls = self._lockstep
         why = ls.offer(body, stamp_ns, answer)
@@ -939,9 +950,9 @@ class SimulatorNode(Node):
     def _republish(self) -> None:
         for port in self.ports.values():
             port.republish()
-        if self._tf is not None and self._tf.get_subscription_count():
+        if self._tf is not None and self._tf_filled and self._tf.get_subscription_count():
             self._tf.publish(self._tf_msg)
-        if self._pub_clock is not None:
+        if self._pub_clock is not None and self._pub_clock.get_subscription_count():
             self._pub_clock.publish(self._clock_msg)
 
     def _apply(self, event, command: bool = True) -> None:
@@ -987,6 +998,7 @@ class SimulatorNode(Node):
         sim = self.sim
         t_ns = sim.time_ns
         failed = False
+        self._tf_filled = False
         for port in self.ports.values():
             moving = sim.is_moving(port.name)  # a static body is not recorded: it never moves
             if not port.publish(sim, self._recorder if moving else None,
@@ -1000,6 +1012,7 @@ class SimulatorNode(Node):
             # (in lockstep filled all the same: a state not answered is sent again)
             ros_messages.fill_tf(self._tf_msg, t_ns,
                                  [sim.pose_twist(p.name)[:2] for p in self._moving])
+            self._tf_filled = True
             if listened or self._recorder is not None:
                 self._tf.publish(self._tf_msg)
             if self._recorder is not None:
