@@ -843,7 +843,11 @@ class SimulatorNode(Node):
         """A wrench_stamped of ``body`` (the step loop's thread): True if lockstep took it or
         refused it, False if it is an ordinary input (not a lockstep input)."""
         ls = self._lockstep
-        why = ls.offer(body, stamp_ns, answer)
+        with self._lock:  # not while a delete takes the body away (it would join again)
+            port = self.ports.get(body)
+            if port is None or port.answers is None:
+                return True  # a deleted body's, taken as it went
+            why = ls.offer(body, stamp_ns, answer)
         if why == 'open':
             return False
         if why:
