@@ -148,6 +148,9 @@ def test_the_standard_api_drives_the_simulator(start_sim, probe, tmp_path, insta
     # The action: feedback on the way, all steps done.
     client = ActionClient(probe.node, SimulateSteps, 'simulate_steps')
     probe.wait_for(client.server_is_ready, what='the simulate_steps action')
+    # (ready is its services: feedback sent before its topic matched would be lost)
+    probe.wait_for(lambda: probe.node.count_publishers('/simulate_steps/_action/feedback'),
+                   what="the action's feedback topic")
     feedback = []
     goal = client.send_goal_async(SimulateSteps.Goal(steps=45),
                                   feedback_callback=lambda m: feedback.append(m.feedback))
