@@ -46,7 +46,7 @@ from rclpy.executors import SingleThreadedExecutor
 import yaml
 
 from rb_sim_ros import RigidBody, State, Stepper
-from rb_sim_ros.ros.simulator_node import APPLIED_QOS
+from rb_sim_ros.ros.body_ports import APPLIED_QOS
 
 CLK_TCK = os.sysconf('SC_CLK_TCK')
 

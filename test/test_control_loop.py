@@ -107,6 +107,20 @@ def test_by_default_any_older_state_is_a_new_run_and_a_law_that_raises_holds():
     assert out.header.frame_id == HOLD and out.header.stamp.nanosec == 500 * MS
 
 
+def test_a_law_returning_no_wrench_shape_holds_and_says_so():
+    """A wrench the message cannot take (not two triples, not numbers) is the law's error:
+    the state is still answered, with no change, and the log names it."""
+    for bad in ((1.0, 2.0), ((0, 0), (0, 0, 0)), (('x', 0, 0), (0, 0, 0)), 5):
+        node, said = _Node(), []
+        node.get_logger = lambda: type('L', (), {'error': lambda s, m, **k: said.append(m)})()
+        loop = ControlLoop(node, lambda msg: bad, thread=False)
+        loop.on_state(_state(30 * MS))
+        out = node.pub.sent[-1]
+        assert (out.header.frame_id, out.header.stamp.nanosec) == (HOLD, 30 * MS), bad
+        assert len(node.pub.sent) == 1 and loop.answered == 1
+        assert len(said) == 1 and 'control law failed' in said[0]
+
+
 def test_its_thread_ends_with_close_and_with_the_context(monkeypatch):
     """The loop's own thread (the default): close() ends it; a node destroyed without close()
     leaves it waiting quietly (no exception in it), and the context's shutdown ends it."""

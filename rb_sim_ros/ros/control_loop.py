@@ -87,7 +87,7 @@ class ControlLoop:
         self.answered = self.repeated = self.stale = self.restarts = 0
         self._last: tuple[int, WrenchStamped] | None = None
         self.publisher = node.create_publisher(WrenchStamped, command_topic, qos)
-        self._taken = TakenInputs(node.context, self._failed) if thread else None
+        self._taken = TakenInputs(node.context, self._callback_failed) if thread else None
         group = {'callback_group': self._taken.group} if thread else {}
         self.subscription = node.create_subscription(state_type, state_topic, self.on_state,
                                                      qos, **group)
@@ -113,6 +113,13 @@ class ControlLoop:
         self._node.get_logger().error(f'control law failed: {type(error).__name__}: {error}; '
                                       'answered with no change', throttle_duration_sec=1.0)
 
+    def _callback_failed(self, error: Exception) -> None:
+        # on_state answers a law's error itself: this is the loop's own (a bad command from
+        # the law, a publish on a closed node), and that state may be unanswered
+        self._node.get_logger().error(f'control loop failed on a state: '
+                                      f'{type(error).__name__}: {error}',
+                                      throttle_duration_sec=1.0)
+
     def close(self) -> None:
         """Stop the loop's thread (before the node is destroyed): it ends after the state it
         is answering, if any."""
@@ -135,11 +142,10 @@ class ControlLoop:
             if self.on_restart is not None:
                 self.on_restart()
         try:
-            wrench = self.law(msg)
+            out = self.command(msg, self.law(msg))
         except Exception as e:  # noqa: B902 - whatever the law did, the loop must answer
             self._failed(e)
-            wrench = None
-        out = self.command(msg, wrench)
+            out = self.command(msg, None)
         self._last = (stamp, out)
         self.answered += 1
         self.publisher.publish(out)
