@@ -496,7 +496,7 @@ def test_collide_pair_refuses_outputs_too_small_two_planes_and_bad_indices():
         nk.collide_pair(kind, geom, centre, rot, *plane, 0.0, *out, 1)
     with pytest.raises(ValueError, match='two planes'):
         nk.collide_pair(*plane, *plane, 0.0, *out, 0)
-    with pytest.raises(ValueError, match='two planes'):
+    with pytest.raises(ValueError, match='between a plane and a plane .both static'):
         nph.collide(Plane(), (ORIGIN, I3), Plane(), (ORIGIN, I3))
     arrays = _arrays([Sphere(0.5), Plane()], [(ORIGIN, I3)] * 2, np.array([0]), np.array([1]),
                      np.zeros(1))
@@ -545,20 +545,22 @@ def test_plane_candidates_use_the_support_distance():
     # Spheres of radius 0.5 (support 0.5 towards any plane), then the same as boxes of half
     # extents 0.5 turned by 45 degrees about y: support 0.5 sqrt(2) towards the ground and wall.
     rotations = np.tile(np.eye(3).reshape(9), (3, 1))
-    half, half_length = np.zeros((3, 3)), np.zeros(3)
-    radius = np.full(3, 0.5)
+    spheres = np.full(3, nk.KIND_SPHERE)
+    geoms = np.zeros((3, nk.GEOM_WIDTH))
+    geoms[:, nk.RADIUS] = 0.5
     colliders, body, margin = np.arange(3), np.zeros(3, dtype=np.int64), np.zeros(1)
-    pairs = broad_phase.plane_candidates(colliders, body, rotations, half, half_length, radius,
+    pairs = broad_phase.plane_candidates(colliders, body, rotations, spheres, geoms,
                                          centres, normals, plane_points, margin)
     np.testing.assert_array_equal(pairs, [[0, 0], [1, 1]])
     turned = np.tile(so3.exp([0.0, math.pi / 4, 0.0]).reshape(9), (3, 1))
     centres = np.array([[0.0, 0.0, 0.7], [4.3, 0.0, 3.0], [0.0, 0.0, 0.8]])
-    pairs = broad_phase.plane_candidates(colliders, body, turned, np.full((3, 3), 0.5),
-                                         half_length, np.zeros(3), centres, normals,
-                                         plane_points, margin)
+    boxes = np.full(3, nk.KIND_BOX)
+    geoms = np.zeros((3, nk.GEOM_WIDTH))
+    geoms[:, nk.HX:nk.HZ + 1] = 0.5
+    pairs = broad_phase.plane_candidates(colliders, body, turned, boxes, geoms, centres,
+                                         normals, plane_points, margin)
     np.testing.assert_array_equal(pairs, [[0, 0], [1, 1]])  # 0.7 < 0.707 < 0.8
     margin[0] = 0.1                                           # within the margin: a candidate
-    pairs = broad_phase.plane_candidates(colliders, body, turned, np.full((3, 3), 0.5),
-                                         half_length, np.zeros(3), centres, normals,
-                                         plane_points, margin)
+    pairs = broad_phase.plane_candidates(colliders, body, turned, boxes, geoms, centres,
+                                         normals, plane_points, margin)
     np.testing.assert_array_equal(pairs, [[0, 0], [1, 1], [2, 0]])

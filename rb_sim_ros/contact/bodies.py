@@ -13,7 +13,8 @@ from typing import Any
 import numpy as np
 
 from rb_sim_ros.contact import contact_solver
-from rb_sim_ros.contact.collision_shapes import is_shape, Plane
+from rb_sim_ros.contact import shapes
+from rb_sim_ros.contact.collision_shapes import is_shape
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import finite_floats, non_negative, rate, RigidBody, State
 from rb_sim_ros.core.stepper import BodyStore, check_dt, Stepper
@@ -84,10 +85,10 @@ class BodySpec:
         object.__setattr__(self, 'colliders', tuple(self.colliders))
         for i, c in enumerate(self.colliders):
             if not is_shape(c):
-                raise ValueError(f'colliders[{i}] must be a Sphere, Box, Capsule or Plane, '
-                                 f'got {c!r}')
-            if isinstance(c, Plane) and not self.static:
-                raise ValueError(f'colliders[{i}] is a Plane, which only a static body may '
+                kinds = ', '.join(m.VALUE.__name__ for m in shapes.KINDS)
+                raise ValueError(f'colliders[{i}] must be a shape ({kinds}), got {c!r}')
+            if shapes.module_of(c).STATIC_ONLY and not self.static:
+                raise ValueError(f'colliders[{i}] is a {c.kind}, which only a static body may '
                                  'have')
         points = []
         for i, pair in enumerate(self.points):

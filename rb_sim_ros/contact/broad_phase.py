@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from rb_sim_ros.contact import shapes
 from rb_sim_ros.core.jit import inline_kernel, kernel
 
 # The most pairs of colliders the broad phase finds in one step, and the most box tests its
@@ -117,28 +118,28 @@ def sweep_and_prune(lower, upper, group, static, axis):
 
 
 @inline_kernel
-def plane_candidates(colliders, body, rotations, half, half_length, radius, centres,
-                     plane_normals, plane_points, margin):
+def plane_candidates(colliders, body, rotations, kinds, geoms, centres, plane_normals,
+                     plane_points, margin):
     """Pairs (P, 2) of (collider, plane), sorted, where collider ``colliders[k]`` comes within
     its body's margin of plane p: n . c - support <= n . p0 + margin, support the collider's
-    extent towards the plane (sum_j h_j |n . R[:, j]| + h |n . R[:, 2]| + r)."""
+    extent towards the plane (its kind's, ``shapes.support_of``, along n in its axes)."""
     count, planes = colliders.shape[0], plane_normals.shape[0]
     out = np.empty((count * planes, 2), dtype=np.int64)
     found = 0
     for k in range(count):
         c = colliders[k]
-        hx, hy, hz = float(half[c, 0]), float(half[c, 1]), float(half[c, 2])
+        kind = int(kinds[c])
         for p in range(planes):
             nx, ny, nz = (float(plane_normals[p, 0]), float(plane_normals[p, 1]),
                           float(plane_normals[p, 2]))
-            a0 = abs(nx * float(rotations[c, 0]) + ny * float(rotations[c, 3])
-                     + nz * float(rotations[c, 6]))
-            a1 = abs(nx * float(rotations[c, 1]) + ny * float(rotations[c, 4])
-                     + nz * float(rotations[c, 7]))
-            a2 = abs(nx * float(rotations[c, 2]) + ny * float(rotations[c, 5])
-                     + nz * float(rotations[c, 8]))
-            support = (a0 * hx + a1 * hy + a2 * hz) + float(half_length[c]) * a2 + float(
-                radius[c])
+            # n in the collider's axes: R^T n (the kinds are symmetric: -n reaches as far)
+            l0 = (nx * float(rotations[c, 0]) + ny * float(rotations[c, 3])
+                  + nz * float(rotations[c, 6]))
+            l1 = (nx * float(rotations[c, 1]) + ny * float(rotations[c, 4])
+                  + nz * float(rotations[c, 7]))
+            l2 = (nx * float(rotations[c, 2]) + ny * float(rotations[c, 5])
+                  + nz * float(rotations[c, 8]))
+            support = shapes.support_of(kind, geoms, c, l0, l1, l2)
             height = (nx * float(centres[c, 0]) + ny * float(centres[c, 1])
                       + nz * float(centres[c, 2])) - (
                 nx * float(plane_points[p, 0]) + ny * float(plane_points[p, 1])

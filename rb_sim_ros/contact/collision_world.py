@@ -61,6 +61,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from rb_sim_ros.contact import broad_phase as bp, contact_solver, narrow_kernels as nk
+from rb_sim_ros.contact import shapes
 from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.contact import world_step as ws
 from rb_sim_ros.contact.bodies import BodySpec, make_steppers
@@ -124,7 +125,7 @@ class WorldContact:
 def pairs_met(bodies: Sequence[BodySpec], planes: Sequence[Plane] = ()) -> int:
     """The contact tests (a set of ``narrow_kernels.PAIR_BIT``) a world of ``bodies`` and
     ``planes`` can call: those of the kinds of a moving body's collider and another body's."""
-    kinds = [[nk.KIND_NAMES.index(sh.kind) for sh in b.colliders] for b in bodies]
+    kinds = [[shapes.kind_of(sh) for sh in b.colliders] for b in bodies]
     return nk.pair_set(kinds + [[nk.KIND_PLANE] * len(planes)],
                        [not b.static for b in bodies] + [False])
 
@@ -295,11 +296,15 @@ class CollisionWorld:
         self._cdyn = np.flatnonzero(~self._cstatic)
         self._local_pos = np.array([c.position for c in colliders]).reshape(-1, 3)
         self._local_rot = np.array([c.rotation for c in colliders]).reshape(-1, 3, 3)
-        self._radius = np.array([getattr(c.shape, 'radius', 0.0) for c in colliders])
-        self._half_length = np.array([c.shape.half_length if c.shape.kind == 'capsule'
-                                      else 0.0 for c in colliders])
-        self._half = np.array([c.shape.half_extents if c.shape.kind == 'box' else (0.0,) * 3
-                               for c in colliders]).reshape(-1, 3)
+        # Colliders then planes, as the kernels take them: kinds and rows (each kind's module
+        # packs its sizes; a plane's row is its world normal).
+        nc, npl = len(colliders), len(plane_normals)
+        self._kinds = np.array([shapes.kind_of(c.shape) for c in colliders]
+                               + [nk.KIND_PLANE] * npl, dtype=np.int64)
+        self._geoms = np.zeros((nc + npl, nk.GEOM_WIDTH))
+        for k, c in enumerate(colliders):
+            self._geoms[k] = shapes.packed(c.shape, c.rotation)
+        self._geoms[nc:, nk.NORMAL:nk.NORMAL + 3] = self._plane_normals
         reach = np.zeros(nb)
         for c in colliders:
             if c.body >= 0:
@@ -316,8 +321,8 @@ class CollisionWorld:
         self._lower = np.zeros((len(colliders), 3))
         self._upper = np.zeros((len(colliders), 3))
         for c in np.flatnonzero(self._cstatic).tolist():
-            wk.extents(c, self._rotations9, self._half, self._half_length, self._radius, 0.0,
-                       self._centres, self._lower, self._upper)
+            wk.extents(c, self._rotations9, self._kinds, self._geoms, 0.0, self._centres,
+                       self._lower, self._upper)
         # The moving bodies with colliders as rows of their steppers' store.
         self._store = self._moving_steppers[0]._store
         self._rows = np.array([s._row for s in self._moving_steppers], dtype=np.int64)
@@ -331,29 +336,18 @@ class CollisionWorld:
         self._margin = np.zeros(nb + 1)
         # Materials of the colliders, then of the planes (the world's where a shape has none);
         # None when no shape has one: the solver then uses the settings' as before.
-        shapes = [c.shape for c in colliders] + plane_shapes
+        every = [c.shape for c in colliders] + plane_shapes
         self._materials = None
-        if any(sh.restitution is not None or sh.friction is not None for sh in shapes):
+        if any(sh.restitution is not None or sh.friction is not None for sh in every):
             st = self.settings
             self._materials = (
                 np.array([st.restitution if sh.restitution is None else sh.restitution
-                          for sh in shapes]),
+                          for sh in every]),
                 np.array([st.friction if sh.friction is None else sh.friction
-                          for sh in shapes]))
+                          for sh in every]))
         self._asleep = np.zeros(nb + 1, dtype=bool)   # the last slot: static colliders
         self._slow_steps = np.zeros(nb, dtype=np.int64)
-        # Colliders then planes, as the narrow phase's kernel takes them: kinds, sizes
-        # (radius, half length, half extents; a plane's normal), centres, rotations.
-        kind_of = {'sphere': nk.KIND_SPHERE, 'capsule': nk.KIND_CAPSULE, 'box': nk.KIND_BOX,
-                   'plane': nk.KIND_PLANE}
-        nc, npl = len(colliders), len(plane_normals)
-        self._kinds = np.array([kind_of[c.shape.kind] for c in colliders]
-                               + [nk.KIND_PLANE] * npl, dtype=np.int64)
-        self._geoms = np.zeros((nc + npl, nk.GEOM_WIDTH))
-        self._geoms[:nc, nk.RADIUS] = self._radius
-        self._geoms[:nc, nk.HALF_LENGTH] = self._half_length
-        self._geoms[:nc, nk.HX:nk.HX + 3] = self._half
-        self._geoms[nc:, nk.NORMAL:nk.NORMAL + 3] = self._plane_normals
+        # Centres and rotations of the colliders then the planes (a plane's centre: a point).
         self._all_centres = np.concatenate([self._centres, self._plane_points])
         self._all_rotations = np.concatenate([self._rotations9,
                                               np.tile(np.eye(3).reshape(9), (npl, 1))])
@@ -512,10 +506,10 @@ class CollisionWorld:
             self._inverse_mass, self._step_rows, self._body_of_row, self._kinds, self._geoms,
             self._all_centres, self._all_rotations, self._restitution, self._friction,
             self._cbody, self._cowner, self._cstatic, self._cdyn, self._local_pos,
-            self._local_rot9, self._half, self._half_length, self._radius, self._lower,
-            self._upper, self._plane_normals, self._plane_points, self._x, self._rot, self._v,
-            self._w, self._margin, self._asleep, self._slow_steps, self._settings_array,
-            self._config, self._status, self._stats, self._flagged, self._energy)
+            self._local_rot9, self._lower, self._upper, self._plane_normals,
+            self._plane_points, self._x, self._rot, self._v, self._w, self._margin,
+            self._asleep, self._slow_steps, self._settings_array, self._config, self._status,
+            self._stats, self._flagged, self._energy)
 
     def _account(self, steps: int, seconds: float) -> None:
         """Note a call's wall time; ``last_stats`` and ``totals`` are made from the kernel's

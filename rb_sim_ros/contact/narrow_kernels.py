@@ -56,13 +56,13 @@ import math
 
 import numpy as np
 
-from rb_sim_ros.core.jit import inline_kernel, kernel, literal_entry, literal_gate, made_global
+from rb_sim_ros.contact import shapes
+from rb_sim_ros.contact.shapes.base import GEOM_WIDTH, HALF_LENGTH, HX, HY, HZ, NORMAL, RADIUS
+from rb_sim_ros.core.jit import (generated_kernel, inline_kernel, kernel, literal_entry,
+                                 literal_gate, made_global)
 
-KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE = 0, 1, 2, 3
-# geom row: (radius, half_length, hx, hy, hz); a plane's unit normal in place of (hx, hy, hz).
-GEOM_WIDTH = 5
-RADIUS, HALF_LENGTH, HX, HY, HZ = 0, 1, 2, 3, 4
-NORMAL = HX
+KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE = (
+    shapes.sphere.KIND, shapes.capsule.KIND, shapes.box.KIND, shapes.plane.KIND)
 # The most contacts of one pair: capsule-box, its nearest point and 8 candidates (2 ends, 6
 # face crossings) on the same face. (Box-plane 8 vertices, box-box 4, capsule-capsule 2.)
 MAX_CONTACTS_PER_PAIR = 9
@@ -875,14 +875,12 @@ def _box_box(ca, rota, ga, cb, rotb, gb, margin, point, normal, depth, feature, 
 # The contact tests, one for each pair of kinds (low rank, high rank), written ``_pair_*`` below
 # with one signature: the arrays of the two shapes in the order the pair is given and
 # ``swap`` (the pair given high kind first, so computed B as A). A set of pairs is an int, one
-# bit a pair (``PAIR_BIT``): the kernels of a world are compiled for the pairs its scene can
-# meet (``pair_set``), each test outside them compiled as a "no test" (``jit.literal_gate``).
-PAIR_KINDS = tuple((low, high) for low in (KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE)
-                   for high in (KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE)
-                   if low <= high and low != KIND_PLANE)  # not plane-plane: both static
-PAIR_BIT = {pair: 1 << i for i, pair in enumerate(PAIR_KINDS)}
-PAIRS_ALL = (1 << len(PAIR_KINDS)) - 1
-KIND_NAMES = ('sphere', 'capsule', 'box', 'plane')
+# bit a pair (``PAIR_BIT``, a row's place in ``PAIR_TESTS``): the kernels of a world are
+# compiled for the pairs its scene can meet (``pair_set``), each test outside them compiled as
+# a "no test" (``jit.literal_gate``). ``PAIR_TESTS`` (after the tests) is the table: a new kind
+# adds its rows at its end (the bits of the others stay), and ``_pair_dispatch`` is written
+# from it.
+KIND_NAMES = shapes.NAMES
 
 
 def pair_set(kinds_of_bodies, moving) -> int:
@@ -937,7 +935,6 @@ def pairs_named(names) -> int:
     return bits
 
 
-@literal_gate(PAIR_BIT[(KIND_SPHERE, KIND_SPHERE)], -1)
 def _pair_sphere_sphere(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
                         point, normal, depth, feature, start):
     return _sphere_sphere(float(centre_a[0]), float(centre_a[1]), float(centre_a[2]),
@@ -946,7 +943,6 @@ def _pair_sphere_sphere(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, 
                           0.0, 0.0, 1.0, point, normal, depth, feature, start)
 
 
-@literal_gate(PAIR_BIT[(KIND_SPHERE, KIND_CAPSULE)], -1)
 def _pair_sphere_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
                          point, normal, depth, feature, start):
     if swap:
@@ -958,7 +954,6 @@ def _pair_sphere_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
                            point, normal, depth, feature, start)
 
 
-@literal_gate(PAIR_BIT[(KIND_SPHERE, KIND_BOX)], -1)
 def _pair_sphere_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
                      point, normal, depth, feature, start):
     if swap:
@@ -968,7 +963,6 @@ def _pair_sphere_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot
                        point, normal, depth, feature, start)
 
 
-@literal_gate(PAIR_BIT[(KIND_SPHERE, KIND_PLANE)], -1)
 def _pair_sphere_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
                        point, normal, depth, feature, start):
     if swap:
@@ -984,7 +978,6 @@ def _pair_sphere_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, r
                          int(0), point, normal, depth, feature, start)
 
 
-@literal_gate(PAIR_BIT[(KIND_CAPSULE, KIND_CAPSULE)], -1)
 def _pair_capsule_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
                           point, normal, depth, feature, start):
     return _capsule_capsule(centre_a, rot_a, float(geom_a[RADIUS]), float(geom_a[HALF_LENGTH]),
@@ -992,7 +985,6 @@ def _pair_capsule_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b
                             margin, point, normal, depth, feature, start)
 
 
-@literal_gate(PAIR_BIT[(KIND_CAPSULE, KIND_BOX)], -1)
 def _pair_capsule_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
                       point, normal, depth, feature, start):
     if swap:
@@ -1003,7 +995,6 @@ def _pair_capsule_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, ro
                         centre_b, rot_b, geom_b, margin, point, normal, depth, feature, start)
 
 
-@literal_gate(PAIR_BIT[(KIND_CAPSULE, KIND_PLANE)], -1)
 def _pair_capsule_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
                         point, normal, depth, feature, start):
     if swap:
@@ -1014,14 +1005,12 @@ def _pair_capsule_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, 
                           centre_b, geom_b, margin, point, normal, depth, feature, start)
 
 
-@literal_gate(PAIR_BIT[(KIND_BOX, KIND_BOX)], -1)
 def _pair_box_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
                   point, normal, depth, feature, start):
     return _box_box(centre_a, rot_a, geom_a, centre_b, rot_b, geom_b, margin,
                     point, normal, depth, feature, start)
 
 
-@literal_gate(PAIR_BIT[(KIND_BOX, KIND_PLANE)], -1)
 def _pair_box_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
                     point, normal, depth, feature, start):
     if swap:
@@ -1029,6 +1018,54 @@ def _pair_box_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_
                           point, normal, depth, feature, start)
     return _box_plane(centre_a, rot_a, geom_a, centre_b, geom_b, margin,
                       point, normal, depth, feature, start)
+
+
+# (low kind, high kind, test): a row's index is its bit in a set of tests. Not plane-plane: two
+# planes are both static.
+PAIR_TESTS = (
+    (KIND_SPHERE, KIND_SPHERE, _pair_sphere_sphere),
+    (KIND_SPHERE, KIND_CAPSULE, _pair_sphere_capsule),
+    (KIND_SPHERE, KIND_BOX, _pair_sphere_box),
+    (KIND_SPHERE, KIND_PLANE, _pair_sphere_plane),
+    (KIND_CAPSULE, KIND_CAPSULE, _pair_capsule_capsule),
+    (KIND_CAPSULE, KIND_BOX, _pair_capsule_box),
+    (KIND_CAPSULE, KIND_PLANE, _pair_capsule_plane),
+    (KIND_BOX, KIND_BOX, _pair_box_box),
+    (KIND_BOX, KIND_PLANE, _pair_box_plane),
+)
+PAIR_KINDS = tuple((low, high) for low, high, _ in PAIR_TESTS)
+PAIR_BIT = {pair: 1 << i for i, pair in enumerate(PAIR_KINDS)}
+PAIRS_ALL = (1 << len(PAIR_KINDS)) - 1
+
+
+def _check_table() -> None:
+    """Each row a pair of known kinds, lower rank first, met once."""
+    for low, high, test in PAIR_TESTS:
+        if not 0 <= low <= high < len(shapes.KINDS) or PAIR_KINDS.count((low, high)) != 1:
+            raise ImportError(f'narrow_kernels.PAIR_TESTS: the row of {test.__name__} must '
+                              'be a pair of shapes.KINDS numbers, lower first, met once')
+
+
+_check_table()
+
+
+def _dispatch_source() -> str:
+    """``_pair_dispatch``: for the pair (low, high) the gated test of its row, else -1."""
+    args = ('tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin, point, '
+            'normal, depth, feature, start')
+    lines = [f'def _pair_dispatch(low, high, {args}):',
+             '    """The contacts of a pair of kinds (low, high) by its row of PAIR_TESTS, or -1',
+             '    (no row, or a test outside ``tests``). Written from the table."""']
+    for i, (low, high, _) in enumerate(PAIR_TESTS):
+        lines += [f'    if low == {low} and high == {high}:',
+                  f'        return _gated_{i}({args})']
+    lines.append('    return -1')
+    return '\n'.join(lines) + '\n'
+
+
+for _i, (_low, _high, _test) in enumerate(PAIR_TESTS):
+    globals()[f'_gated_{_i}'] = literal_gate(1 << _i, -1)(_test)
+_pair_dispatch = generated_kernel(globals(), '_pair_dispatch', _dispatch_source())
 
 
 @inline_kernel
@@ -1052,34 +1089,8 @@ def collide_pair_of(tests, kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, cent
     swap = kind_a > kind_b
     low = kind_b if swap else kind_a
     high = kind_a if swap else kind_b
-    count = -1
-    if low == KIND_SPHERE and high == KIND_SPHERE:
-        count = _pair_sphere_sphere(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
-                                    rot_b, margin, point, normal, depth, feature, start)
-    elif low == KIND_SPHERE and high == KIND_CAPSULE:
-        count = _pair_sphere_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
-                                     rot_b, margin, point, normal, depth, feature, start)
-    elif low == KIND_SPHERE and high == KIND_BOX:
-        count = _pair_sphere_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
-                                 rot_b, margin, point, normal, depth, feature, start)
-    elif low == KIND_SPHERE and high == KIND_PLANE:
-        count = _pair_sphere_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
-                                   rot_b, margin, point, normal, depth, feature, start)
-    elif low == KIND_CAPSULE and high == KIND_CAPSULE:
-        count = _pair_capsule_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
-                                      rot_b, margin, point, normal, depth, feature, start)
-    elif low == KIND_CAPSULE and high == KIND_BOX:
-        count = _pair_capsule_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
-                                  rot_b, margin, point, normal, depth, feature, start)
-    elif low == KIND_CAPSULE and high == KIND_PLANE:
-        count = _pair_capsule_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
-                                    rot_b, margin, point, normal, depth, feature, start)
-    elif low == KIND_BOX and high == KIND_BOX:
-        count = _pair_box_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
-                              rot_b, margin, point, normal, depth, feature, start)
-    elif low == KIND_BOX and high == KIND_PLANE:
-        count = _pair_box_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
-                                rot_b, margin, point, normal, depth, feature, start)
+    count = _pair_dispatch(low, high, tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
+                           rot_b, margin, point, normal, depth, feature, start)
     if count < 0:
         raise ValueError('collide_pair: no contact test between these kinds (two planes are '
                          'both static, a kind is not one of KIND_*, or the pair is not in the '

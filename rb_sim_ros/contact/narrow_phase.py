@@ -34,14 +34,14 @@ from typing import NamedTuple
 
 import numpy as np
 
+from rb_sim_ros.contact import shapes
 from rb_sim_ros.contact.collision_shapes import Shape
-from rb_sim_ros.contact.narrow_kernels import (collide_pair, GEOM_WIDTH, HALF_LENGTH, HX,
-                                               KIND_BOX, KIND_CAPSULE, KIND_PLANE, KIND_SPHERE,
-                                               MAX_CONTACTS_PER_PAIR, NORMAL, RADIUS,
-                                               sphere_batch)
+from rb_sim_ros.contact.narrow_kernels import (collide_pair, GEOM_WIDTH, KIND_PLANE,
+                                               KIND_SPHERE, MAX_CONTACTS_PER_PAIR, NORMAL,
+                                               PAIR_BIT, RADIUS, sphere_batch)
 
-# The kernels' kind of each shape kind (equal to collision_shapes.RANK).
-KIND = {'sphere': KIND_SPHERE, 'capsule': KIND_CAPSULE, 'box': KIND_BOX, 'plane': KIND_PLANE}
+# The kernels' kind of each shape kind (shapes.RANK).
+KIND = dict(shapes.RANK)
 
 
 class Contact(NamedTuple):
@@ -61,28 +61,17 @@ def shape_arrays(shape: Shape, centre, rotation) -> tuple[int, np.ndarray, np.nd
     kernels take them (see narrow_kernels): new float64 arrays, C order, writeable. A plane's
     geom[2:5] is its normal turned into the world frame, R n written out."""
     rot = np.array(rotation, dtype=np.float64, order='C').reshape(9)
-    geom = np.zeros(GEOM_WIDTH)
-    if shape.kind == 'sphere':
-        geom[RADIUS] = shape.radius
-    elif shape.kind == 'capsule':
-        geom[RADIUS], geom[HALF_LENGTH] = shape.radius, shape.half_length
-    elif shape.kind == 'box':
-        geom[HX:HX + 3] = shape.half_extents
-    else:
-        nx, ny, nz = shape.normal
-        r = rot.tolist()
-        geom[NORMAL:NORMAL + 3] = (r[0] * nx + r[1] * ny + r[2] * nz,
-                                   r[3] * nx + r[4] * ny + r[5] * nz,
-                                   r[6] * nx + r[7] * ny + r[8] * nz)
-    return KIND[shape.kind], geom, np.array(centre, dtype=np.float64).reshape(3), rot
+    return (shapes.kind_of(shape), shapes.packed(shape, rot),
+            np.array(centre, dtype=np.float64).reshape(3), rot)
 
 
 def collide(a: Shape, pose_a, b: Shape, pose_b, margin: float = 0.0) -> list[Contact]:
     """Contacts of shape ``a`` at ``pose_a`` with ``b`` at ``pose_b`` (each a world (centre,
     rotation) pair), normals from a to b; [] when they are further apart than ``margin``."""
-    if a.kind == 'plane' and b.kind == 'plane':
-        raise ValueError(f'no contact test between a {a.kind} and a {b.kind} (two planes are '
-                         'both static)')
+    low, high = sorted((shapes.kind_of(a), shapes.kind_of(b)))
+    if (low, high) not in PAIR_BIT:
+        raise ValueError(f'no contact test between a {a.kind} and a {b.kind} (both static: '
+                         'they never meet)')
     point, normal = np.empty((MAX_CONTACTS_PER_PAIR, 3)), np.empty((MAX_CONTACTS_PER_PAIR, 3))
     depth, feature = np.empty(MAX_CONTACTS_PER_PAIR), np.empty(MAX_CONTACTS_PER_PAIR, np.int64)
     count = collide_pair(*shape_arrays(a, *pose_a), *shape_arrays(b, *pose_b), float(margin),

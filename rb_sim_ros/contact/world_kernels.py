@@ -9,8 +9,8 @@ placement in the body frame, their shape's sizes). The stages, in the order of a
 * ``read_bodies``: x, R (the user's body frame), v, omega of the moving bodies with colliders;
 * ``speculative_margins``: how far each body can move in a step, (|v| + |omega| rho) dt
   + |g| dt^2 (docs/collisions.md);
-* ``place_colliders``: each collider's world centre, rotation and AABB widened by its body's
-  margin (then ``broad_phase`` pairs them);
+* ``place_colliders``: each collider's world centre, rotation and AABB (its kind's support,
+  ``shapes.support_of``) widened by its body's margin (then ``broad_phase`` pairs them);
 * ``write_contacts``: the solver's velocities and position correction back into the rows.
 
 Plain + - * / sqrt sin cos on float64, no BLAS: compiled and interpreted (NUMBA_DISABLE_JIT=1)
@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 
+from rb_sim_ros.contact import shapes
 from rb_sim_ros.core import so3, step_kernel as K
 from rb_sim_ros.core.jit import inline_kernel
 
@@ -68,11 +69,11 @@ def speculative_margins(v, w, reach, count, dt, g, speculative, margin):
 
 
 @inline_kernel
-def place_colliders(colliders, body, x, rot, local_pos, local_rot, half, half_length, radius,
-                    margin, centres, rotations, lower, upper):
+def place_colliders(colliders, body, x, rot, local_pos, local_rot, kinds, geoms, margin,
+                    centres, rotations, lower, upper):
     """World centre (m), rotation (9) and AABB [lower, upper] of each collider of
-    ``colliders`` on its body ``body[c]``: centre = x + R p_local, rotation = R R_local, half
-    widths sum_j h_j |R_c[:, j]| + h |R_c[:, 2]| + r, each widened by the body's margin."""
+    ``colliders`` on its body ``body[c]``: centre = x + R p_local, rotation = R R_local, each
+    half width the support of its kind along that axis, widened by the body's margin."""
     for k in range(colliders.shape[0]):
         c = colliders[k]
         b = body[c]
@@ -86,19 +87,18 @@ def place_colliders(colliders, body, x, rot, local_pos, local_rot, half, half_le
                 rotations[c, 3 * a + j] = (ra0 * float(local_rot[c, j])
                                            + ra1 * float(local_rot[c, 3 + j])
                                            + ra2 * float(local_rot[c, 6 + j]))
-        extents(c, rotations, half, half_length, radius, float(margin[b]), centres, lower,
-                upper)
+        extents(c, rotations, kinds, geoms, float(margin[b]), centres, lower, upper)
 
 
 @inline_kernel
-def extents(c, rotations, half, half_length, radius, widen, centres, lower, upper):
-    """The AABB of collider c at its world pose, widened by ``widen`` (m)."""
-    hx, hy, hz = float(half[c, 0]), float(half[c, 1]), float(half[c, 2])
-    h, r = float(half_length[c]), float(radius[c])
+def extents(c, rotations, kinds, geoms, widen, centres, lower, upper):
+    """The AABB of collider c at its world pose, widened by ``widen`` (m): along world axis a
+    its kind's support in the direction whose components in its axes are row a of its
+    rotation (``shapes.support_of``; the kinds there are symmetric about their centre)."""
+    kind = int(kinds[c])
     for a in range(3):
-        e = (abs(float(rotations[c, 3 * a])) * hx + abs(float(rotations[c, 3 * a + 1])) * hy
-             + abs(float(rotations[c, 3 * a + 2])) * hz)
-        e += h * abs(float(rotations[c, 3 * a + 2])) + r
+        e = shapes.support_of(kind, geoms, c, float(rotations[c, 3 * a]),
+                              float(rotations[c, 3 * a + 1]), float(rotations[c, 3 * a + 2]))
         e += widen
         lower[c, a] = float(centres[c, a]) - e
         upper[c, a] = float(centres[c, a]) + e

@@ -82,8 +82,7 @@ World = namedtuple('World', [
     # colliders (C) then planes (P): kinds, geoms, centres, rotations, materials
     'kinds', 'geoms', 'centres', 'rotations', 'restitution', 'friction',
     # colliders only
-    'cbody', 'cowner', 'cstatic', 'dyn', 'local_pos', 'local_rot', 'half', 'half_length',
-    'radius', 'lower', 'upper',
+    'cbody', 'cowner', 'cstatic', 'dyn', 'local_pos', 'local_rot', 'lower', 'upper',
     # planes
     'plane_normals', 'plane_points',
     # per body buffers (the last slot: the static world)
@@ -142,8 +141,8 @@ def _world_steps_of(family, tests, name):
                 wk.speculative_margins(w.v, w.w, w.reach, nb, float(w.config[C_DT]),
                                        float(w.config[C_G]), w.config[C_SPECULATIVE] != 0.0,
                                        w.margin)
-                wk.place_colliders(w.dyn, w.cbody, w.x, w.rot, w.local_pos, w.local_rot, w.half,
-                                   w.half_length, w.radius, w.margin, w.centres, w.rotations,
+                wk.place_colliders(w.dyn, w.cbody, w.x, w.rot, w.local_pos, w.local_rot,
+                                   w.kinds, w.geoms, w.margin, w.centres, w.rotations,
                                    w.lower, w.upper)
                 any_asleep = False
                 for c in range(nc):
@@ -204,8 +203,8 @@ def _world_steps_of(family, tests, name):
                     count += 1
             planes = w.plane_normals.shape[0]
             if planes:
-                plane_pairs = bp.plane_candidates(awake[:count], w.cbody, w.rotations, w.half,
-                                                  w.half_length, w.radius, w.centres,
+                plane_pairs = bp.plane_candidates(awake[:count], w.cbody, w.rotations,
+                                                  w.kinds, w.geoms, w.centres,
                                                   w.plane_normals, w.plane_points, w.margin)
             else:
                 plane_pairs = np.zeros((0, 2), dtype=np.int64)

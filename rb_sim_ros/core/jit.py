@@ -12,7 +12,8 @@ Cache. Compiled code is cached on disk (``cache=True``) so that only the first s
 numba keys its cache on the modification time of the file holding the compiled function, not
 on the files of the functions it calls, so an edit of a helper in another module would keep
 serving stale machine code. Our kernels are therefore cached by ``_SourceHashLocator``: one
-stamp, a hash of every module of the layers that hold kernels (core and contact), so any edit
+stamp, a hash of every module of the layers that hold kernels (core and contact, with their
+packages), so any edit
 there recompiles them all. The cache lives in the package's ``__pycache__/numba``; where that
 is read-only (an installed tree) in the user's cache directory
 (``$XDG_CACHE_HOME/rb_sim_ros/numba``); ``NUMBA_CACHE_DIR`` overrides both.
@@ -32,6 +33,7 @@ from __future__ import annotations
 import functools
 import glob
 import hashlib
+import linecache
 import os
 from pathlib import Path
 import sys
@@ -133,6 +135,20 @@ def literal_entry(entry):
         overload(call, jit_options=dict(fastmath=False, error_model='python'))(typer)
         return call
     return decorate
+
+
+def generated_kernel(space: dict, name: str, source: str, inline: bool = True):
+    """The kernel (``inline_kernel``, or ``kernel``) of the function ``name`` that ``source``
+    defines, written by a module from a table (a dispatch over shape kinds or pairs of them)
+    and run in that module's globals ``space``, where it is left bound to ``name`` (so that a
+    tier swap finds it). Its text is kept for tracebacks and numba's messages; its cache entry
+    is named after the module and ``name``."""
+    filename = f'{space["__name__"]}.{name}'
+    linecache.cache[filename] = (len(source), None, source.splitlines(True), filename)
+    exec(compile(source, filename, 'exec'), space)
+    made = (inline_kernel if inline else kernel)(space[name])
+    space[name] = made
+    return made
 
 
 def compile_for(function, *examples) -> None:
@@ -255,7 +271,7 @@ def literal_gate(needed: int, absent):
 
 def kernel_sources() -> list[Path]:
     """Every module of the kernel layers, in a fixed order."""
-    return sorted(f for layer in KERNEL_LAYERS for f in (PACKAGE / layer).glob('*.py'))
+    return sorted(f for layer in KERNEL_LAYERS for f in (PACKAGE / layer).rglob('*.py'))
 
 
 def source_stamp() -> str:

@@ -63,8 +63,9 @@ import reprlib
 import sys
 from typing import Any, NamedTuple, NoReturn
 
+from rb_sim_ros.contact import shapes
 from rb_sim_ros.contact.bodies import MAX_COLLIDERS, MAX_ITERATIONS
-from rb_sim_ros.contact.collision_shapes import Box, Plane, shape_from_dict, Sphere
+from rb_sim_ros.contact.collision_shapes import Box, shape_from_dict, Sphere
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import RigidBody
 from rb_sim_ros.sim import safe_yaml
@@ -75,7 +76,8 @@ BODY_KEYS = {'name', 'mass', 'inertia', 'shape', 'size', 'radius', 'length', 'de
              'position', 'orientation', 'linear_velocity', 'angular_velocity', 'linear_damping',
              'angular_damping', 'static', 'colliders', 'points'}
 SHAPES = {'box': {'size'}, 'sphere': {'radius'}, 'cylinder': {'radius', 'length'}}
-COLLIDER_TYPES = ('box', 'capsule', 'plane', 'shape', 'sphere')
+# a kind of shapes.KINDS, or 'shape': the body's own shape (its size, mass and inertia)
+COLLIDER_TYPES = tuple(sorted(shapes.NAMES + ('shape',)))
 
 MAX_BYTES = 16 * 1024 * 1024
 MAX_DEPTH = 8  # the scene's own structure needs 6 (bodies, a body, colliders, one, position)
@@ -366,8 +368,9 @@ def _colliders(where: str, colliders: Any, shape: Any, dims: dict, static: bool)
                 out.append(shape_from_dict(c))
         except (ValueError, TypeError, ArithmeticError) as e:
             _fail(where, field, str(e))
-        if isinstance(out[-1], Plane) and not static:
-            _fail(where, field, 'a plane is only allowed on a static body (static: true)')
+        if shapes.module_of(out[-1]).STATIC_ONLY and not static:
+            _fail(where, field, f'a {out[-1].kind} is only allowed on a static body '
+                  '(static: true)')
     return tuple(out)
 
 

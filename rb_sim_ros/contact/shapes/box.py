@@ -1,0 +1,69 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""The box: edges ``size`` along its local axes. Its row: the half extents in geom[HX:HZ + 1]."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import math
+
+import numpy as np
+
+from rb_sim_ros.contact.shapes.base import (HX, HY, HZ, IDENTITY_XYZW, material, ORIGIN,
+                                            placement, positive)
+from rb_sim_ros.core.jit import inline_kernel
+from rb_sim_ros.core.rigid_body import finite_floats
+
+NAME = 'box'
+KIND = 2
+FIELDS = ('size',)
+PLACED = True
+STATIC_ONLY = False
+
+
+@dataclass(frozen=True)
+class Box:
+    """A box of full edge lengths ``size`` (m) along its local x, y, z axes, centred at
+    ``position`` (m, body frame) with axes turned by ``orientation_xyzw``."""
+
+    size: tuple[float, ...]
+    position: tuple[float, ...] = ORIGIN
+    orientation_xyzw: tuple[float, ...] = IDENTITY_XYZW
+    restitution: float | None = None
+    friction: float | None = None
+    rotation: np.ndarray = field(init=False, repr=False, compare=False)
+
+    kind = NAME
+
+    def __post_init__(self) -> None:
+        size = finite_floats('size', self.size, 3)
+        for i, s in enumerate(size):
+            positive(f'size[{i}]', s)
+        object.__setattr__(self, 'size', size)
+        placement(self)
+        material(self)
+
+    @property
+    def half_extents(self) -> tuple[float, float, float]:
+        """Half edge lengths (m)."""
+        return (0.5 * self.size[0], 0.5 * self.size[1], 0.5 * self.size[2])
+
+    @property
+    def bounding_radius(self) -> float:
+        return 0.5 * math.sqrt(sum(s * s for s in self.size))
+
+
+VALUE = Box
+
+
+def pack(shape: Box, geom: np.ndarray, rotation: np.ndarray) -> None:
+    """Write ``shape``'s half extents into its row ``geom`` (zeros)."""
+    geom[HX:HZ + 1] = shape.half_extents
+
+
+@inline_kernel
+def support(geoms, c, l0, l1, l2):
+    """How far the box of row ``c`` reaches along (l0, l1, l2) (its axes, unit): its corner
+    that way, sum_j h_j |l_j|."""
+    return (abs(l0) * float(geoms[c, HX]) + abs(l1) * float(geoms[c, HY])
+            + abs(l2) * float(geoms[c, HZ]))
