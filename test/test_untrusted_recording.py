@@ -240,6 +240,17 @@ def test_any_metadata_mutation_is_one_line_exit_2_or_a_verification(tmp_path, da
         assert f'{n} of {n} recorded output messages compared' in out
 
 
+def test_a_key_with_a_newline_is_named_on_one_line(tmp_path):
+    """A key of the recording's config holding a newline (found by the test above): the
+    refusal names it escaped, on one line."""
+    meta = dict(META)
+    meta['config'] = json.dumps({'\n': {}})
+    f = _rewrite(tmp_path / 'mutated.mcap', meta)
+    code, out, err = _verify(f)
+    assert code == 2 and err.startswith(f'replay: {f}: ') and err.count('\n') == 1, err
+    assert 'config.\\n ' in err
+
+
 # -- runs recorded offline, period by period, as the node records them --------------------------
 def _params(**changes):
     values = {p.name: p.default for p in node_params.PARAMS}

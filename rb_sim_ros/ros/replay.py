@@ -162,7 +162,9 @@ DEFINITION_LABEL = f'bad run definition on {RUN_DEFINITION}'
 
 
 def _bad(path: str, what: str) -> ReaderError:
-    return ReaderError(f'{path}: {METADATA_LABEL}: {what}')
+    # one line, whatever the recording's keys hold (a newline is shown as \n)
+    line = f'{path}: {METADATA_LABEL}: {what}'
+    return ReaderError(''.join(c if c.isprintable() else repr(c)[1:-1] for c in line))
 
 
 def json_depth(text: str) -> int:
