@@ -40,7 +40,7 @@ for method in sys.argv[1:]:
         sim.step(10)
     funcs = [e.data['dispatcher'].py_func for _, e in rec.buffer if e.is_start]
     print(json.dumps([method, sorted({f.__qualname__ for f in funcs
-                                      if f.__module__.startswith('rb_sim_ros.')}),
+                                      if (f.__module__ or '').startswith('rb_sim_ros.')}),
                       [float(c) for v in (sim.state.position, sim.state.angular_velocity)
                        for c in v]]))
 """
@@ -90,7 +90,7 @@ with event.install_recorder('numba:compile') as rec:
 funcs = [e.data['dispatcher'].py_func for _, e in rec.buffer if e.is_start]
 print(json.dumps({'cores': precompile._cores(), 'compiled': [
     f.__module__.rsplit('.', 1)[-1] + '.' + f.__qualname__ for f in funcs
-    if f.__module__.startswith('rb_sim_ros.')]}))
+    if (f.__module__ or '').startswith('rb_sim_ros.')]}))
 """
 
 

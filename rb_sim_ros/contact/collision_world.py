@@ -66,7 +66,7 @@ from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.contact import world_step as ws
 from rb_sim_ros.contact.bodies import BodySpec, make_steppers
 from rb_sim_ros.contact.collision_shapes import Plane, Shape
-from rb_sim_ros.core import step_kernel as K
+from rb_sim_ros.core import jit, step_kernel as K
 from rb_sim_ros.core.rigid_body import finite_floats, non_negative, State
 from rb_sim_ros.core.step_count import check_steps
 from rb_sim_ros.core.stepper import carry_over, IntegrationError, step_all
@@ -213,10 +213,12 @@ class CollisionWorld:
         self._unsynced, self._unsynced_seconds, self._call_seconds = False, 0.0, 0.0
         self._last_stats = StepStats()
         self._totals = StepStats()
-        self._last = None
-        self._warm_keys = np.zeros(0, dtype=np.int64)
-        self._warm_normal = np.zeros(0)
-        self._warm_tangent = np.zeros((0, 3))
+        # What world_steps leaves (world_step.OUTPUTS: warm starts, the last contacts): here,
+        # or newer in the record the kernels take (``_record``: (interpreted?, the store's
+        # state and spare it was made with, the record)), until ``_pull`` brings them here.
+        self._outputs = ws.empty_outputs()
+        self._record = None
+        self._collided = False  # a contact pass ran: last_contacts has something to say
         self._unchecked = True
         if pair_tests is not None:
             nk.checked_tests(pair_tests, 'pair_tests')
@@ -416,9 +418,9 @@ class CollisionWorld:
 
     def last_contacts(self) -> list[WorldContact]:
         """The contacts of the last step (speculative ones too), in solver order."""
-        if self._last is None:
+        if not self._collided:
             return []
-        point, normal, depth, impulse, ca, cbb = self._last
+        point, normal, depth, impulse, ca, cbb = self._current_outputs()[3:]
         owners = self._cowner.tolist() + list(self._plane_owner)
         names = [b.name for b in self.bodies] + ['']
         return [WorldContact(names[owners[a]], names[owners[b]], point[k].copy(),
@@ -451,17 +453,17 @@ class CollisionWorld:
                 self._wake(changed, self._step_count)
         status = self._status
         t0 = time.perf_counter()
-        out = self._call(n)
+        self._call(n)
         seconds = time.perf_counter() - t0
-        self._warm_keys, self._warm_normal, self._warm_tangent = out[:3]
         if status[ws.S_COLLIDED]:
-            self._last = out[3:]
+            self._collided = True
         self._step_count = int(status[ws.S_STEP])
         self._unchecked = bool(status[ws.S_UNCHECKED])
         self._account(int(status[ws.S_STEPS_DONE]), seconds)
         if status[ws.S_KIND] != ws.OK:
             raise self._error()
-        self._store.check_turns(self._rows)  # a TurnWarning, as the bodies' own steps give
+        if status[ws.S_TURNED]:  # a TurnWarning, as the bodies' own steps give
+            self._store.check_turns(self._rows)
 
     @property
     def last_solve_energy(self) -> tuple[float, float]:
@@ -493,8 +495,42 @@ class CollisionWorld:
         if self._entry[0] != self.pair_tests:  # (a world's tests change in carry only)
             self._entry = (self.pair_tests,
                            ws.entry(K.family(self._store.coefficients), self.pair_tests))
-        return ws.steps(self._entry[1], self._world(), n, self._warm_keys, self._warm_normal,
-                        self._warm_tangent)
+        return ws.steps(self._entry[1], self._record_now(), n)
+
+    def _record_now(self):
+        """The record world_steps takes: the one made before, while the tier and the store's
+        state and spare arrays (which a Stepper's own step swaps) are those it was made with;
+        else a new one, with the outputs of the last (a WorldHost interpreted, a WorldRecord
+        compiled)."""
+        interpreted, store = jit.interpreted(), self._store
+        made = self._record
+        if (made is not None and made[0] == interpreted and made[1] is store.state
+                and made[2] is store.spare):
+            return made[3]
+        self._pull()
+        values = self._world() + self._outputs
+        if interpreted:
+            record = ws.WorldHost(*values)
+        else:
+            record = ws.make_record(*values)
+            ws.record_outputs(record)  # compiled (or loaded) now: ``_pull`` may need it later
+        self._record = (interpreted, store.state, store.spare, record)
+        return record
+
+    def _current_outputs(self) -> tuple:
+        """world_step.OUTPUTS as they are now."""
+        made = self._record
+        if made is None:
+            return self._outputs
+        if made[0]:
+            return tuple(getattr(made[3], name) for name in ws.OUTPUTS)
+        # the compiled reader, in either tier (compiled when the record was made)
+        return jit.compiled(ws.record_outputs)(made[3])
+
+    def _pull(self) -> None:
+        """Bring the outputs of the record here and drop it (the next call makes another)."""
+        self._outputs = self._current_outputs()
+        self._record = None
 
     def _world(self) -> tuple:
         """The world's arrays for the step kernel (the store's, as they are now), in the order
@@ -502,7 +538,7 @@ class CollisionWorld:
         st = self._store
         return (
             st.state, st.spare, st.params, st.coefficients, st.work, st.status, st.taken,
-            st.bad, st.clock, self._rows, self._q, self._has_q, self._reach,
+            st.bad, st.clock, st.warn_sq, self._rows, self._q, self._has_q, self._reach,
             self._inverse_mass, self._step_rows, self._body_of_row, self._kinds, self._geoms,
             self._all_centres, self._all_rotations, self._restitution, self._friction,
             self._cbody, self._cowner, self._cstatic, self._cdyn, self._local_pos,
@@ -665,7 +701,8 @@ class CollisionWorld:
         if self._asleep.any() and not old.warm_start and not recheck:
             # A delete, without warm starts: no record says what rested on the body: wake all.
             self._wake(np.arange(len(self._asleep)), step_count)
-        if not len(old._warm_keys):
+        old_keys, old_normal, old_tangent = old._current_outputs()[:3]
+        if not len(old_keys):
             return
         # Warm starts keyed by (collider a, collider b, feature): renumbered, the pairs of a
         # deleted collider dropped, sorted again (in the same order: both numberings follow
@@ -675,15 +712,16 @@ class CollisionWorld:
                            dtype=np.int64)
         old_total = max(len(old._collider_ids), 1)
         total = max(len(self._collider_ids), 1)
-        keys = old._warm_keys
+        keys = old_keys
         pair, feature = keys >> ws.FEATURE_BITS, keys & ((1 << ws.FEATURE_BITS) - 1)
         a, b = mapping[pair // old_total], mapping[pair % old_total]
         keep = (a >= 0) & (b >= 0)
         new_keys = ((a * total + b) << ws.FEATURE_BITS) + feature
         order = np.argsort(new_keys[keep], kind='mergesort')
-        self._warm_keys = new_keys[keep][order]
-        self._warm_normal = old._warm_normal[keep][order]
-        self._warm_tangent = old._warm_tangent[keep][order]
+        self._pull()
+        self._outputs = (np.ascontiguousarray(new_keys[keep][order]),
+                         np.ascontiguousarray(old_normal[keep][order]),
+                         np.ascontiguousarray(old_tangent[keep][order])) + self._outputs[3:]
         # A sleeper that rested on a deleted body (their contact is among the warm starts
         # kept while asleep) wakes, or it would hang in the air; its neighbours wake at the
         # next broad phase.

@@ -2,10 +2,11 @@
 # Licensed under the Apache License, Version 2.0
 """The collision world's step as one compiled call: n steps of integrate, detect, solve, write.
 
-``world_steps(arrays, n, ...)`` (a kernel for each family of methods, ``world_steps_two``,
-``_k``, ``_split``; ``steps`` calls the one of a world's bodies) takes ``w = World(*arrays)`` (a
-named tuple of the world's arrays, built by ``collision_world.CollisionWorld`` for each call)
-through ``n`` steps of the order written in ``collision_world``'s module docstring:
+``world_steps(record, n)`` (a kernel for each family of methods, ``world_steps_two``,
+``_k``, ``_split``; ``steps`` calls the one of a world's bodies) takes a world's arrays as one
+record (``WorldRecord``, made once by ``collision_world.CollisionWorld``; read on entry as
+``w``, a named tuple ``World``) through ``n`` steps of the order written in
+``collision_world``'s module docstring:
 
 1. the awake bodies take one step of the step kernel (``step_kernel.body_step``), the ones
    without colliders too;
@@ -24,7 +25,8 @@ that could not be integrated or whose contacts failed a check, or more colliders
 than the broad phase's bounds (``CROWDED``: that step's contacts are not solved) (``w.status``:
 the kind, the step, the body; ``w.flagged`` the bodies named). Every other outcome a step can
 have is handled here, so Python runs once per call, not once per body, pair or contact. The
-warm-start arrays and the last step's contacts change size; they are returned.
+warm-start arrays and the last step's contacts change size; they are left in the record
+(``OUTPUTS``), not returned.
 
 Plain + - * / sqrt sin cos on float64, no BLAS: compiled and interpreted give the same bits.
 """
@@ -35,12 +37,14 @@ from collections import namedtuple
 import math
 import os
 
+from numba.core import types
+from numba.experimental import structref
 import numpy as np
 
 from rb_sim_ros.contact import broad_phase as bp, narrow_kernels as nk, solver_kernels as sk
 from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.core import jit, step_kernel as K
-from rb_sim_ros.core.jit import compile_for, inline_kernel, kernel
+from rb_sim_ros.core.jit import compile_for, generated_kernel, inline_kernel, kernel
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
 FEATURE_BITS = 12
@@ -53,7 +57,10 @@ CONFIG_WIDTH = 9
 # -- w.status (int64): what happened, set by world_steps ---------------------------------------
 S_STEP, S_UNCHECKED, S_KIND, S_ERROR_STEP, S_ROW, S_FLAGGED, S_STEPS_DONE = 0, 1, 2, 3, 4, 5, 6
 S_COLLIDED = 7
-STATUS_WIDTH = 8
+# 1 if a body with colliders may now turn faster than its method's energy bound (warn_sq):
+# Python then looks (``BodyStore.check_turns``), else it need not
+S_TURNED = 8
+STATUS_WIDTH = 9
 OK, INTEGRATION, SOLVE_NON_FINITE, SOLVE_ENERGY, WRITE_NON_FINITE = 0, 1, 2, 3, 4
 CROWDED = 5  # past broad_phase.MAX_PAIRS or MAX_SWEEP, or MAX_CONTACTS: no contacts solved
 # The most contacts a step solves: the solver's rows take 416 bytes a contact (220 MB here);
@@ -74,6 +81,7 @@ STATS_WIDTH = 17
 World = namedtuple('World', [
     # the store of the moving bodies (step_kernel rows) and their clocks
     'state', 'spare', 'params', 'coefficients', 'work', 'kstatus', 'taken', 'bad', 'clock',
+    'warn_sq',
     # moving bodies with colliders: their rows, Q of a non-principal body frame, reach (m)
     'rows', 'q', 'has_q', 'reach', 'inverse_mass',
     # the store rows of every moving body, ascending, and of each row its index among the
@@ -91,21 +99,94 @@ World = namedtuple('World', [
     'settings', 'config', 'status', 'stats', 'flagged', 'energy'])
 
 
+# What a call leaves for Python, in the record (never returned: numba makes a Python object of
+# each array it returns, about 0.7 us apiece, more than a resting body's step): the warm-start
+# arrays (sorted keys, normal and tangent impulses), and the contacts of the last step that
+# ran a contact pass (``S_COLLIDED``).
+OUTPUTS = ('warm_keys', 'warm_normal', 'warm_tangent', 'point', 'normal', 'depth', 'impulse',
+           'collider_a', 'collider_b')
+FIELDS = World._fields + OUTPUTS
+
+
+def empty_outputs() -> tuple:
+    """OUTPUTS of a world that has not stepped: no warm start, no contacts."""
+    f1, f3, i1 = np.zeros(0), np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+    return i1, f1, f3.copy(), f3.copy(), f3.copy(), f1.copy(), f1.copy(), i1.copy(), i1.copy()
+
+
+# The record a compiled world_steps takes, one argument of FIELDS (a numba StructRef: crossing
+# from Python costs one pointer, where a tuple of 45 arrays cost 4 us), made by ``make_record``;
+# the interpreted tier takes a ``WorldHost`` of the same fields (``host``). Kernels read either
+# by attribute, the same arithmetic on the same arrays.
+@structref.register
+class WorldRecordType(types.StructRef):
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(t)) for name, t in fields)
+
+
+class WorldRecord(structref.StructRefProxy):
+    """A world's arrays as one compiled record (read them in kernels, not from Python)."""
+
+
+structref.define_proxy(WorldRecord, WorldRecordType, list(FIELDS))
+
+
+class WorldHost:
+    """A world's arrays as a plain object, for the interpreted tier (and the source of a
+    record: ``make_record(*host.values())``)."""
+
+    __slots__ = FIELDS
+
+    def __init__(self, *values) -> None:
+        for name, value in zip(FIELDS, values, strict=True):
+            setattr(self, name, value)
+
+    def values(self) -> tuple:
+        return tuple(getattr(self, name) for name in FIELDS)
+
+
+def _record_sources() -> tuple[str, str]:
+    args = ', '.join(FIELDS)
+    make = (f'def make_record({args}):\n'
+            '    """A WorldRecord of these arrays (FIELDS, in order)."""\n'
+            f'    return WorldRecord({args})\n')
+    outputs = ', '.join(f'w.{name}' for name in OUTPUTS)
+    read = ('def record_outputs(w):\n'
+            '    """OUTPUTS of a record (or host), in order."""\n'
+            f'    return ({outputs})\n')
+    return make, read
+
+
+make_record = generated_kernel(globals(), 'make_record', _record_sources()[0], inline=False)
+record_outputs = generated_kernel(globals(), 'record_outputs', _record_sources()[1],
+                                  inline=False)
+
+
+def _world_source() -> str:
+    fields = ', '.join(f'w.{name}' for name in World._fields)
+    return ('def world_of(w):\n'
+            '    """The World (a named tuple) of a record\'s arrays: read once, on entry."""\n'
+            f'    return World({fields})\n')
+
+
+world_of = generated_kernel(globals(), 'world_of', _world_source())
+
+
 def _world_steps_of(family, tests, name):
     """``world_steps`` (below) compiled for the bodies' ``family`` (``step_kernel.family``)
     and the contact tests of the set ``tests`` (``narrow_kernels.PAIR_BIT``), constants in it
     (from Python they could not be: numba would enter its compiler at every call, 15 ms);
     ``name``, its name and the name of its cache entry."""
 
-    def world_steps(arrays, n, warm_keys, warm_normal, warm_tangent):
-        """``n`` steps of the world (see the module doc) of ``arrays``, a World's arrays as a plain
-        tuple in its order (one crosses from Python in two thirds of the time of a named tuple).
-        Returns the warm-start arrays and the last step's contacts: (warm_keys, warm_normal,
-        warm_tangent, point, normal, depth, normal_impulse, collider_a, collider_b);
-        w.status[S_COLLIDED] says whether a contact pass ran in this call (else the contacts
-        returned are not the last step's)."""
+    def world_steps(record, n):
+        """``n`` steps of the world (see the module doc) of ``record`` (a WorldRecord, or a
+        WorldHost in the interpreted tier). Leaves its OUTPUTS there: the warm-start arrays
+        and, when a contact pass ran in this call (w.status[S_COLLIDED]), its last step's
+        contacts (point, normal, depth, normal_impulse, collider_a, collider_b)."""
         f = family
-        w = World(*arrays)
+        w = world_of(record)
+        warm_keys, warm_normal, warm_tangent = (record.warm_keys, record.warm_normal,
+                                                record.warm_tangent)
         point, normal = np.zeros((0, 3)), np.zeros((0, 3))
         depth, impulse = np.zeros(0), np.zeros(0)
         ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
@@ -332,7 +413,13 @@ def _world_steps_of(family, tests, name):
             if w.status[S_KIND] != OK:
                 break
             w.status[S_UNCHECKED] = 0
-        return warm_keys, warm_normal, warm_tangent, point, normal, depth, impulse, ca, cbb
+        w.status[S_TURNED] = _turned(w.rows, w.state, w.warn_sq)
+        record.warm_keys = warm_keys
+        record.warm_normal, record.warm_tangent = warm_normal, warm_tangent
+        if w.status[S_COLLIDED]:
+            record.point, record.normal, record.depth = point, normal, depth
+            record.impulse, record.collider_a, record.collider_b = impulse, ca, cbb
+        return w.status[S_KIND]
 
     world_steps.__name__ = world_steps.__qualname__ = name
     return kernel(world_steps)
@@ -463,9 +550,10 @@ def tests_keeping(family, needed: int, current: int | None) -> int:
     return tests_for(family, needed | current)
 
 
-def steps(name, arrays, n, warm_keys, warm_normal, warm_tangent):
-    """``world_steps`` from Python: the entry named ``name`` (``entry``)."""
-    return globals()[name](arrays, n, warm_keys, warm_normal, warm_tangent)
+def steps(name, record, n):
+    """``world_steps`` from Python: the entry named ``name`` (``entry``), on ``record`` (a
+    WorldRecord compiled, a WorldHost interpreted)."""
+    return globals()[name](record, n)
 
 
 # The stages take the arrays they use, never ``w``, and steps 2 - 5 are written out in
@@ -474,6 +562,18 @@ def steps(name, arrays, n, warm_keys, warm_normal, warm_tangent):
 # LLVM cannot drop the pairs. For the 48 arrays of ``w`` that cost about 0.45 us an
 # invocation, once a step for each stage and once a body for each integration: more than a
 # resting body's whole step (bench/contact_step_bench.py, bench/resting_bench.py).
+
+
+@inline_kernel
+def _turned(rows, state, warn_sq):
+    """1 if one of the bodies ``rows`` turns faster than its warn_sq (|omega|^2, rad^2/s^2)
+    allows, or nearly (the check in Python sums the squares its own way), else 0."""
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        wx, wy, wz = float(state[i, K.W]), float(state[i, K.W + 1]), float(state[i, K.W + 2])
+        if wx * wx + wy * wy + wz * wz > float(warn_sq[i]) * (1.0 - 1e-9):
+            return 1
+    return 0
 
 
 @inline_kernel

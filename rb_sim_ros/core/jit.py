@@ -95,6 +95,14 @@ def parallel_kernel(function):
     return _made(numba.njit(parallel=True, **_OPTIONS)(function))
 
 
+def compiled(function):
+    """The compiled kernel of ``function`` (a kernel, or its Python function in the
+    interpreted tier), whatever the tier; ``function`` itself without numba's compiler."""
+    with _tier:
+        pair = _KERNELS.get(id(function))
+        return pair[1] if pair is not None and pair[0] is function else function
+
+
 def made_global(space: dict, name: str, make):
     """``space[name]`` (a module's globals), made by ``make()`` (which makes a kernel, as
     ``kernel`` does) the first time: for kernels made on demand (one for each constant a
