@@ -60,8 +60,8 @@ setup(
         'console_scripts': [
             'simulator = rb_sim_ros.ros.simulator_node:main',
             'send_wrench = rb_sim_ros.ros.send_wrench:main',
-            'replay = rb_sim_ros.ros.replay:main',
-            'sweep = rb_sim_ros.ros.sweep:main',
+            'replay = rb_sim_ros.offline.replay:main',
+            'sweep = rb_sim_ros.offline.sweep:main',
         ],
     },
 )

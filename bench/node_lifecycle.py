@@ -233,7 +233,7 @@ def stop_loop(runs: int, tmp: Path, timed: bool = True) -> tuple[list[str], list
         seconds = time.monotonic() - t0
         exit_times.append(seconds)
         log = proc.stdout.read()
-        verify = subprocess.run([sys.executable, '-m', 'rb_sim_ros.ros.replay', '--verify',
+        verify = subprocess.run([sys.executable, '-m', 'rb_sim_ros.offline.replay', '--verify',
                                  str(out)], env=_env(domain), capture_output=True, text=True)
         bad = [what for what, ok in (('exit code', code == 0),
                                      ('time', seconds <= 2.0 or not timed),

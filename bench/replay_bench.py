@@ -33,7 +33,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def _child(path: str) -> int:
     """Republish ``path`` as fast as possible; print the monotonic time of the first publish
     and of the end of ``load``."""
-    from rb_sim_ros.ros import replay
+    from rb_sim_ros.offline import replay
 
     send, load = replay._Sender.__call__, replay.load
     marks = {}

@@ -23,7 +23,7 @@ import time
 
 import figures  # a bench module
 
-from rb_sim_ros.ros import sweep
+from rb_sim_ros.offline import sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = str(ROOT / 'scenes' / 'collisions.yaml')

@@ -5,7 +5,7 @@
 
     ./tools/simulate.sh --ros-args -p inertia:=[0.1,0.2,0.3] -p record:=run.mcap &
     python examples/attitude_controller.py --ros-args -p target_rpy:=[0.3,-0.2,1.2]
-    python -m rb_sim_ros.ros.replay --plot run.mcap           # what it did
+    python -m rb_sim_ros.offline.replay --plot run.mcap           # what it did
 
 It reads the body's orientation q and body-frame angular velocity w from ``odom`` (or ``imu``:
 the noisy sensor, with ``source:=imu``) and sends the body-frame torque

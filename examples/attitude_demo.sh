@@ -41,5 +41,5 @@ sleep 8
 kill -INT $ctl $sim
 wait $sim || true
 trap - EXIT
-"$PY" -m rb_sim_ros.ros.replay --verify "$out/run.mcap"
-"$PY" -m rb_sim_ros.ros.replay --plot "$out/run.mcap" --out "$out"
+"$PY" -m rb_sim_ros.offline.replay --verify "$out/run.mcap"
+"$PY" -m rb_sim_ros.offline.replay --plot "$out/run.mcap" --out "$out"

@@ -10,7 +10,8 @@ from mcap.writer import Writer
 from rclpy.serialization import serialize_message
 from std_msgs.msg import String
 
-from rb_sim_ros.ros import node_params, replay
+from rb_sim_ros.offline import replay
+from rb_sim_ros.ros import node_params
 from rb_sim_ros.ros.node_recorder import NodeRecorder, RUN_DEFINITION
 from rb_sim_ros.ros.ros_messages import OutputMessages
 from rb_sim_ros.sim.simulation import Delete, Simulation, Spawn

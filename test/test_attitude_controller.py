@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from std_srvs.srv import SetBool
 
-from rb_sim_ros.ros import replay
+from rb_sim_ros.offline import replay
 from ros_harness import stamp_ns
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -23,8 +23,8 @@ from rosbags.highlevel import AnyReader
 from std_msgs.msg import String
 
 from rb_sim_ros.core.rigid_body import Wrench
+from rb_sim_ros.offline import replay
 from rb_sim_ros.recording import RecordingReader
-from rb_sim_ros.ros import replay
 from rb_sim_ros.ros.node_recorder import RUN_DEFINITION
 from rb_sim_ros.sim.simulation import BodySpec, Config, SetWrench
 from recordings import mcap_parts, record_offline

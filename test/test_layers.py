@@ -1,7 +1,8 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
 """The layers import downward only: ros -> sim -> contact -> core, ros -> recording, and
-ros -> pictures -> sim (the pictures of a run draw with no ROS at all).
+ros -> pictures -> sim (the pictures of a run draw with no ROS at all); the offline tools
+(offline: replay, sweep) stand beside ros and use it, and nothing imports them.
 
 Every import of this package's modules, at any depth of a module (a function's too), is read
 from the source with ast; an import of a layer above, or beside, fails here, and so does an
@@ -20,6 +21,8 @@ ALLOWED = {
     'contact': {'contact', 'core'},
     'sim': {'sim', 'contact', 'core'},
     'ros': {'ros', 'sim', 'contact', 'core', 'recording', 'pictures', ''},  # '': __version__
+    # the offline tools: beside the live node, never imported by it
+    'offline': {'offline', 'ros', 'sim', 'contact', 'core', 'recording', 'pictures', ''},
     'recording': {'recording'},
     'pictures': {'pictures', 'sim', 'contact', 'core'},
     '': {'core'},  # rb_sim_ros/__init__.py re-exports the core's public names

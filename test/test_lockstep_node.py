@@ -21,8 +21,9 @@ from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 from std_srvs.srv import SetBool, Trigger
 
+from rb_sim_ros.offline import replay
 from rb_sim_ros.recording.reader import RecordingReader
-from rb_sim_ros.ros import node_recorder, replay
+from rb_sim_ros.ros import node_recorder
 from ros_harness import stamp_ns
 
 ROOT = Path(__file__).resolve().parents[1]

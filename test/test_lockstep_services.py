@@ -20,8 +20,8 @@ from simulation_interfaces.msg import Result
 from simulation_interfaces.srv import DeleteEntity, SpawnEntity, StepSimulation
 from std_srvs.srv import Empty, SetBool, Trigger
 
+from rb_sim_ros.offline import replay
 from rb_sim_ros.recording.reader import RecordingReader
-from rb_sim_ros.ros import replay
 from ros_harness import stamp_ns
 
 OK = Result.RESULT_OK

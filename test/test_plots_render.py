@@ -12,8 +12,8 @@ import pytest
 
 from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.core.rigid_body import Wrench
+from rb_sim_ros.offline import replay
 from rb_sim_ros.pictures import plots, render
-from rb_sim_ros.ros import replay
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Delete, SetPose,
                                        SetWrench, Spawn)

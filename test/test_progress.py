@@ -5,7 +5,7 @@ log file gets no carriage returns and no line per item)."""
 
 import io
 
-from rb_sim_ros.ros.progress import Progress
+from rb_sim_ros.offline.progress import Progress
 
 
 class _Terminal(io.StringIO):

@@ -24,8 +24,8 @@ from std_srvs.srv import Empty, SetBool, Trigger
 from tf2_msgs.msg import TFMessage
 
 from rb_sim_ros.core import multistep
+from rb_sim_ros.offline import replay
 from rb_sim_ros.recording import offered_qos_profiles, RecordingReader
-from rb_sim_ros.ros import replay
 from rb_sim_ros.ros.node_recorder import RUN_DEFINITION
 from rb_sim_ros.ros.simulator_node import APPLIED_QOS
 from rb_sim_ros.sim.simulation import BodySpec, Config

@@ -13,8 +13,8 @@ import io
 import numpy as np
 import pytest
 
+from rb_sim_ros.offline import replay
 from rb_sim_ros.pictures import plots, render
-from rb_sim_ros.ros import replay
 from rb_sim_ros.sim.simulation import BodySpec, Config
 from recordings import record_offline
 

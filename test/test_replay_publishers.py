@@ -14,8 +14,8 @@ from pathlib import Path
 from mcap.writer import Writer
 import pytest
 
+from rb_sim_ros.offline import replay
 from rb_sim_ros.recording import ReaderError
-from rb_sim_ros.ros import replay
 from recordings import mcap_parts
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'

@@ -517,7 +517,7 @@ def test_spawn_entities_spawns_all_at_one_step_or_none(start_sim, probe, tmp_pat
     a later request may be placed in the frame of an earlier one. Recorded, and replayed bit
     for bit, refusals at the step itself (taken back) included."""
     from rb_sim_ros.recording.reader import RecordingReader
-    from rb_sim_ros.ros import replay
+    from rb_sim_ros.offline import replay
     scene = tmp_path / 'scene.yaml'
     scene.write_text(SPAWN_SCENE)
     f = tmp_path / 'run.mcap'

@@ -21,8 +21,8 @@ import time
 
 import pytest
 
+from rb_sim_ros.offline import sweep
 from rb_sim_ros.recording import compare
-from rb_sim_ros.ros import sweep
 
 G = 9.81
 SCENE = ('gravity: [0, 0, -9.81]\n'
@@ -274,7 +274,7 @@ def test_a_signal_to_the_driver_ends_its_workers_and_sigterm_keeps_what_finished
     stdout_file, stderr_file = tmp_path / 'stdout', tmp_path / 'stderr'
     with open(stdout_file, 'w') as o, open(stderr_file, 'w') as e:  # not pipes: a child that
         driver = subprocess.Popen(  # outlived the driver would hold them open
-            [sys.executable, '-m', 'rb_sim_ros.ros.sweep', scene, '--seeds', '400', '--steps',
+            [sys.executable, '-m', 'rb_sim_ros.offline.sweep', scene, '--seeds', '400', '--steps',
              '2000', '--workers', '2', '--out', str(out)], stdout=o, stderr=e)
     try:
         _wait_for(lambda: _partial_rows(out) or driver.poll() is not None, 'a first row')

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import Imu
 from tf2_msgs.msg import TFMessage
 
-from rb_sim_ros.ros import replay
+from rb_sim_ros.offline import replay
 from rb_sim_ros.ros.simulator_node import APPLIED_QOS
 from ros_harness import stamp_ns
 

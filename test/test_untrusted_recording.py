@@ -23,7 +23,8 @@ from rosbags.highlevel import AnyReader
 
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.core.stepper import IntegrationError
-from rb_sim_ros.ros import node_params, replay
+from rb_sim_ros.offline import replay
+from rb_sim_ros.ros import node_params
 from rb_sim_ros.ros.node_recorder import NodeRecorder, OUTPUTS
 from rb_sim_ros.ros.ros_messages import fill_tf, OutputMessages, tf_message
 from rb_sim_ros.sim.simulation import (BodySpec, Config, Delete, SetWrench, Simulation,

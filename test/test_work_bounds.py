@@ -72,7 +72,7 @@ def _load_edited_recording(tmp_path, change):
     pytest.importorskip('mcap')
     from recordings import record_offline, rewrite, topic_parts
 
-    from rb_sim_ros.ros import replay
+    from rb_sim_ros.offline import replay
 
     good = tmp_path / 'good.mcap'
     record_offline(good, Config(bodies=(BodySpec('one'), BodySpec('two'))), periods=2)

@@ -29,13 +29,13 @@ import sys
 import time
 
 from rb_sim_ros.core.stepper import IntegrationError
+from rb_sim_ros.offline.progress import Progress
 from rb_sim_ros.pictures import plots, render
 from rb_sim_ros.recording import (message_class, ReaderError, RecordingReader, recover,
                                   WriterError)
 from rb_sim_ros.recording.qos import POLICIES
 from rb_sim_ros.recording.schemas import type_name_of
 from rb_sim_ros.ros import node_params, node_recorder, ros_arguments
-from rb_sim_ros.ros.progress import Progress
 from rb_sim_ros.ros.ros_messages import (fill_tf, OutputMessages, TF, tf_message, tf_qos,
                                          TF_STATIC, time_msg)
 from rb_sim_ros.sim.imu import ImuSensor

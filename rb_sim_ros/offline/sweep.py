@@ -70,10 +70,11 @@ import numpy as np
 
 from rb_sim_ros.core.rigid_body import Wrench, ZERO_WRENCH
 from rb_sim_ros.core.stepper import IntegrationError
-from rb_sim_ros.ros import node_params, node_recorder, replay, ros_arguments
+from rb_sim_ros.offline import replay
+from rb_sim_ros.offline.progress import Progress
+from rb_sim_ros.ros import node_params, node_recorder, ros_arguments
 from rb_sim_ros.ros.node_config import config_from
 from rb_sim_ros.ros.node_recorder import NodeRecorder
-from rb_sim_ros.ros.progress import Progress
 from rb_sim_ros.ros.ros_messages import OutputMessages
 from rb_sim_ros.ros.wrench_profile import load_profile
 from rb_sim_ros.sim import safe_yaml
