@@ -62,12 +62,13 @@ def test_a_free_body_compiles_its_own_family_only(tmp_path):
     bits are those of the interpreter."""
     (eq27, first), (lie4, then) = [(m, set(c)) for m, c, _ in
                                    _first_steps(['eq27', 'lie4'], tmp_path)]
-    assert {'advance_bodies_two', 'advance_body_2', 'multistep_step'} <= first
+    assert {'step_one_two', 'advance_body_2', 'multistep_step'} <= first
     assert not first & {'advance_body', 'advance_body_k', 'advance_body_split', 'free_flow',
-                        'world_steps', '_lanes_step', 'advance_blocks', 'advance_bodies_k'}
-    assert {'advance_bodies_k', 'advance_body_k'} <= then
+                        'world_steps', '_lanes_step', 'advance_blocks', 'advance_bodies_k',
+                        'step_one_k', 'step_one_split'}
+    assert {'step_one_k', 'advance_body_k'} <= then
     assert not then & {'advance_body_2', 'advance_body_split', 'world_steps', 'advance_body',
-                       'advance_bodies_two'}
+                       'advance_bodies_two', 'step_one_two', 'step_one_split'}
     compiled = _first_steps(['eq27', 'lie4', 'flow4'], tmp_path)
     interpreted = _first_steps(['eq27', 'lie4', 'flow4'], tmp_path, NUMBA_DISABLE_JIT='1')
     assert [s for *_, s in compiled] == [s for *_, s in interpreted]

@@ -1174,6 +1174,39 @@ def advance_bodies_parallel_split(src, dst, params, coefficients, bodies, n, che
                            taken, bad, work)
 
 
+# One body's step from Python (``BodyStore.advance`` of one row, each ``Stepper.step``): the
+# step, and what Python did after it, in the same call, a kernel a family. The row's new state
+# is copied back into ``src`` (a store of one row swapped the arrays instead: the same values);
+# returns 0, 1 if the row failed (``src`` untouched, the clock not moved: Python takes the
+# steps again, checked), or 2 if it now turns faster than its warn_sq allows (Python warns).
+
+
+def _step_one_of(advance_body, name):
+    def step_one(src, dst, params, coefficients, row, n, status, taken, bad, work, clock,
+                 warn_sq):
+        if n <= 0:
+            return 0
+        advance_body(src, dst, params, coefficients, row, n, bool(False), status, taken, bad,
+                     work)
+        if status[row] != STATUS_OK:
+            return 1
+        for c in range(src.shape[1]):
+            src[row, c] = dst[row, c]
+        clock[row] += n
+        wx, wy, wz = float(src[row, W]), float(src[row, W + 1]), float(src[row, W + 2])
+        if wx * wx + wy * wy + wz * wz > float(warn_sq[row]):
+            return 2
+        return 0
+
+    step_one.__name__ = step_one.__qualname__ = name
+    return kernel(step_one)
+
+
+step_one_two = _step_one_of(advance_body_2, 'step_one_two')
+step_one_k = _step_one_of(advance_body_k, 'step_one_k')
+step_one_split = _step_one_of(advance_body_split, 'step_one_split')
+STEP_ONE = {FAMILY_TWO: 'step_one_two', FAMILY_K: 'step_one_k', FAMILY_SPLIT: 'step_one_split'}
+
 # (parallel, family) -> the name of the kernel: looked up in the module's globals at each call,
 # which ``jit.run_interpreted`` rebinds to the Python functions.
 ADVANCE_BODIES = {(parallel, f): f'advance_bodies{"_parallel" if parallel else ""}_{name}'

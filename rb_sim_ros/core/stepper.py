@@ -181,6 +181,9 @@ class BodyStore:
         # (and for rows that never warn: isotropic, a flow).
         self.warn_sq = np.full(count, math.inf)
         self._used = 0
+        # the name of the kernel of one row's step (step_kernel.STEP_ONE), looked up at each
+        # call: a tier swap rebinds it
+        self._step_one = K.STEP_ONE[K.family(self.coefficients)]
 
     def __len__(self) -> int:
         return len(self.clock)
@@ -191,6 +194,10 @@ class BodyStore:
         ``stepping=False``: only those that write rows, for a store whose steps another
         kernel takes (an enabled collision world's ``world_steps``)."""
         rows = np.zeros(0, dtype=np.int64)
+        if stepping and len(self.clock):  # (n = 0: nothing moves)
+            getattr(K, self._step_one)(self.state, self.spare, self.params, self.coefficients,
+                                       0, 0, self.status, self.taken, self.bad, self.work,
+                                       self.clock, self.warn_sq)
         if stepping:
             out = (self.status, self.taken, self.bad, self.work)
             K.advance(self.state, self.spare, self.params, self.coefficients, rows, 0, False,
@@ -217,22 +224,17 @@ class BodyStore:
             return []
         args = (self.params, self.coefficients, rows, n)
         out = (self.status, self.taken, self.bad, self.work)
-        K.advance(self.state, self.spare, *args, False, *out)
-        if len(rows) == 1:  # a Stepper's step: scalar reads, no fancy indexing
-            row = int(rows[0])
-            if self.status[row] == K.STATUS_OK:
-                if len(self.clock) == 1:
-                    self.state, self.spare = self.spare, self.state
-                else:
-                    K.copy_rows(self.state, self.spare, rows)
-                self.clock[row] += n
-                limit = self.warn_sq.item(row)
-                if limit != math.inf:  # scalar reads: this is in each step(1)'s cost
-                    item = self.state.item
-                    wx, wy, wz = item(row, K.W), item(row, K.W + 1), item(row, K.W + 2)
-                    if wx * wx + wy * wy + wz * wz > limit:
-                        self.check_turns(rows)
+        if len(rows) == 1:  # a Stepper's step: all of it in one compiled call
+            code = getattr(K, self._step_one)(self.state, self.spare, self.params,
+                                              self.coefficients, int(rows[0]), n, self.status,
+                                              self.taken, self.bad, self.work, self.clock,
+                                              self.warn_sq)
+            if code != 1:
+                if code == 2:
+                    self.check_turns(rows)
                 return []
+        else:
+            K.advance(self.state, self.spare, *args, False, *out)
         failed = rows[self.status[rows] != K.STATUS_OK]
         if len(failed):
             # Taken again from the untouched rows, step by step: the state before the bad
