@@ -35,7 +35,7 @@ from rb_sim_ros.recording import (message_class, ReaderError, RecordingReader, r
                                   WriterError)
 from rb_sim_ros.recording.qos import POLICIES
 from rb_sim_ros.recording.schemas import type_name_of
-from rb_sim_ros.ros import node_params, node_recorder, ros_arguments
+from rb_sim_ros.ros import node_params, node_recorder, output_kinds, ros_arguments
 from rb_sim_ros.ros.ros_messages import (fill_tf, OutputMessages, TF, tf_message, tf_qos,
                                          TF_STATIC, time_msg)
 from rb_sim_ros.sim.imu import ImuSensor
@@ -604,29 +604,14 @@ def _xyz(v) -> tuple:
 
 
 def _vectors(kind: str, msg):
-    """The quantities an output message carries, as tuples of floats."""
-    if kind == 'pose':
-        p, o = msg.pose.position, msg.pose.orientation
-        return {'position': _xyz(p), 'orientation': (o.x, o.y, o.z, o.w)}
-    if kind == 'odom':
-        p, o = msg.pose.pose.position, msg.pose.pose.orientation
-        return {'position': _xyz(p), 'orientation': (o.x, o.y, o.z, o.w),
-                'linear_velocity': _xyz(msg.twist.twist.linear),
-                'angular_velocity': _xyz(msg.twist.twist.angular)}
-    if kind == 'imu':
-        o = msg.orientation
-        return {'orientation': (o.x, o.y, o.z, o.w),
-                'angular_velocity': _xyz(msg.angular_velocity),
-                'linear_acceleration': _xyz(msg.linear_acceleration)}
-    if kind == 'accel':
-        return {'linear_acceleration': _xyz(msg.accel.linear),
-                'angular_acceleration': _xyz(msg.accel.angular)}
+    """The quantities an output message carries, as tuples of floats (``output_kinds``;
+    /tf and /tf_static: every transform's)."""
     if kind in ('tf', 'tf_static'):
         ts = [t.transform for t in msg.transforms]
         return {'position': sum((_xyz(t.translation) for t in ts), ()),
                 'orientation': sum(((t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w)
                                     for t in ts), ())}
-    return {'linear_velocity': _xyz(msg.linear), 'angular_velocity': _xyz(msg.angular)}
+    return output_kinds.BY_NAME[kind].quantities(msg)
 
 
 def identical(kind: str, a, b) -> bool:
@@ -725,7 +710,7 @@ def resimulate(rec: Recording, errors: list | None = None):
             offsets[body] = sensors[body].sample(sim.time_ns)
             out.fill(sim.time_ns, *sim.pose_twist(body))
             filled[body] = step
-        if kind in ('imu', 'accel') and motion_filled.get(body) != step:
+        if output_kinds.needs_motion(kind) and motion_filled.get(body) != step:
             _, q, _, w = sim.pose_twist(body)
             a, b = sim.accelerations(body)
             out.fill_motion(sim.time_ns, q, w, a, b, rec.config.gravity, offsets[body])

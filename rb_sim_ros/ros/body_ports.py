@@ -12,16 +12,13 @@ from __future__ import annotations
 import math
 import warnings
 
-from geometry_msgs.msg import AccelStamped, PoseStamped, Twist, Wrench as WrenchMsg, \
-    WrenchStamped
-from nav_msgs.msg import Odometry
+from geometry_msgs.msg import PoseStamped, Twist, Wrench as WrenchMsg, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSPolicyKind, QoSProfile
 from rclpy.qos_overriding_options import QoSOverridingOptions
-from sensor_msgs.msg import Imu
 
 from rb_sim_ros.core.rigid_body import Frame
-from rb_sim_ros.ros import node_params, ros_messages
+from rb_sim_ros.ros import node_params, output_kinds, ros_messages
 from rb_sim_ros.ros.lockstep import HOLD
 from rb_sim_ros.sim.imu import ImuSensor
 from rb_sim_ros.sim.simulation import SetPose, SetWrench
@@ -55,16 +52,11 @@ OVERRIDABLE = QoSOverridingOptions([QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH,
 
 # A body's topics, relative to its prefix: (topic, message type, what it carries). The node
 # creates them from these tables, and ``simulator --help`` lists them from the same.
-PUBLISHED = (
-    ('pose', PoseStamped, 'pose in world_frame'),
-    ('twist', Twist, 'velocities in twist_frame'),
-    ('odom', Odometry, 'pose in world_frame, twist in the body frame'),
-    ('imu', Imu, 'orientation, angular velocity, specific force'),
-    ('accel', AccelStamped, 'acceleration of the centre of mass'),
+PUBLISHED = tuple((k.name, k.msg_type, k.what) for k in output_kinds.KINDS) + (
     ('applied_wrench', WrenchStamped, 'the wrench held, at each change (transient local)'),
 )
-MOVING_ONLY = ('imu', 'accel')
-RECORDED = ('pose', 'twist', 'odom', 'imu', 'accel')  # the outputs a recording holds
+MOVING_ONLY = output_kinds.MOTION
+RECORDED = output_kinds.NAMES  # the outputs a recording holds
 SUBSCRIBED = (
     ('wrench', WrenchMsg, 'wrench (N, N m) in wrench_frame, held until the next'),
     ('wrench_stamped', WrenchStamped, 'the same in its frame_id: world, the body or a point'),
@@ -131,7 +123,7 @@ class BodyPorts:
                                                       **over)
         self.pub_applied = self._pubs['applied_wrench']
         self.state_pubs = tuple((self._pubs[kind], getattr(self.out, kind))
-                                for kind in ('pose', 'twist', 'odom'))
+                                for kind in RECORDED if kind not in MOVING_ONLY)
         self.motion_pubs = tuple((self._pubs[kind], getattr(self.out, kind))
                                  for kind in MOVING_ONLY if kind in self._pubs)
         callbacks = {'wrench': self._on_wrench, 'wrench_stamped': self._on_wrench_stamped,

@@ -36,16 +36,16 @@ from __future__ import annotations
 import json
 import os
 
-from geometry_msgs.msg import AccelStamped, PoseStamped, Twist, TwistStamped, WrenchStamped
+from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
 from mcap.writer import LIBRARY_IDENTIFIER
 from nav_msgs.msg import Odometry
-from sensor_msgs.msg import Imu
 from std_msgs.msg import String
 
 from rb_sim_ros import __version__
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.recording import RecordingWriter, WriterError
 from rb_sim_ros.recording.compare import difference
+from rb_sim_ros.ros import output_kinds
 from rb_sim_ros.ros.ros_messages import tf_qos, time_msg
 from rb_sim_ros.sim.simulation import (body_from_dict, body_to_dict, Config, Delete, Reset,
                                        SetPose, SetTwist, SetWrench, Spawn)
@@ -60,10 +60,9 @@ INPUTS = {'wrench': WrenchStamped, 'set_pose': PoseStamped, 'set_twist': TwistSt
 STATE_INPUTS = ('wrench', 'set_pose', 'set_twist', 'reset')
 # The most text a spawn's JSON may hold (a body with many colliders is a few kB).
 MAX_SPAWN_TEXT = 1 << 20
-OUTPUTS = {'pose': PoseStamped, 'twist': Twist, 'odom': Odometry, 'imu': Imu,
-           'accel': AccelStamped}
+OUTPUTS = {k.name: k.msg_type for k in output_kinds.KINDS}
 # What every recording has of a body (imu and accel came later).
-REQUIRED_OUTPUTS = ('pose', 'twist', 'odom')
+REQUIRED_OUTPUTS = output_kinds.REQUIRED
 # tf2's topics and their type (tf2_msgs, built into a PyPI venv by tools/build_msgs.sh).
 TF_TYPE = 'tf2_msgs/msg/TFMessage'
 # The run's definition as a message at step 0 (beside the metadata record, which bag tools
