@@ -69,7 +69,7 @@ from rb_sim_ros.contact.collision_shapes import Plane, Shape
 from rb_sim_ros.core import jit, step_kernel as K
 from rb_sim_ros.core.rigid_body import finite_floats, non_negative, State
 from rb_sim_ros.core.step_count import check_steps
-from rb_sim_ros.core.stepper import carry_over, IntegrationError, step_all
+from rb_sim_ros.core.stepper import carry_over, IntegrationError, Stepping
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
 FEATURE_BITS = 12
@@ -209,6 +209,7 @@ class CollisionWorld:
         self.dt = self.settings.dt
         self.steppers, self.static = make_steppers(bodies, dt, integrator, self._gravity)
         self._all_steppers = tuple(self.steppers.values())
+        self._stepping = Stepping(self._all_steppers)
         self._step_count = 0
         self._unsynced, self._unsynced_seconds, self._call_seconds = False, 0.0, 0.0
         self._last_stats = StepStats()
@@ -434,7 +435,7 @@ class CollisionWorld:
         check_steps(n)
         if not self.enabled:
             try:
-                step_all(self._all_steppers, n)
+                self._stepping.run(n)
             finally:
                 self._step_count += n
             return

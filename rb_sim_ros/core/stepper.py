@@ -108,24 +108,40 @@ def step_all(steppers, n: int) -> None:
     """Step every stepper n steps; if one goes non-finite the others still advance, and the
     first IntegrationError (in the order given) is raised after (that stepper stays at its
     last finite state). Steppers that share a ``BodyStore`` take their steps in one call."""
-    check_steps(n)
-    if n == 0:
-        return
-    stores: dict[int, tuple[BodyStore, list]] = {}
-    seen = set()
-    for s in steppers:
-        if id(s) in seen:  # its row twice would make a run of all rows miss one
-            raise ValueError('step_all: a stepper is listed twice')
-        seen.add(id(s))
-        stores.setdefault(id(s._store), (s._store, []))[1].append(s)
-    failed = {}
-    for store, group in stores.values():
-        rows = np.array([s._row for s in group], dtype=np.int64)
-        for row in store.advance(rows, n):
-            failed[row, id(store)] = True
-    for s in steppers:
-        if (s._row, id(s._store)) in failed:
-            raise s._error()
+    Stepping(steppers).run(n)
+
+
+class Stepping:
+    """``step_all`` of a fixed list of steppers, grouped by store once (a run that steps the
+    same bodies call after call pays the grouping once, not at each step(1))."""
+
+    def __init__(self, steppers) -> None:
+        self.steppers = tuple(steppers)
+        stores: dict[int, tuple[BodyStore, list]] = {}
+        seen = set()
+        for s in self.steppers:
+            if id(s) in seen:  # its row twice would make a run of all rows miss one
+                raise ValueError('step_all: a stepper is listed twice')
+            seen.add(id(s))
+            stores.setdefault(id(s._store), (s._store, []))[1].append(s)
+        self._groups = tuple((store, np.array([s._row for s in group], dtype=np.int64))
+                             for store, group in stores.values())
+
+    def run(self, n: int) -> None:
+        """n steps of each (``step_all``)."""
+        check_steps(n)
+        if n == 0:
+            return
+        failed = None
+        for store, rows in self._groups:
+            bad = store.advance(rows, n)
+            if bad:
+                failed = failed or set()
+                failed.update((row, id(store)) for row in bad)
+        if failed:
+            for s in self.steppers:
+                if (s._row, id(s._store)) in failed:
+                    raise s._error()
 
 
 def check_dt(dt: Any) -> float:

@@ -20,7 +20,7 @@ from rb_sim_ros.contact.collision_shapes import shape_from_dict, shape_to_dict, 
 from rb_sim_ros.contact.collision_world import CollisionWorld, pairs_met
 from rb_sim_ros.core import multistep, step_kernel as K
 from rb_sim_ros.core.rigid_body import finite_floats, State, Wrench, ZERO_WRENCH
-from rb_sim_ros.core.stepper import carry_over, step_all, Stepper
+from rb_sim_ros.core.stepper import carry_over, Stepper, Stepping
 
 __all__ = ['BodySpec', 'body_from_dict', 'body_to_dict', 'Config', 'ContactSettings', 'Delete',
            'Event', 'make_steppers', 'Reset', 'SetPose', 'SetTwist', 'SetWrench', 'Simulation',
@@ -230,6 +230,7 @@ class Simulation:
     def _use(self, config: Config, world, steppers, static) -> None:
         self.config, self.world, self.steppers, self.static = config, world, steppers, static
         self._moving = tuple(steppers.values())
+        self._stepping = Stepping(self._moving)
 
     def _rebuild(self, config: Config, recheck: bool) -> None:
         """Go on with the bodies of ``config``: those of the run keep their motion bit for
@@ -404,7 +405,7 @@ class Simulation:
                 self._step_count = self.world.step_count
             return
         try:
-            step_all(self._moving, n)
+            self._stepping.run(n)
         finally:
             self._step_count += n
 
