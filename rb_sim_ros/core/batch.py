@@ -178,11 +178,11 @@ def _rotations(name: str, value: Any, k: int) -> np.ndarray:
             dot = r[i] * r[j] + r[3 + i] * r[3 + j] + r[6 + i] * r[6 + j]
             err = np.maximum(err, np.abs(dot - (1.0 if i == j else 0.0)))
     if np.any(err > ROTATION_TOLERANCE):
-        i = int(np.flatnonzero(err > ROTATION_TOLERANCE)[0])
-        raise ValueError(f'{name} must be rotation matrices (entry {i}: |R^T R - I| = '
-                         f'{err[i]:.3g}, got {rot[i].tolist()})')
-    for i in np.flatnonzero(err > 0.0):  # as State: Newton's polar iteration, no LAPACK
-        rot[i] = so3.orthonormalize(rot[i])
+        bad = int(np.flatnonzero(err > ROTATION_TOLERANCE)[0])
+        raise ValueError(f'{name} must be rotation matrices (entry {bad}: |R^T R - I| = '
+                         f'{err[bad]:.3g}, got {rot[bad].tolist()})')
+    for row in np.flatnonzero(err > 0.0):  # as State: Newton's polar iteration, no LAPACK
+        rot[row] = so3.orthonormalize(rot[row])
     return rot
 
 
@@ -289,7 +289,7 @@ class BatchStepper(FixedStep):
         # The principal frame of each body (as Stepper: r = R Q); Q = I for a diagonal inertia.
         self._q = np.empty((n, 9))
         self._q_index = np.full(n, -1)  # body -> its row in self._q, -1 where Q = I
-        rotated = []
+        rotated: list = []
         for i in range(n):
             moments, q = euler_dynamics.principal_axes(inertias[i])
             if not np.array_equal(q, np.eye(3)):

@@ -22,7 +22,7 @@ import numpy as np
 from rb_sim_ros.core import so3
 
 
-def principal_axes(inertia: np.ndarray) -> tuple[tuple[float, float, float], np.ndarray]:
+def principal_axes(inertia: np.ndarray) -> tuple[tuple[float, ...], np.ndarray]:
     """Principal moments (kg m^2) and Q, a proper rotation with I_body = Q diag(moments) Q^T.
 
     Q's columns are the principal axes in the body frame. A diagonal inertia gives Q = I
@@ -38,7 +38,7 @@ def principal_axes(inertia: np.ndarray) -> tuple[tuple[float, float, float], np.
     return moments, np.array(q)
 
 
-def symmetric_eigen(a: list[list[float]]) -> tuple[tuple[float, float, float],
+def symmetric_eigen(a: list[list[float]]) -> tuple[tuple[float, ...],
                                                    list[list[float]]]:
     """Eigenvalues (ascending) and a proper rotation V (eigenvectors as columns) of a symmetric
     3x3 matrix given as nested lists (the upper triangle is read), A = V diag(lambda) V^T.

@@ -171,7 +171,7 @@ def compile_for(function, *examples) -> None:
 
 def compiling() -> bool:
     """Whether kernels are compiled in this process (not NUMBA_DISABLE_JIT=1)."""
-    return not numba.config.DISABLE_JIT
+    return not numba.config.DISABLE_JIT  # type: ignore[attr-defined]
 
 
 def interpreted() -> bool:

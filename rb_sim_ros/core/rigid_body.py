@@ -289,11 +289,10 @@ class State:
         """State whose orientation is given as a quaternion (x, y, z, w) of any non-zero
         length; it is normalised (scaled first by a power of two near 1 / its largest
         component, exactly, so that neither 1e200 nor 1e-200 overflows or underflows)."""
-        q = _vector('quaternion_xyzw', quaternion_xyzw, 4)
-        q = scaled_to_one(q)
-        if q is None:
+        scaled = scaled_to_one(_vector('quaternion_xyzw', quaternion_xyzw, 4))
+        if scaled is None:
             raise ValueError('quaternion_xyzw must be non-zero, got [0.0, 0.0, 0.0, 0.0]')
-        rot = so3.matrix_from_quaternion_xyzw(q)
+        rot = so3.matrix_from_quaternion_xyzw(scaled)
         return cls(position, rot, linear_velocity, angular_velocity)
 
     @property
@@ -334,6 +333,7 @@ class Wrench:
     force: np.ndarray
     torque: np.ndarray
     frame: Frame
+    _key: tuple
 
     def __init__(self, force: Any = (0.0, 0.0, 0.0), torque: Any = (0.0, 0.0, 0.0),
                  frame: 'Frame | str' = Frame.WORLD) -> None:

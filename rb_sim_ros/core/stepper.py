@@ -76,6 +76,7 @@ def turn_warning_sq(method, dt: float, isotropic: bool) -> float:
 def turn_message(method, dt: float, omega: float, who: str) -> str:
     """The TurnWarning's text for ``who`` (a body, or bodies of a batch) at |omega| rad/s."""
     bound = turn_bound(method)
+    assert bound is not None, 'a method without an energy bound never warns'
     return (f'{who} turned {omega * dt:.3g} rad in a step of {method.name} (|omega| = '
             f'{omega:.6g} rad/s, dt = {dt:g} s), above its energy bound of {bound:g} rad a '
             f'step: beyond it a torque-free body may drift by more than {ENERGY_TOLERANCE:g} '
@@ -107,8 +108,23 @@ def carry_over(steppers: dict, before: dict, step_count: int) -> None:
 def step_all(steppers, n: int) -> None:
     """Step every stepper n steps; if one goes non-finite the others still advance, and the
     first IntegrationError (in the order given) is raised after (that stepper stays at its
-    last finite state). Steppers that share a ``BodyStore`` take their steps in one call."""
-    Stepping(steppers).run(n)
+    last finite state). Steppers that share a ``BodyStore`` take their steps in one call.
+    (The loop is ``Stepping.run``'s, written out: a TurnWarning names the caller's line, as
+    many frames up from either.)"""
+    check_steps(n)
+    stepping = Stepping(steppers)
+    if n == 0:
+        return
+    failed: set | None = None
+    for store, rows in stepping._groups:
+        bad = store.advance(rows, n)
+        if bad:
+            failed = failed or set()
+            failed.update((row, id(store)) for row in bad)
+    if failed:
+        for s in stepping.steppers:
+            if (s._row, id(s._store)) in failed:
+                raise s._error()
 
 
 class Stepping:
@@ -132,7 +148,7 @@ class Stepping:
         check_steps(n)
         if n == 0:
             return
-        failed = None
+        failed: set | None = None
         for store, rows in self._groups:
             bad = store.advance(rows, n)
             if bad:
@@ -159,13 +175,17 @@ class FixedStep:
     """The clock of a fixed-step integrator (Stepper and batch.BatchStepper): its subclasses
     set ``_dt``, ``_method`` and ``_step_count``."""
 
+    _dt: float
+    _method: Any  # multistep.Multistep or multistep.Splitting
+    _step_count: int
+
     @property
     def dt(self) -> float:
         """The fixed step (s)."""
         return self._dt
 
     @property
-    def method(self) -> multistep.Multistep:
+    def method(self) -> multistep.Multistep | multistep.Splitting:
         return self._method
 
     @property
@@ -184,7 +204,8 @@ class BodyStore:
     method: each ``Stepper`` is a view of one row; a whole store, or any set of its rows,
     takes n steps in one compiled call (``advance``). ``clock`` counts each body's steps."""
 
-    def __init__(self, count: int, dt: float, method: multistep.Multistep) -> None:
+    def __init__(self, count: int, dt: float,
+                 method: multistep.Multistep | multistep.Splitting) -> None:
         self.dt, self.method = dt, method
         self.coefficients = coefficients(method, dt, Stepper.ORTHONORMALIZE_EVERY)
         self.state, self.params, self.work = K.new_arrays(count, method.steps)
@@ -346,7 +367,7 @@ class Stepper(FixedStep):
         store.warn_sq[self._row] = turn_warning_sq(
             self._method, self._dt, store.params[self._row, K.MAX_TURN_SQ] == math.inf)
         self._has_state = False
-        self._wrench = None
+        self._wrench: Wrench | None = None
         self.set_wrench(wrench)
         self.set_state(State() if state is None else state)
 
@@ -358,6 +379,7 @@ class Stepper(FixedStep):
     @property
     def wrench(self) -> Wrench:
         """The wrench held now."""
+        assert self._wrench is not None  # set in __init__
         return self._wrench
 
     @property
@@ -510,7 +532,8 @@ class Stepper(FixedStep):
             return
         self._wrench = wrench
         in_body = wrench.frame is Frame.BODY
-        force, torque = wrench.force, wrench.torque
+        force: Any = wrench.force
+        torque: Any = wrench.torque
         if in_body and self._q is not None:
             force = so3.mul9_vec(self._q9, force, transpose=True)
             torque = so3.mul9_vec(self._q9, torque, transpose=True)
@@ -565,7 +588,8 @@ class Stepper(FixedStep):
             f'v = {v}, omega = {w}; the body keeps its state before that step')
 
 
-def coefficients(method: multistep.Multistep, dt: float, every: int) -> np.ndarray:
+def coefficients(method: multistep.Multistep | multistep.Splitting, dt: float,
+                 every: int) -> np.ndarray:
     """The kernel's coefficients (``step_kernel.coefficients``): the method's and eq27's
     start-up's (TAYLOR1), times powers of dt, the angle lift and the orthonormalisation
     period."""

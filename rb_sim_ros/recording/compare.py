@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import itertools
 import struct
+from typing import Any
 
 from rb_sim_ros.recording.reader import RecordingReader
 
 
-def message_values(msg) -> tuple:
+def message_values(msg) -> Any:
     """Every field of a message as nested tuples; a float as its 8 bytes."""
     if hasattr(msg, 'get_fields_and_field_types'):
         return tuple((name, message_values(getattr(msg, name)))

@@ -151,6 +151,11 @@ class RecordingReader:
     ros2msg/ros2idl schemas. Message types are looked up when messages are read.
     """
 
+    mcap_schemas: dict[int, Schema]
+    mcap_channels: dict[int, Channel]
+    _metadata_records: list[Metadata]
+    _counts: dict[int, int]
+
     def __init__(self, path: str | os.PathLike) -> None:
         self.path = os.fspath(path)
         try:
@@ -205,10 +210,10 @@ class RecordingReader:
     def _scan(self) -> None:
         stream = RecordStream(self.path)
         self._header = None
-        self.mcap_schemas: dict[int, Schema] = {}
-        self.mcap_channels: dict[int, Channel] = {}
-        self._metadata_records: list[Metadata] = []
-        self._counts: dict[int, int] = {}
+        self.mcap_schemas = {}
+        self.mcap_channels = {}
+        self._metadata_records = []
+        self._counts = {}
         self.message_count = 0
         self._first = self._last = None
         self._in_order = True

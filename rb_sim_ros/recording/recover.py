@@ -76,7 +76,8 @@ def _copy(reader: RecordingReader, stream: RecordStream, f, compression: str, ch
     topics: dict[int, TopicSummary] = {}
     counts = dict.fromkeys(('messages', 'schemas', 'channels', 'metadata', 'attachments'), 0)
     per_channel: dict[int, int] = {}
-    first = last = None
+    first: int | None = None
+    last: int | None = None
 
     def schema(old: int) -> int:
         if old not in schema_ids and old in reader.mcap_schemas:
@@ -109,7 +110,10 @@ def _copy(reader: RecordingReader, stream: RecordStream, f, compression: str, ch
             per_channel[cid] = per_channel.get(cid, 0) + 1
             counts['messages'] += 1
             t = record.log_time
-            first, last = (t, t) if first is None else (min(first, t), max(last, t))
+            if first is None or last is None:
+                first, last = t, t
+            else:
+                first, last = min(first, t), max(last, t)
         elif isinstance(record, Header):
             writer.start(profile=record.profile, library=record.library)
         elif isinstance(record, (Schema, Channel)):

@@ -172,7 +172,8 @@ class RecordingWriter:
         except OSError as e:
             raise WriterError(f'{self.path}: cannot create: {_reason(e)}') from None
         self._sink = _Sink(fd, fsync)
-        self._mcap = Writer(self._sink, chunk_size=chunk_size,
+        self._mcap = Writer(self._sink,  # type: ignore[arg-type] # a file-like sink
+                            chunk_size=chunk_size,
                             compression=COMPRESSION[compression])
         try:
             self._mcap.start(profile=PROFILE, library=library)
@@ -193,7 +194,8 @@ class RecordingWriter:
         self._counts: dict[int, int] = {}
         self._times: list[int] = []  # [first, last] log time written, once there is one
         self._error: WriterError | None = None
-        self._deadline = None  # when the chunk in progress must be finished (monotonic)
+        # when the chunk in progress must be finished (monotonic)
+        self._deadline: float | None = None
         self._in_a_row = 0
         self._closing = False
         self._finished = False
@@ -201,8 +203,8 @@ class RecordingWriter:
         self._register_lock = threading.Lock()
         if background:
             self._queue: Any = queue.SimpleQueue()
-            self._thread = threading.Thread(target=self._run,
-                                            name=f'mcap writer {self.path}', daemon=True)
+            self._thread: threading.Thread | None = threading.Thread(
+                target=self._run, name=f'mcap writer {self.path}', daemon=True)
             self._thread.start()
         else:  # every call writes before it returns: no thread (a sweep's worker)
             self._queue = _Inline(self._consume)
