@@ -199,7 +199,8 @@ def test_a_step_that_fails_raises_and_does_not_warn_too():
 
 def test_a_body_of_a_collision_world_warns_as_a_stepper_does():
     """The world's own kernel steps its bodies: a body spinning past eq27's bound warns once,
-    one turning within it (the other ball) does not."""
+    one turning within it (the other ball) does not; a body with no collider, which the same
+    kernel steps, warns too."""
     from rb_sim_ros.contact.collision_shapes import Sphere
     from rb_sim_ros.contact.collision_world import CollisionWorld
     from rb_sim_ros.sim.simulation import BodySpec
@@ -209,10 +210,13 @@ def test_a_body_of_a_collision_world_warns_as_a_stepper_does():
     slow = BodySpec('slow', 1.0, (0.1, 0.2, 0.3), initial_position=(5.0, 0.0, 0.0),
                     initial_angular_velocity=(0.5 * bound / dt, 0.0, 0.0),
                     colliders=(Sphere(0.1),))
-    world = CollisionWorld((fast, slow), dt, (0.0, 0.0, 0.0))
+    free = BodySpec('free', 1.0, (0.1, 0.2, 0.3), initial_position=(0.0, 5.0, 0.0),
+                    initial_angular_velocity=(0.0, 1.5 * bound / dt, 0.1))
+    world = CollisionWorld((fast, slow, free), dt, (0.0, 0.0, 0.0))
+    assert world.enabled
     with warnings.catch_warnings(record=True) as record:
         warnings.simplefilter('always')
         world.step(3)
         world.step(2)
-    (w,) = _turn_warnings(record)
-    assert 'eq27' in str(w.message)
+    found = _turn_warnings(record)
+    assert len(found) == 2 and all('eq27' in str(w.message) for w in found)

@@ -463,8 +463,9 @@ class CollisionWorld:
         self._account(int(status[ws.S_STEPS_DONE]), seconds)
         if status[ws.S_KIND] != ws.OK:
             raise self._error()
-        if status[ws.S_TURNED]:  # a TurnWarning, as the bodies' own steps give
-            self._store.check_turns(self._rows)
+        if status[ws.S_TURNED]:  # a TurnWarning, as the bodies' own steps give (every body
+            # the kernel steps: those without colliders too)
+            self._store.check_turns(self._step_rows)
 
     @property
     def last_solve_energy(self) -> tuple[float, float]:

@@ -57,7 +57,7 @@ CONFIG_WIDTH = 9
 # -- w.status (int64): what happened, set by world_steps ---------------------------------------
 S_STEP, S_UNCHECKED, S_KIND, S_ERROR_STEP, S_ROW, S_FLAGGED, S_STEPS_DONE = 0, 1, 2, 3, 4, 5, 6
 S_COLLIDED = 7
-# 1 if a body with colliders may now turn faster than its method's energy bound (warn_sq):
+# 1 if a moving body may now turn faster than its method's energy bound (warn_sq):
 # Python then looks (``BodyStore.check_turns``), else it need not
 S_TURNED = 8
 STATUS_WIDTH = 9
@@ -413,7 +413,7 @@ def _world_steps_of(family, tests, name):
             if w.status[S_KIND] != OK:
                 break
             w.status[S_UNCHECKED] = 0
-        w.status[S_TURNED] = _turned(w.rows, w.state, w.warn_sq)
+        w.status[S_TURNED] = _turned(w.step_rows, w.state, w.warn_sq)
         record.warm_keys = warm_keys
         record.warm_normal, record.warm_tangent = warm_normal, warm_tangent
         if w.status[S_COLLIDED]:
@@ -566,7 +566,7 @@ def steps(name, record, n):
 
 @inline_kernel
 def _turned(rows, state, warn_sq):
-    """1 if one of the bodies ``rows`` turns faster than its warn_sq (|omega|^2, rad^2/s^2)
+    """1 if one of the store rows ``rows`` turns faster than its warn_sq (|omega|^2, rad^2/s^2)
     allows, or nearly (the check in Python sums the squares its own way), else 0."""
     for k in range(rows.shape[0]):
         i = rows[k]

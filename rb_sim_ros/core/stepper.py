@@ -112,9 +112,9 @@ def step_all(steppers, n: int) -> None:
     (The loop is ``Stepping.run``'s, written out: a TurnWarning names the caller's line, as
     many frames up from either.)"""
     check_steps(n)
-    stepping = Stepping(steppers)
     if n == 0:
         return
+    stepping = Stepping(steppers)
     failed: set | None = None
     for store, rows in stepping._groups:
         bad = store.advance(rows, n)
