@@ -71,6 +71,11 @@ MAX_CONTACTS = 1 << 19
 # the x, v, omega a failed write would have given; [9:11] the kinetic energy of the bodies in
 # contact before and after the last solve (0 without contacts).
 SOLVE_BEFORE, SOLVE_AFTER = 9, 10
+# A gain of the contact solve below the kinetic energy of its bodies moving at this speed (m/s)
+# is rounding, not a gain: bodies at rest carry velocities near 1e-19 m/s, whose energies a
+# relative tolerance cannot bound (a box at rest once stopped a run, "gaining"
+# 1.04265e-37 J -> 1.04265e-37 J).
+GAIN_FLOOR_SPEED = 1e-9
 ENERGY_WIDTH = 11
 
 # -- w.stats (int64): [0:8] the last step's, [8:16] the totals --------------------------------
@@ -688,15 +693,16 @@ def _check_solve(status, flagged_bodies, energy, gain_tolerance, rows, state, pa
         return spared
     e0 = np.zeros(nb)
     e1 = np.zeros(nb)
-    total0, total1 = 0.0, 0.0
+    total0, total1, floor = 0.0, 0.0, 0.0
     for k in range(nb):
         if involved[k]:
             e0[k] = _energy(rows, state, params, inverse_mass, k, v0, w0)
             e1[k] = _energy(rows, state, params, inverse_mass, k, v1, w1)
             total0 += e0[k]
             total1 += e1[k]
+            floor += 0.5 * GAIN_FLOOR_SPEED * GAIN_FLOOR_SPEED / float(inverse_mass[k])
     energy[SOLVE_BEFORE], energy[SOLVE_AFTER] = total0, total1
-    if total1 <= total0 * (1.0 + gain_tolerance) or not (
+    if total1 <= total0 * (1.0 + gain_tolerance) + floor or not (
             total0 <= 1.7976931348623157e308):
         return spared
     gain = np.empty(nb)
