@@ -418,7 +418,9 @@ class CollisionWorld:
                 tuple((w[c] - dw[c]) * inv for c in range(3)))
 
     def last_contacts(self) -> list[WorldContact]:
-        """The contacts of the last step (speculative ones too), in solver order."""
+        """The contacts of the last step (speculative ones too), in solver order. Not while
+        another thread steps the world (the step replaces the arrays read here; the node reads
+        them after its step, in the same thread)."""
         if not self._collided:
             return []
         point, normal, depth, impulse, ca, cbb = self._current_outputs()[3:]
