@@ -1181,13 +1181,16 @@ def advance_bodies_parallel_split(src, dst, params, coefficients, bodies, n, che
 # steps again, checked), or 2 if it now turns faster than its warn_sq allows (Python warns).
 
 
-def _step_one_of(advance_body, name):
+def _step_one_of(family, name):
+    # (the family an int constant of the closure, as world_step's entries have it: numba keys
+    # a closure's cache entry on its constants, and a kernel there would pickle differently
+    # in each process, so that each compiled it again)
     def step_one(src, dst, params, coefficients, row, n, status, taken, bad, work, clock,
                  warn_sq):
         if n <= 0:
             return 0
-        advance_body(src, dst, params, coefficients, row, n, bool(False), status, taken, bad,
-                     work)
+        body_step(family, src, dst, params, coefficients, row, n, bool(False), status, taken,
+                  bad, work)
         if status[row] != STATUS_OK:
             return 1
         for c in range(src.shape[1]):
@@ -1202,9 +1205,9 @@ def _step_one_of(advance_body, name):
     return kernel(step_one)
 
 
-step_one_two = _step_one_of(advance_body_2, 'step_one_two')
-step_one_k = _step_one_of(advance_body_k, 'step_one_k')
-step_one_split = _step_one_of(advance_body_split, 'step_one_split')
+step_one_two = _step_one_of(FAMILY_TWO, 'step_one_two')
+step_one_k = _step_one_of(FAMILY_K, 'step_one_k')
+step_one_split = _step_one_of(FAMILY_SPLIT, 'step_one_split')
 STEP_ONE = {FAMILY_TWO: 'step_one_two', FAMILY_K: 'step_one_k', FAMILY_SPLIT: 'step_one_split'}
 
 # (parallel, family) -> the name of the kernel: looked up in the module's globals at each call,
