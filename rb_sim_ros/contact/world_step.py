@@ -162,9 +162,9 @@ def _record_sources() -> tuple[str, str]:
     return make, read
 
 
-make_record = generated_kernel(globals(), 'make_record', _record_sources()[0], inline=False)
-record_outputs = generated_kernel(globals(), 'record_outputs', _record_sources()[1],
-                                  inline=False)
+_MAKE_SOURCE, _READ_SOURCE = _record_sources()
+make_record = generated_kernel(globals(), 'make_record', _MAKE_SOURCE, inline=False)
+record_outputs = generated_kernel(globals(), 'record_outputs', _READ_SOURCE, inline=False)
 
 
 def _world_source() -> str:

@@ -599,18 +599,13 @@ def load(path: str) -> Recording:
                      lockstep_notes)
 
 
-def _xyz(v) -> tuple:
-    return (v.x, v.y, v.z)
-
-
 def _vectors(kind: str, msg):
     """The quantities an output message carries, as tuples of floats (``output_kinds``;
     /tf and /tf_static: every transform's)."""
     if kind in ('tf', 'tf_static'):
         ts = [t.transform for t in msg.transforms]
-        return {'position': sum((_xyz(t.translation) for t in ts), ()),
-                'orientation': sum(((t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w)
-                                    for t in ts), ())}
+        return {'position': sum((output_kinds.xyz(t.translation) for t in ts), ()),
+                'orientation': sum((output_kinds.xyzw(t.rotation) for t in ts), ())}
     return output_kinds.BY_NAME[kind].quantities(msg)
 
 

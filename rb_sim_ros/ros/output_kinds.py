@@ -21,11 +21,13 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import Imu
 
 
-def _xyz(v) -> tuple:
+def xyz(v) -> tuple:
+    """A vector message's (x, y, z)."""
     return (v.x, v.y, v.z)
 
 
-def _xyzw(q) -> tuple:
+def xyzw(q) -> tuple:
+    """A quaternion message's (x, y, z, w)."""
     return (q.x, q.y, q.z, q.w)
 
 
@@ -41,23 +43,23 @@ class OutputKind:
 
 KINDS = (
     OutputKind('pose', PoseStamped, 'pose in world_frame', False, True,
-               lambda m: {'position': _xyz(m.pose.position),
-                          'orientation': _xyzw(m.pose.orientation)}),
+               lambda m: {'position': xyz(m.pose.position),
+                          'orientation': xyzw(m.pose.orientation)}),
     OutputKind('twist', Twist, 'velocities in twist_frame', False, True,
-               lambda m: {'linear_velocity': _xyz(m.linear),
-                          'angular_velocity': _xyz(m.angular)}),
+               lambda m: {'linear_velocity': xyz(m.linear),
+                          'angular_velocity': xyz(m.angular)}),
     OutputKind('odom', Odometry, 'pose in world_frame, twist in the body frame', False, True,
-               lambda m: {'position': _xyz(m.pose.pose.position),
-                          'orientation': _xyzw(m.pose.pose.orientation),
-                          'linear_velocity': _xyz(m.twist.twist.linear),
-                          'angular_velocity': _xyz(m.twist.twist.angular)}),
+               lambda m: {'position': xyz(m.pose.pose.position),
+                          'orientation': xyzw(m.pose.pose.orientation),
+                          'linear_velocity': xyz(m.twist.twist.linear),
+                          'angular_velocity': xyz(m.twist.twist.angular)}),
     OutputKind('imu', Imu, 'orientation, angular velocity, specific force', True, False,
-               lambda m: {'orientation': _xyzw(m.orientation),
-                          'angular_velocity': _xyz(m.angular_velocity),
-                          'linear_acceleration': _xyz(m.linear_acceleration)}),
+               lambda m: {'orientation': xyzw(m.orientation),
+                          'angular_velocity': xyz(m.angular_velocity),
+                          'linear_acceleration': xyz(m.linear_acceleration)}),
     OutputKind('accel', AccelStamped, 'acceleration of the centre of mass', True, False,
-               lambda m: {'linear_acceleration': _xyz(m.accel.linear),
-                          'angular_acceleration': _xyz(m.accel.angular)}),
+               lambda m: {'linear_acceleration': xyz(m.accel.linear),
+                          'angular_acceleration': xyz(m.accel.angular)}),
 )
 BY_NAME = {k.name: k for k in KINDS}
 NAMES = tuple(k.name for k in KINDS)
