@@ -25,8 +25,8 @@ import numpy as np
 from rb_sim_ros.contact import contact_solver as cs  # noqa: I100
 from rb_sim_ros.contact.collision_world import CollisionWorld
 
-sys.path.insert(0, str(figures.ROOT / 'test'))
-import test_collisions as tc  # noqa: E402, I100, I202 (the test module, for its scenarios)
+sys.path.insert(0, str(figures.ROOT))  # oracles/ (python bench/x.py puts bench/ on the path)
+from oracles import contact_cases as tc  # noqa: E402, I100, I202 (the tests' scenarios)
 
 RESTITUTIONS = (0.0, 0.3, 1.0)
 FRICTIONS = (0.05, 5.0)

@@ -4,7 +4,7 @@
 
     python bench/replay_bench.py [--keep DIR]
 
-Records, offline as the node records them (test/recordings.py: pose, twist and odom of every
+Records, as the node records them (oracles/node_recording.py: pose, twist and odom of every
 moving body), the collision fixture's scene (scenes/collisions.yaml, 3 s at 50 Hz output, as
 test/fixtures/make_collision_fixtures.py runs it) and a 60 s run of one spinning body at the
 node's default 100 Hz; and takes the collision fixture itself (recorded by the node: imu,
@@ -54,8 +54,8 @@ def _child(path: str) -> int:
 
 
 def _record(out: Path) -> list[tuple[str, Path]]:
-    sys.path.insert(0, str(ROOT / 'test'))
-    from recordings import record_offline
+    sys.path.insert(0, str(ROOT))  # oracles/ (python bench/x.py puts bench/ on the path)
+    from oracles.node_recording import record_offline
 
     from rb_sim_ros.sim.scene import load_scene
     from rb_sim_ros.sim.simulation import BodySpec, Config

@@ -2,12 +2,23 @@
 # Licensed under the Apache License, Version 2.0
 import importlib.util
 import os
+from pathlib import Path
 import re
+import sys
 
 from hypothesis import settings
 import pytest
 
-import ros_harness
+from support import ros_harness
+
+# oracles/ (the references, closed forms and scenarios that the tests share with the
+# benchmarks) is a directory of the checkout beside test/, not installed with the package: the
+# tests import it from the checkout, however pytest was started (colcon test, tools/test.sh, a
+# pytest run from elsewhere). test/ itself is on the path already (this file's directory), for
+# the tests' own support package.
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.append(str(ROOT))
 
 # Property tests: no deadline anywhere (a loaded machine is slow, not wrong). In CI (CI set, as
 # CI services do) the examples are derandomized, so a run is repeatable, and a failure prints the

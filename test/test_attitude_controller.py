@@ -18,7 +18,7 @@ import pytest
 from std_srvs.srv import SetBool
 
 from rb_sim_ros.offline import replay
-from ros_harness import stamp_ns
+from support.ros_harness import stamp_ns
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'examples'))

@@ -11,7 +11,7 @@ from nav_msgs.msg import Odometry
 import rclpy
 
 from rb_sim_ros.ros.control_loop import ControlLoop, HOLD
-from ros_harness import reserve_domain_id
+from support.ros_harness import reserve_domain_id
 
 MS = 1_000_000
 

@@ -7,28 +7,11 @@ import math
 import numpy as np
 import pytest
 
+from oracles import dop853 as reference
 from rb_sim_ros import RigidBody, State, Stepper, Wrench
 from rb_sim_ros.core import multistep, so3, step_kernel
-import reference
-
-BODY = RigidBody(1.3, [[1.2, 0.1, 0.05], [0.1, 2.0, -0.1], [0.05, -0.1, 2.6]])
-START = State(position=[0.1, -0.2, 0.3], rotation=so3.exp([0.3, -0.5, 0.2]),
-              linear_velocity=[0.5, -0.1, 0.2], angular_velocity=[0.8, -1.5, 1.1])
-FORCE, TORQUE = [0.3, -0.2, 0.6], [0.2, 0.4, -0.3]
-
-
-def _errors(state, ref):
-    return {
-        'x': float(np.linalg.norm(state.position - ref.position)),
-        'v': float(np.linalg.norm(state.linear_velocity - ref.linear_velocity)),
-        'w': float(np.linalg.norm(state.angular_velocity - ref.angular_velocity)),
-        'R': so3.angle_between(state.rotation, ref.rotation),
-    }
-
-
-def _orders(errors):
-    """Per quantity, the orders measured between consecutive halvings of dt."""
-    return {q: [math.log2(a[q] / b[q]) for a, b in zip(errors, errors[1:])] for q in errors[0]}
+from support.convergence import (BODY, FORCE, global_errors, orders_of, SCHEDULE, START,
+                                 state_errors, TORQUE)
 
 
 def _one_step_errors(advance, frame='body'):
@@ -39,7 +22,7 @@ def _one_step_errors(advance, frame='body'):
     for dt in (0.04, 0.02, 0.01, 0.005):
         before, now, after = reference.solve(BODY, START, schedule, t0 + dt,
                                              times=[t0 - dt, t0, t0 + dt])
-        errors.append(_errors(advance(dt, before, now, Wrench(FORCE, TORQUE, frame)), after))
+        errors.append(state_errors(advance(dt, before, now, Wrench(FORCE, TORQUE, frame)), after))
     return errors
 
 
@@ -67,7 +50,7 @@ def _eq14_step(dt, before, now, wrench):
 
 
 def test_local_orders_from_exact_history():
-    orders = _orders(_one_step_errors(_stepper_step('eq27'), 'body'))
+    orders = orders_of(_one_step_errors(_stepper_step('eq27'), 'body'))
     # eq. (11)-(12): local O(dt^3); eq. (13) and the last line of eq. (27): O(dt^4).
     for q, expected in (('v', 3), ('w', 3), ('x', 4), ('R', 4)):
         assert orders[q][-1] == pytest.approx(expected, abs=0.25), (q, orders)
@@ -77,56 +60,38 @@ def test_local_orders_with_a_world_frame_force():
     # A constant world force: x and v are exact (to the reference's 1e-13), w and R as before.
     errors = _one_step_errors(_stepper_step('eq27'), 'world')
     assert max(e['x'] for e in errors) < 1e-12 and max(e['v'] for e in errors) < 1e-12
-    orders = _orders([{q: e[q] for q in 'wR'} for e in errors])
+    orders = orders_of([{q: e[q] for q in 'wR'} for e in errors])
     assert orders['w'][-1] == pytest.approx(3.0, abs=0.25)
     assert orders['R'][-1] == pytest.approx(4.0, abs=0.25)
 
 
 def test_local_order_of_R_falls_without_the_cross_term_or_with_eq14():
     # The same test tells the wrong updates apart (NOTES.md 1): it can fail.
-    no_cross = _orders(_one_step_errors(_stepper_step(multistep.EQ27_NO_CROSS)))
-    eq14 = _orders(_one_step_errors(_eq14_step))
+    no_cross = orders_of(_one_step_errors(_stepper_step(multistep.EQ27_NO_CROSS)))
+    eq14 = orders_of(_one_step_errors(_eq14_step))
     assert no_cross['R'][-1] == pytest.approx(3.0, abs=0.25)
     assert eq14['R'][-1] == pytest.approx(3.0, abs=0.25)
 
 
-def _global_errors(schedule, t_end, dts, tamper=None, method='eq27'):
-    ref = reference.solve(BODY, START, schedule, t_end)[0]
-    errors = []
-    for dt in dts:
-        s = Stepper(BODY, dt, START, method=method)
-        bounds = [row[0] for row in schedule[1:]] + [t_end]
-        for (t0, force, torque, frame), t1 in zip(schedule, bounds):
-            s.set_wrench(Wrench(force, torque, frame))
-            if tamper:
-                tamper(s)
-            s.step(round((t1 - t0) / dt))
-        errors.append(_errors(s.state, ref))
-    return errors
-
-
 def test_global_order_two():
-    orders = _orders(_global_errors([(0.0, FORCE, TORQUE, 'body')], 2.0, (1 / 50, 1 / 100,
-                                                                          1 / 200)))
+    orders = orders_of(global_errors([(0.0, FORCE, TORQUE, 'body')], 2.0, (1 / 50, 1 / 100,
+                                                                           1 / 200)))
     for q in 'xvwR':
         assert orders[q][-1] == pytest.approx(2.0, abs=0.2), (q, orders)
 
 
 def test_global_order_of_taylor1_is_one():
-    orders = _orders(_global_errors([(0.0, FORCE, TORQUE, 'body')], 2.0,
-                                    (1 / 100, 1 / 200, 1 / 400), method='taylor1'))
+    orders = orders_of(global_errors([(0.0, FORCE, TORQUE, 'body')], 2.0,
+                                     (1 / 100, 1 / 200, 1 / 400), method='taylor1'))
     for q in 'vwR':
         assert orders[q][-1] == pytest.approx(1.0, abs=0.2), (q, orders)
 
 
-SCHEDULE = [(k * 0.125, [0.5 * math.sin(k), 0.3 * math.cos(3 * k), 0.2 * (-1) ** k],
-             [0.4 * math.cos(2 * k), 0.3 * (-1) ** k, 0.5 * math.sin(k + 1)],
-             'body' if k % 2 else 'world') for k in range(16)]
 DTS = (1 / 64, 1 / 128, 1 / 256)
 
 
 def test_global_order_two_with_a_wrench_change_every_few_steps():
-    orders = _orders(_global_errors(SCHEDULE, 2.0, DTS))
+    orders = orders_of(global_errors(SCHEDULE, 2.0, DTS))
     for q in 'xvwR':
         assert orders[q][-1] == pytest.approx(2.0, abs=0.2), (q, orders)
 
@@ -138,7 +103,7 @@ def test_stale_history_across_wrench_changes_falls_to_first_order():
         row = stepper._store.state[stepper._row]
         if row[step_kernel.HISTORY] == step_kernel.HISTORY_STALE:
             row[step_kernel.HISTORY] = step_kernel.HISTORY_VALID
-    orders = _orders(_global_errors(SCHEDULE, 2.0, DTS, tamper=keep_stale_history))
+    orders = orders_of(global_errors(SCHEDULE, 2.0, DTS, tamper=keep_stale_history))
     assert orders['w'][-1] == pytest.approx(1.0, abs=0.2)
 
 

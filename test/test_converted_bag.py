@@ -5,8 +5,8 @@
 back to MCAP keeps every message and time stamp but drops the MCAP metadata records (and the
 sequence numbers), so the run's definition is also a message at step 0 on a topic of its own.
 
-No ROS graph: runs recorded offline as the node records them (test/recordings.py), converted
-by the rosbags-convert of this venv, read back by the mcap library and by rosbags.
+No ROS graph: runs recorded offline as the node records them (oracles/node_recording.py),
+converted by the rosbags-convert of this venv, read back by the mcap library and by rosbags.
 """
 
 import contextlib
@@ -22,12 +22,13 @@ from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.highlevel import AnyReader
 from std_msgs.msg import String
 
+from oracles.node_recording import record_offline
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.offline import replay
 from rb_sim_ros.recording import RecordingReader
 from rb_sim_ros.ros.node_recorder import RUN_DEFINITION
 from rb_sim_ros.sim.simulation import BodySpec, Config, SetWrench
-from recordings import mcap_parts, record_offline
+from support.recordings import mcap_parts
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
 CONVERT = Path(sys.executable).parent / 'rosbags-convert'

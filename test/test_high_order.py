@@ -9,12 +9,12 @@ import math
 import numpy as np
 import pytest
 
+from oracles import dop853 as reference
 from rb_sim_ros import RigidBody, State, Stepper, Wrench
 from rb_sim_ros.core import free_flow, multistep, so3, step_kernel
 from rb_sim_ros.core.batch import BatchStepper
-import reference
-from test_convergence import (_errors, _global_errors, _orders, BODY, FORCE, SCHEDULE, START,
-                              TORQUE)
+from support.convergence import (BODY, FORCE, global_errors, orders_of, SCHEDULE, START,
+                                 state_errors, TORQUE)
 
 
 def _one_step_errors(method, dts, frame='body'):
@@ -31,7 +31,7 @@ def _one_step_errors(method, dts, frame='body'):
         s = Stepper(BODY, dt, now, Wrench(FORCE, TORQUE, frame), method=method)
         s.set_state(now, previous=before)
         s.step(1)
-        errors.append(_errors(s.state, after))
+        errors.append(state_errors(s.state, after))
     return errors
 
 
@@ -42,7 +42,7 @@ def _one_step_errors(method, dts, frame='body'):
     ('lie4', {'v': 5, 'w': 5, 'x': 6, 'R': 5}),
 ])
 def test_local_orders_from_exact_history(method, expected):
-    orders = _orders(_one_step_errors(method, (0.08, 0.04, 0.02, 0.01)))
+    orders = orders_of(_one_step_errors(method, (0.08, 0.04, 0.02, 0.01)))
     for q, order in expected.items():
         assert orders[q][-1] == pytest.approx(order, abs=0.25), (q, orders)
 
@@ -55,7 +55,7 @@ def test_local_order_of_R_needs_the_derivative_term():
                                 lie3.rotation, (1.0 / 12.0, 0.0, 0.0))
     multistep.METHODS[plain.name] = plain
     try:
-        orders = _orders(_one_step_errors(plain.name, (0.08, 0.04, 0.02, 0.01)))
+        orders = orders_of(_one_step_errors(plain.name, (0.08, 0.04, 0.02, 0.01)))
     finally:
         del multistep.METHODS[plain.name]
     assert orders['R'][-1] == pytest.approx(4.0, abs=0.25), orders
@@ -64,15 +64,15 @@ def test_local_order_of_R_needs_the_derivative_term():
 @pytest.mark.parametrize('method, order', [('lie3', 3), ('lie4', 4)])
 def test_global_order_with_a_constant_wrench(method, order):
     """From a start-up (no history), 2 s under a body-frame wrench on an asymmetric body."""
-    orders = _orders(_global_errors([(0.0, FORCE, TORQUE, 'body')], 2.0,
-                                    (1 / 64, 1 / 128, 1 / 256), method=method))
+    orders = orders_of(global_errors([(0.0, FORCE, TORQUE, 'body')], 2.0,
+                                     (1 / 64, 1 / 128, 1 / 256), method=method))
     for q in 'xvwR':
         assert orders[q][-1] == pytest.approx(order, abs=0.15), (q, orders)
 
 
 @pytest.mark.parametrize('method, order', [('lie3', 3), ('lie4', 4)])
 def test_global_order_with_a_wrench_change_every_eighth_of_a_second(method, order):
-    orders = _orders(_global_errors(SCHEDULE, 2.0, (1 / 64, 1 / 128, 1 / 256), method=method))
+    orders = orders_of(global_errors(SCHEDULE, 2.0, (1 / 64, 1 / 128, 1 / 256), method=method))
     for q in 'xvwR':
         assert orders[q][-1] == pytest.approx(order, abs=0.15), (q, orders)
 
@@ -92,8 +92,8 @@ def test_lie4_is_fourth_order_from_0_2_rad_a_step_down():
     for n in (40, 80, 160, 320, 640):
         s = Stepper(body, 8.0 / n, start, method='lie4')
         s.step(n)
-        errors.append({q: e for q, e in _errors(s.state, ref).items() if q in 'wR'})
-    orders = _orders(errors)
+        errors.append({q: e for q, e in state_errors(s.state, ref).items() if q in 'wR'})
+    orders = orders_of(errors)
     assert min(orders['R']) > 3.9, orders
     # omega's error (world frame) reaches its asymptotic order later: 2.3, 3.4, 3.8, 3.9.
     assert orders['w'] == sorted(orders['w']) and orders['w'][-1] > 3.85, orders
@@ -119,10 +119,10 @@ def test_what_stale_history_would_do_to_lie4():
     """The old wrench's accelerations: first order. Evaluated again at the kept states (the
     old wrench's path, O(dt) off the new one's in omega): second order, not fourth."""
     dts = (1 / 64, 1 / 128, 1 / 256)
-    naive = _orders(_global_errors(SCHEDULE, 2.0, dts, tamper=_keep_old_history,
+    naive = orders_of(global_errors(SCHEDULE, 2.0, dts, tamper=_keep_old_history,
+                                    method='lie4'))
+    kept = orders_of(global_errors(SCHEDULE, 2.0, dts, tamper=_re_evaluate_kept_states,
                                    method='lie4'))
-    kept = _orders(_global_errors(SCHEDULE, 2.0, dts, tamper=_re_evaluate_kept_states,
-                                  method='lie4'))
     assert naive['w'][-1] == pytest.approx(1.0, abs=0.2), naive
     assert kept['w'][-1] == pytest.approx(2.0, abs=0.2), kept
 
@@ -312,7 +312,7 @@ def test_splitting_orders_with_wrench_changes(method, order):
     no history, so the order holds across the changes by construction."""
     dts = (1 / 16, 1 / 32, 1 / 64) if order == 4 else (1 / 64, 1 / 128, 1 / 256)
     for schedule in ([(0.0, FORCE, TORQUE, 'body')], SCHEDULE):
-        orders = _orders(_global_errors(schedule, 2.0, dts, method=method))
+        orders = orders_of(global_errors(schedule, 2.0, dts, method=method))
         for q in 'xvwR':
             assert orders[q][-1] == pytest.approx(order, abs=0.15), (q, orders)
 

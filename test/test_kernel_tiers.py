@@ -8,7 +8,6 @@ import ast
 from pathlib import Path
 import sys
 
-from kernel_fingerprint import _batch_reads, _digest, _sim_digest, mixed_inertias
 from numba.core import event
 import numpy as np
 import pytest
@@ -21,6 +20,7 @@ from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.sim import precompile
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import BodySpec, Config, Delete, SetWrench, Simulation, Spawn
+from support.kernel_fingerprint import _batch_reads, _digest, _sim_digest, mixed_inertias
 
 PACKAGE = Path(__file__).resolve().parents[1] / 'rb_sim_ros'
 DECORATORS = {'kernel', 'inline_kernel', 'parallel_kernel'}

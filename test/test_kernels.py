@@ -12,11 +12,11 @@ import shutil
 import subprocess
 import sys
 
-import kernel_fingerprint
 import numpy as np
 import pytest
 
 from rb_sim_ros.core import euler_dynamics, jit, so3, step_kernel as K
+from support import kernel_fingerprint
 
 HERE = Path(__file__).resolve().parent
 
@@ -24,7 +24,7 @@ HERE = Path(__file__).resolve().parent
 def _fingerprints(disable_jit: bool) -> dict:
     env = dict(os.environ, NUMBA_DISABLE_JIT='1' if disable_jit else '0')
     cases = ['batch', 'demo', 'heap', 'high_order']
-    out = subprocess.run([sys.executable, str(HERE / 'kernel_fingerprint.py'), *cases], env=env,
+    out = subprocess.run([sys.executable, kernel_fingerprint.__file__, *cases], env=env,
                          capture_output=True, text=True, timeout=900)
     assert out.returncode == 0, out.stderr[-3000:]
     return json.loads(out.stdout.strip().splitlines()[-1])

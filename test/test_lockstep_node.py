@@ -24,7 +24,7 @@ from std_srvs.srv import SetBool, Trigger
 from rb_sim_ros.offline import replay
 from rb_sim_ros.recording.reader import RecordingReader
 from rb_sim_ros.ros import node_recorder
-from ros_harness import stamp_ns
+from support.ros_harness import stamp_ns
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'examples'))

@@ -22,7 +22,7 @@ from std_srvs.srv import Empty, SetBool, Trigger
 
 from rb_sim_ros.offline import replay
 from rb_sim_ros.recording.reader import RecordingReader
-from ros_harness import stamp_ns
+from support.ros_harness import stamp_ns
 
 OK = Result.RESULT_OK
 MS = 1_000_000

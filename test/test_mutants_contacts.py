@@ -7,8 +7,8 @@ form of the flight: a ball and the ground plane z = 0, so its depth is r - z exa
 import numpy as np
 import pytest
 
+from oracles.contact_cases import ball, G, GROUND
 from rb_sim_ros.contact.collision_world import CollisionWorld
-from test_collisions import ball, G, GROUND
 
 R, DT = 0.1, 1e-3
 

@@ -15,39 +15,27 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from oracles import dop853 as reference
 from rb_sim_ros import RigidBody, State, Stepper, Wrench
 from rb_sim_ros.core import so3
-import reference
 
 BODY = RigidBody(1.3, [[1.2, 0.1, 0.05], [0.1, 2.0, -0.1], [0.05, -0.1, 2.6]])
 GRAVITY = np.array([0.0, 0.0, -9.81])
 LINEAR_DAMPING, ANGULAR_DAMPING = 0.8, 0.6
 
 
-def _rhs(force, torque, frame):
-    """d/dt of (x, v, R row-major, omega), world frame, with GRAVITY and both dampings:
-    a = F/m + g - c v, beta = I^-1 (tau - omega x I omega) - d omega, I = R I_body R^T."""
-    force, torque = np.asarray(force, dtype=float), np.asarray(torque, dtype=float)
-
-    def f(_t, y):
-        v, rot, w = y[3:6], y[6:15].reshape(3, 3), y[15:18]
-        fw, tw = (rot @ force, rot @ torque) if frame == 'body' else (force, torque)
-        inertia = rot @ BODY.inertia @ rot.T
-        beta = np.linalg.solve(inertia, tw - np.cross(w, inertia @ w)) - ANGULAR_DAMPING * w
-        a = fw / BODY.mass + GRAVITY - LINEAR_DAMPING * v
-        return np.concatenate([v, a, (so3.hat(w) @ rot).reshape(9), beta])
-
-    return f
-
-
 def _dop853(start, schedule, t_end):
     """The state at t_end; schedule: (t_start, force, torque, frame) rows, each wrench held
-    until the next; integrated piece by piece so that no step straddles a jump."""
+    until the next; integrated piece by piece so that no step straddles a jump. The last
+    step's state, where ``reference.solve`` interpolates: d/dt of (x, v, R row-major, omega),
+    world frame, with GRAVITY and both dampings, a = F/m + g - c v,
+    beta = I^-1 (tau - omega x I omega) - d omega, I = R I_body R^T."""
     y = reference.pack(start)
     bounds = [row[0] for row in schedule[1:]] + [t_end]
     for (t0, force, torque, frame), t1 in zip(schedule, bounds):
-        y = solve_ivp(_rhs(force, torque, frame), (t0, t1), y, method='DOP853', rtol=1e-13,
-                      atol=1e-14).y[:, -1]
+        f = reference.rhs(BODY.inertia, BODY.mass, force, torque, frame, GRAVITY,
+                          LINEAR_DAMPING, ANGULAR_DAMPING)
+        y = solve_ivp(f, (t0, t1), y, method='DOP853', rtol=1e-13, atol=1e-14).y[:, -1]
     return reference.unpack(y)
 
 

@@ -11,7 +11,6 @@ interpreted.
 import json
 import math
 import os
-from pathlib import Path
 import subprocess
 import sys
 
@@ -22,8 +21,8 @@ from rb_sim_ros.contact import broad_phase, narrow_kernels as nk, narrow_phase a
 from rb_sim_ros.contact.collision_shapes import (Box, Capsule, Plane, RANK, shape_from_dict,
                                                  shape_to_dict, Sphere, world_pose)
 from rb_sim_ros.core import so3
+from support import narrow_fingerprint
 
-HERE = Path(__file__).resolve().parent
 I3 = np.eye(3)
 ORIGIN = np.zeros(3)
 
@@ -477,7 +476,7 @@ def test_compiled_and_interpreted_collide_pairs_give_the_same_bits(tmp_path):
     prints = []
     for disable in ('0', '1'):
         env = dict(os.environ, NUMBA_DISABLE_JIT=disable)
-        out = subprocess.run([sys.executable, str(HERE / 'narrow_fingerprint.py'), str(path)],
+        out = subprocess.run([sys.executable, narrow_fingerprint.__file__, str(path)],
                              env=env, capture_output=True, text=True, timeout=900)
         assert out.returncode == 0, out.stderr[-3000:]
         prints.append(json.loads(out.stdout.strip().splitlines()[-1]))

@@ -21,8 +21,8 @@ from std_srvs.srv import Empty, SetBool, Trigger
 from rb_sim_ros import Wrench as CoreWrench
 from rb_sim_ros.ros.simulator_node import APPLIED_QOS
 from rb_sim_ros.sim.simulation import BodySpec, Config, SetWrench, Simulation
-import ros_harness
-from ros_harness import stamp_ns
+from support import ros_harness
+from support.ros_harness import stamp_ns
 
 DT_NS = 1_000_000
 PERIOD_NS = 10 * DT_NS
@@ -53,7 +53,7 @@ def test_installed_layout(installed, ros_env):
 
 CLAIM_DOMAIN = """
 import sys
-import ros_harness
+from support import ros_harness
 if len(sys.argv) > 1:
     ros_harness.DOMAIN_IDS = [int(a) for a in sys.argv[1:]]
 try:

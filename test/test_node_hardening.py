@@ -19,7 +19,7 @@ from sensor_msgs.msg import Imu
 from std_srvs.srv import Empty, SetBool, Trigger
 
 from rb_sim_ros.ros.simulator_node import APPLIED_QOS
-from ros_harness import stamp_ns
+from support.ros_harness import stamp_ns
 
 
 def _value(v) -> ParameterValue:

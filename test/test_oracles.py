@@ -1,12 +1,14 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""The stepper against closed forms and conservation laws."""
+"""The stepper against closed forms and conservation laws (the symmetric top's is
+oracles/free_rotation.py's, which the benchmarks use too, and is checked here)."""
 
 import math
 
 import numpy as np
 import pytest
 
+from oracles.free_rotation import symmetric_top
 from rb_sim_ros import RigidBody, State, Stepper, Wrench
 from rb_sim_ros.core import so3
 
@@ -47,17 +49,6 @@ def test_sphere_with_torque_parallel_to_omega_is_exact():
     assert so3.angle_between(s.state.rotation, expected) < 1e-11
 
 
-def _symmetric_top(t, i_t, i_3, w_body, rot0):
-    """Closed form of a torque-free symmetric top (I1 = I2 = i_t): R(t) and omega(t), world."""
-    w_body = np.asarray(w_body, dtype=float)
-    angular_momentum = rot0 @ (np.diag([i_t, i_t, i_3]) @ w_body)
-    lam = (1.0 - i_3 / i_t) * w_body[2]
-    rot = so3.exp(t * angular_momentum / i_t) @ rot0 @ so3.exp([0.0, 0.0, lam * t])
-    e3 = rot[:, 2]
-    omega = angular_momentum / i_t + (1.0 / i_3 - 1.0 / i_t) * (angular_momentum @ e3) * e3
-    return rot, omega
-
-
 @pytest.mark.parametrize('i_3', [0.5, 1.8])  # oblate and prolate
 def test_symmetric_top_against_closed_form(i_3):
     i_t, w_body, rot0 = 1.0, [0.4, -0.3, 2.0], so3.exp([0.5, 0.2, -0.1])
@@ -67,7 +58,7 @@ def test_symmetric_top_against_closed_form(i_3):
     errors = []
     for dt in (0.01, 0.005, 0.0025):
         s = _run(body, dt, t_end, start)
-        rot, omega = _symmetric_top(t_end, i_t, i_3, w_body, rot0)
+        rot, omega = symmetric_top(t_end, i_t, i_3, w_body, rot0)
         errors.append((so3.angle_between(s.state.rotation, rot),
                        np.linalg.norm(s.state.angular_velocity - omega)))
     # Small, and second order.
@@ -81,9 +72,9 @@ def test_closed_form_top_solves_eulers_equations():
     # The oracle itself: R' = [omega] R by finite differences, and L = R I R^T omega constant.
     i_t, i_3, w_body, rot0 = 1.0, 1.8, [0.4, -0.3, 2.0], so3.exp([0.5, 0.2, -0.1])
     h, t = 1e-6, 0.7
-    rot_m, _ = _symmetric_top(t - h, i_t, i_3, w_body, rot0)
-    rot_p, _ = _symmetric_top(t + h, i_t, i_3, w_body, rot0)
-    rot, omega = _symmetric_top(t, i_t, i_3, w_body, rot0)
+    rot_m, _ = symmetric_top(t - h, i_t, i_3, w_body, rot0)
+    rot_p, _ = symmetric_top(t + h, i_t, i_3, w_body, rot0)
+    rot, omega = symmetric_top(t, i_t, i_3, w_body, rot0)
     np.testing.assert_allclose((rot_p - rot_m) / (2 * h), so3.hat(omega) @ rot, atol=1e-8)
     inertia = np.diag([i_t, i_t, i_3])
     l0 = rot0 @ inertia @ np.array(w_body)

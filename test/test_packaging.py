@@ -19,7 +19,7 @@ from rcl_interfaces.srv import GetParameters
 import yaml
 
 from rb_sim_ros.ros import node_params
-import ros_harness
+from support import ros_harness
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARE_FILES = ('launch/sim.launch.py', 'config/params.yaml', 'rviz/rb_sim.rviz',
@@ -167,7 +167,8 @@ def test_a_module_needing_a_missing_pypi_package_is_skipped_with_why_and_fails_i
         tmp_path, ci):
     """What `colcon test` on a ROS install without mcap or rosbags does: skip, saying which
     package is missing; in CI, where tools/test.sh installed everything, fail instead."""
-    for name in ('conftest.py', 'ros_harness.py'):
+    (tmp_path / 'support').mkdir()
+    for name in ('conftest.py', 'support/__init__.py', 'support/ros_harness.py'):
         (tmp_path / name).write_text((ROOT / 'test' / name).read_text())
     (tmp_path / 'test_needs.py').write_text(
         '# pypi-only: no_such_package_xyz\nimport no_such_package_xyz\n\n\n'

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from oracles.node_recording import record_offline
 from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.offline import replay
@@ -17,7 +18,6 @@ from rb_sim_ros.pictures import plots, render
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Delete, SetPose,
                                        SetWrench, Spawn)
-from recordings import record_offline
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURE = ROOT / 'test' / 'fixtures' / 'regression.mcap'

@@ -23,15 +23,16 @@ from rosbags.highlevel import AnyReader
 from std_srvs.srv import Empty, SetBool, Trigger
 from tf2_msgs.msg import TFMessage
 
+from oracles.node_recording import record_offline
 from rb_sim_ros.core import multistep
 from rb_sim_ros.offline import replay
 from rb_sim_ros.recording import offered_qos_profiles, RecordingReader
 from rb_sim_ros.ros.node_recorder import RUN_DEFINITION
 from rb_sim_ros.ros.simulator_node import APPLIED_QOS
 from rb_sim_ros.sim.simulation import BodySpec, Config
-from recordings import mcap_parts, record_offline
-import ros_harness
-from ros_harness import stamp_ns
+from support import ros_harness
+from support.recordings import mcap_parts
+from support.ros_harness import stamp_ns
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
 FIXTURES = FIXTURE.parent

@@ -8,7 +8,6 @@ No ROS graph: only message classes and rclpy's serialisation. rosbags opens a ba
 it also checks every recorded ``type_description_hash`` against its own RIHS01 computation.
 """
 
-import errno
 import os
 from pathlib import Path
 import selectors
@@ -36,6 +35,7 @@ from rb_sim_ros.recording import (ReaderError, RecordingReader, RecordingWriter,
                                   schema_text, type_hash, write_rosbag2_metadata, WriterError)
 from rb_sim_ros.recording.compare import difference
 from rb_sim_ros.recording.schemas import interface_file
+from support.recordings import disk_full_after
 
 ROOT = Path(__file__).resolve().parents[1]
 TOPICS = [('/pose', PoseStamped), ('/twist', Twist), ('/odom', Odometry),
@@ -310,24 +310,6 @@ def test_finish_is_idempotent_and_writing_after_it_is_refused(tmp_path):
         with pytest.raises(WriterError, match='finished; nothing more can be written'):
             late()
     assert RecordingReader(tmp_path / 'run.mcap').message_count == 1
-
-
-def disk_full_after(w, budget):
-    """Make writer ``w``'s file take ``budget`` more bytes, the last write only in part, then
-    fail with ENOSPC, as a full disk does."""
-    left = [budget]
-
-    def write(data):
-        n = min(len(data), left[0])
-        if n:
-            os.write(w._sink.fd, bytes(data[:n]))
-            left[0] -= n
-        if n < len(data):
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-        w._sink.position += n
-        return n
-
-    w._sink.write = write
 
 
 def _sent_prefix_of(read, sent):

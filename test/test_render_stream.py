@@ -11,9 +11,9 @@ import tracemalloc
 import numpy as np
 import pytest
 
+from oracles.node_recording import record_offline
 from rb_sim_ros.pictures import render
 from rb_sim_ros.sim.simulation import BodySpec, Config
-from recordings import record_offline
 
 SIZE = (320, 240)
 

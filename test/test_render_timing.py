@@ -13,10 +13,10 @@ import io
 import numpy as np
 import pytest
 
+from oracles.node_recording import record_offline
 from rb_sim_ros.offline import replay
 from rb_sim_ros.pictures import plots, render
 from rb_sim_ros.sim.simulation import BodySpec, Config
-from recordings import record_offline
 
 
 def spinning(dt=1e-3, steps_per_publish=10):

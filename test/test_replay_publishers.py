@@ -16,7 +16,7 @@ import pytest
 
 from rb_sim_ros.offline import replay
 from rb_sim_ros.recording import ReaderError
-from recordings import mcap_parts
+from support.recordings import mcap_parts
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
 TRANSIENT_LOCAL = ('- history: keep_last\n  depth: 3\n  reliability: reliable\n'

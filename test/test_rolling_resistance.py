@@ -8,12 +8,13 @@ import dataclasses
 import numpy as np
 import pytest
 
+from oracles.contact_cases import impact, momenta, random_contact_set
 from rb_sim_ros.contact import contact_solver as cs
 from rb_sim_ros.contact.collision_shapes import Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import so3
 from rb_sim_ros.sim.simulation import BodySpec, ContactSettings
-from test_collisions import impact, momenta, random_contact_set, solver_fingerprints
+from support.solver_fingerprint import solver_fingerprints
 
 
 @pytest.mark.parametrize('mu_r', [0.005, 0.002])

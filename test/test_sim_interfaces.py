@@ -30,7 +30,7 @@ from simulation_interfaces.srv import (DeleteEntity, GetEntities, GetEntityState
                                        SpawnEntities, SpawnEntity, StepSimulation)
 
 from rb_sim_ros.ros.body_ports import APPLIED_QOS
-from ros_harness import stamp_ns
+from support.ros_harness import stamp_ns
 
 ROOT = Path(__file__).resolve().parent.parent
 HASHES = json.loads((ROOT / 'test' / 'fixtures' / 'simulation_interfaces_jazzy_hashes.json')

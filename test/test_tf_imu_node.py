@@ -20,7 +20,7 @@ from tf2_msgs.msg import TFMessage
 
 from rb_sim_ros.offline import replay
 from rb_sim_ros.ros.simulator_node import APPLIED_QOS
-from ros_harness import stamp_ns
+from support.ros_harness import stamp_ns
 
 STATIC = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 

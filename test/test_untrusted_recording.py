@@ -21,6 +21,7 @@ from mcap.writer import Writer
 import pytest
 from rosbags.highlevel import AnyReader
 
+from oracles.node_recording import record_offline
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.offline import replay
@@ -29,8 +30,7 @@ from rb_sim_ros.ros.node_recorder import NodeRecorder, OUTPUTS
 from rb_sim_ros.ros.ros_messages import fill_tf, OutputMessages, tf_message
 from rb_sim_ros.sim.simulation import (BodySpec, Config, Delete, SetWrench, Simulation,
                                        Spawn)
-from recordings import mcap_parts, record_offline, rewrite, topic_parts
-from test_recording import disk_full_after
+from support.recordings import disk_full_after, mcap_parts, rewrite, topic_parts
 
 FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
 OUTPUT_KINDS = ('pose', 'twist', 'odom')  # what the runs recorded offline here publish

@@ -70,7 +70,8 @@ def _load_edited_recording(tmp_path, change):
     """replay.load of a recording made offline (two bodies, no colliders) whose config
     ``change`` (a function of the decoded config) edited, as an attacker would."""
     pytest.importorskip('mcap')
-    from recordings import record_offline, rewrite, topic_parts
+    from oracles.node_recording import record_offline
+    from support.recordings import rewrite, topic_parts
 
     from rb_sim_ros.offline import replay
 

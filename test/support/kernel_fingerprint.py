@@ -19,7 +19,7 @@ from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import BodySpec, Config, SetWrench, Simulation
 
-SCENES = Path(__file__).resolve().parent.parent / 'scenes'
+SCENES = Path(__file__).resolve().parents[2] / 'scenes'
 
 
 def _digest(*arrays) -> str:

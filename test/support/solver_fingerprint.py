@@ -2,17 +2,21 @@
 # Licensed under the Apache License, Version 2.0
 """Print, as JSON, a SHA-256 of every output of a few contact solves, one per case named on the
 command line, with their colour and iteration counts: test_collisions.py and
-test_rolling_resistance.py run it compiled and with NUMBA_DISABLE_JIT=1 and compare."""
+test_rolling_resistance.py run it compiled and with NUMBA_DISABLE_JIT=1 and compare
+(``solver_fingerprints``)."""
 
 import hashlib
 import json
+from pathlib import Path
+import subprocess
 import sys
 import types
 
 import numpy as np
 
+from oracles.contact_cases import random_contact_set
 from rb_sim_ros.contact import contact_solver as cs, solver_kernels
-from test_collisions import random_contact_set
+from support import child_env
 
 FIELDS = ('velocity', 'angular_velocity', 'displacement', 'rotation', 'normal_impulse',
           'tangent_impulse', 'position_impulse', 'touched')
@@ -57,6 +61,21 @@ def energy_guard() -> dict:
     restitution = np.linspace(0.5, 1.0, 12)
     friction = np.linspace(0.0, 1.5, 12)
     return _fingerprint(cs.solve(contacts, bodies, settings, *warm, restitution, friction))
+
+
+def solver_fingerprints(*cases: str) -> tuple[dict, dict]:
+    """(compiled, interpreted): this script's digests of the solves ``cases``,
+    run compiled and with NUMBA_DISABLE_JIT=1, each in a fresh interpreter."""
+    out = []
+    for disable in ('0', '1'):
+        env = dict(child_env(), NUMBA_DISABLE_JIT=disable)
+        run = subprocess.run([sys.executable, str(Path(__file__).resolve()), *cases],
+                             env=env, capture_output=True, text=True, timeout=900)
+        assert run.returncode == 0, run.stderr[-3000:]
+        out.append(json.loads(run.stdout.strip().splitlines()[-1]))
+    compiled, interpreted = out
+    assert compiled.pop('compiled') is True and interpreted.pop('compiled') is False
+    return compiled, interpreted
 
 
 CASES = {'friction_warm': friction_warm, 'couples': couples, 'energy_guard': energy_guard}

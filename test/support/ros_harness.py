@@ -29,7 +29,7 @@ from rclpy.executors import SingleThreadedExecutor
 
 from rb_sim_ros.core import jit
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def install(prefix: Path) -> Path:
