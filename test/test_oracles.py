@@ -1,14 +1,17 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""The stepper against closed forms and conservation laws (the symmetric top's is
-oracles/free_rotation.py's, which the benchmarks use too, and is checked here)."""
+"""The stepper against closed forms and conservation laws; and the oracles themselves
+(oracles/: the closed forms and the DOP853 reference that the tests and the benchmarks use)
+against each other and the equations they solve."""
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from oracles.free_rotation import symmetric_top
+from oracles import dop853
+from oracles.free_rotation import elliptic_omega_body, flip_period, symmetric_top
 from rb_sim_ros import RigidBody, State, Stepper, Wrench
 from rb_sim_ros.core import so3
 
@@ -112,3 +115,30 @@ def test_rotation_stays_orthonormal_over_long_runs():
         # The raw R: State would project it onto SO(3) and hide any drift.
         worst = max(worst, so3.orthonormality_error(s.rotation()))
     assert worst < 1e-12
+
+
+def test_dop853_reference_is_the_elliptic_solution_in_both_its_forms():
+    """The DOP853 reference, as the tests call it (``solve``: a body and a State) and as the
+    benchmarks do (``integrate``: a scene, R and omega in the world frame, or a quaternion and
+    Euler's equations in the body frame), against the torque-free asymmetric body's elliptic
+    omega (Landau & Lifshitz, section 37); and that omega comes back after ``flip_period``."""
+    moments, w_body = (1.0, 2.0, 3.0), (1.0, 0.0, 1.5)
+    rot0 = so3.exp([0.3, -0.5, 0.8])
+    times = [0.25 * k for k in range(1, 9)]
+    expected = elliptic_omega_body(moments, w_body, times)
+    zero = [0.0, 0.0, 0.0]
+    states = dop853.solve(RigidBody(1.0, list(moments)),
+                          State(rotation=rot0, angular_velocity=rot0 @ np.array(w_body)),
+                          [(0.0, zero, zero, 'world')], 2.0, times=times)
+    for st, wb in zip(states, expected):
+        assert np.linalg.norm(st.rotation.T @ st.angular_velocity - wb) < 1e-10
+    scene = SimpleNamespace(name='tumble', inertia_body=np.diag(moments), rotation0=rot0,
+                            omega0_world=rot0 @ np.array(w_body), omega0_body=np.array(w_body),
+                            segments=lambda: [(0.0, 2.0, np.zeros(3))])
+    for formulation in ('matrix', 'quaternion'):
+        for (rot, w), st in zip(dop853.integrate(scene, times, formulation=formulation), states):
+            assert so3.angle_between(rot, st.rotation) < 1e-10
+            assert np.linalg.norm(w - st.angular_velocity) < 1e-10
+    period = flip_period(moments, w_body)
+    np.testing.assert_allclose(elliptic_omega_body(moments, w_body, [period])[0], w_body,
+                               rtol=0, atol=1e-12)
