@@ -17,7 +17,7 @@ def _sources():
                             text=True)
     if listed.returncode == 0 and listed.stdout.strip():
         return [ROOT / p for p in listed.stdout.split()]
-    return [p for d in ('rb_sim_ros', 'test', 'bench', 'tools', 'launch')
+    return [p for d in ('rb_sim_ros', 'test', 'bench', 'oracles', 'tools', 'launch')
             for p in (ROOT / d).rglob('*.py')] + [ROOT / 'setup.py']  # not a git clone
 
 

@@ -15,7 +15,7 @@ def _flake8(*paths):
 
 
 def test_flake8():
-    result = _flake8('rb_sim_ros', 'test', 'bench', 'examples', 'tools', 'setup.py')
+    result = _flake8('rb_sim_ros', 'test', 'bench', 'oracles', 'examples', 'tools', 'setup.py')
     assert result.returncode == 0, result.stdout + result.stderr
 
 

@@ -139,3 +139,36 @@ def test_no_module_imports_a_live_executable():
              path.with_suffix('').relative_to(root).as_posix().replace('/', '.')
              not in LIVE_EXECUTABLES]
     assert found == []
+
+
+def _top_level_imports(path: Path):
+    """(top-level module name, line) of every absolute import in ``path``, at any depth."""
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                yield a.name.split('.')[0], node.lineno
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            yield node.module.split('.')[0], node.lineno
+
+
+def test_tests_import_no_test_module_and_bench_and_oracles_stay_out_of_test():
+    """What the tests share is in test/support/ (theirs alone) or in oracles/ (shared with the
+    benchmarks): no module of test/ imports a test module (test_*.py), bench/ and oracles/
+    import nothing of test/ (nor put it on the path), and oracles/ nothing of bench/."""
+    root = PACKAGE.parent
+    test_dir = root / 'test'
+    test_modules = {p.stem for p in test_dir.rglob('test_*.py')}
+    support = {'support'} | {p.stem for p in (test_dir / 'support').glob('*.py')}
+    bench = {p.stem for p in (root / 'bench').glob('*.py')}
+    found = []
+    for path in sorted(test_dir.rglob('*.py')):
+        found += [f'{path.relative_to(root)}:{line} imports the test module {name}'
+                  for name, line in _top_level_imports(path) if name in test_modules]
+    for path in sorted([*(root / 'bench').glob('*.py'), *(root / 'oracles').glob('*.py')]):
+        outside = test_modules | support | (bench if path.parent.name == 'oracles' else set())
+        found += [f'{path.relative_to(root)}:{line} imports {name}'
+                  for name, line in _top_level_imports(path) if name in outside]
+        found += [f'{path.relative_to(root)}:{n} puts test/ on the path'
+                  for n, text in enumerate(path.read_text().splitlines(), 1)
+                  if 'sys.path' in text and "'test'" in text]
+    assert found == []
