@@ -68,7 +68,7 @@ from rb_sim_ros.contact.bodies import BodySpec, make_steppers
 from rb_sim_ros.contact.collision_shapes import Plane, Shape
 from rb_sim_ros.core import jit, step_kernel as K
 from rb_sim_ros.core.rigid_body import finite_floats, non_negative, State
-from rb_sim_ros.core.step_count import check_steps
+from rb_sim_ros.core.step_count import check_steps, MAX_STEPS
 from rb_sim_ros.core.stepper import carry_over, IntegrationError, Stepping
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
@@ -210,6 +210,9 @@ class CollisionWorld:
         self.steppers, self.static = make_steppers(bodies, dt, integrator, self._gravity)
         self._all_steppers = tuple(self.steppers.values())
         self._stepping = Stepping(self._all_steppers)
+        # What world_steps reads and leaves: the step count, whether the contacts of the
+        # state are due, what happened (_step_count, _unchecked and _collided read it)
+        self._status = np.zeros(ws.STATUS_WIDTH, dtype=np.int64)
         self._step_count = 0
         self._unsynced, self._unsynced_seconds, self._call_seconds = False, 0.0, 0.0
         self._last_stats = StepStats()
@@ -219,7 +222,9 @@ class CollisionWorld:
         # state and spare it was made with, the record)), until ``_pull`` brings them here.
         self._outputs = ws.empty_outputs()
         self._record = None
-        self._collided = False  # a contact pass ran: last_contacts has something to say
+        # What _call calls, while the store's state and spare, the contact tests and the tier
+        # (jit.swaps) stay those it was made with: (those four, the record, ws.entry_point)
+        self._run: tuple = (None, None, -1, -1, None, None)
         self._unchecked = True
         if pair_tests is not None:
             nk.checked_tests(pair_tests, 'pair_tests')
@@ -372,12 +377,12 @@ class CollisionWorld:
                       ws.C_WARM_START, ws.C_MIN_TURN, ws.C_GAIN_TOLERANCE, ws.C_MATERIALS]] = (
             self.dt, g, float(self.speculative), float(self._sleep_steps), self._sleep_speed,
             float(self.warm_start), MIN_TURN, GAIN_TOLERANCE, float(self._materials is not None))
-        self._status = np.zeros(ws.STATUS_WIDTH, dtype=np.int64)
         self._stats = np.zeros(ws.STATS_WIDTH, dtype=np.int64)
         self._counted = np.zeros(ws.P_ITER + 1, dtype=np.int64)
         self._flagged = np.zeros(nb, dtype=np.int64)
         self._energy = np.zeros(ws.ENERGY_WIDTH)
         self._wrench_seen = [s.wrench for s in self._moving_steppers]
+        self._wrench_changes_seen = -1  # (look at the first step)
         self._index = {self.bodies[k].name: i for i, k in enumerate(self._moving_specs)}
         self._by_row = {s._row: s for s in self._all_steppers}
 
@@ -385,6 +390,31 @@ class CollisionWorld:
     @property
     def step_count(self) -> int:
         return self._step_count
+
+    # The world's clock and its contacts' state live in the status the kernel keeps (it
+    # reads them there and moves them on), so that a call neither writes nor reads them.
+    @property
+    def _step_count(self) -> int:
+        return int(self._status[ws.S_STEP])
+
+    @_step_count.setter
+    def _step_count(self, value: int) -> None:
+        self._status[ws.S_STEP] = value
+
+    @property
+    def _unchecked(self) -> bool:
+        """The contacts of the state are due before the next integration (the first step,
+        a teleport, a refused pass)."""
+        return bool(self._status[ws.S_UNCHECKED])
+
+    @_unchecked.setter
+    def _unchecked(self, value: bool) -> None:
+        self._status[ws.S_UNCHECKED] = int(value)
+
+    @property
+    def _collided(self) -> bool:
+        """A contact pass ran: last_contacts has something to say."""
+        return bool(self._status[ws.S_COLLIDED])
 
     @property
     def time(self) -> float:
@@ -434,7 +464,8 @@ class CollisionWorld:
     def step(self, n: int = 1) -> None:
         """Advance ``n`` >= 0 steps. If a body's state becomes non-finite the others still
         advance that step and its IntegrationError is raised after it."""
-        check_steps(n)
+        if type(n) is not int or not 0 <= n <= MAX_STEPS:  # (the common case, quickly)
+            check_steps(n)
         if not self.enabled:
             try:
                 self._stepping.run(n)
@@ -443,9 +474,11 @@ class CollisionWorld:
             return
         if n == 0:
             return
-        if self._sleep_steps:
+        if self._sleep_steps and self._store.wrench_changes != self._wrench_changes_seen:
             # A changed wrench starts a body's slow count again, and wakes a sleeper before
-            # it would miss the step. (Wrenches change only between calls.)
+            # it would miss the step. (Wrenches change only between calls; the store counts
+            # them, so a call with none looks at no body.)
+            self._wrench_changes_seen = self._store.wrench_changes
             seen = self._wrench_seen
             changed = [i for i, s in enumerate(self._moving_steppers) if s.wrench is not seen[i]]
             if changed:
@@ -454,15 +487,20 @@ class CollisionWorld:
                 changed = np.array(changed, dtype=np.int64)
                 self._slow_steps[changed] = 0
                 self._wake(changed, self._step_count)
-        status = self._status
+        # The path of every call, kept short: a small world's step costs less than numba's
+        # dispatch did (_call), or a Python method call.
         t0 = time.perf_counter()
-        self._call(n)
+        look = self._call(n)
         seconds = time.perf_counter() - t0
-        if status[ws.S_COLLIDED]:
-            self._collided = True
-        self._step_count = int(status[ws.S_STEP])
-        self._unchecked = bool(status[ws.S_UNCHECKED])
-        self._account(int(status[ws.S_STEPS_DONE]), seconds)
+        # The call's wall time; last_stats and totals are made from the kernel's statistics
+        # when read (_sync), not after every call.
+        self._unsynced_seconds += seconds
+        self._unsynced = True
+        if not look:  # all n steps taken, nothing to say
+            self._call_seconds = seconds / n
+            return
+        status = self._status.tolist()  # one read of the nine (an item read costs as much)
+        self._call_seconds = seconds / max(status[ws.S_STEPS_DONE], 1)
         if status[ws.S_KIND] != ws.OK:
             raise self._error()
         if status[ws.S_TURNED]:  # a TurnWarning, as the bodies' own steps give (every body
@@ -492,14 +530,20 @@ class CollisionWorld:
             ws.compile_leaves(self._world(), K.family(self._store.coefficients),
                               self.pair_tests, group)
 
-    def _call(self, n: int):
-        """``world_steps`` for n steps from the world's clock and arrays as they are now."""
-        self._status[ws.S_STEP] = self._step_count
-        self._status[ws.S_UNCHECKED] = int(self._unchecked)
-        if self._entry[0] != self.pair_tests:  # (a world's tests change in carry only)
-            self._entry = (self.pair_tests,
-                           ws.entry(K.family(self._store.coefficients), self.pair_tests))
-        return ws.steps(self._entry[1], self._record_now(), n)
+    def _call(self, n: int) -> int:
+        """``world_steps`` for n steps from the world's clock and arrays as they are now: 1
+        if Python must look at its status (``world_step.LOOK``), else 0."""
+        run, store = self._run, self._store
+        if (run[0] is not store.state or run[1] is not store.spare
+                or run[2] != self.pair_tests or run[3] != jit.swaps):
+            # (what _record_now checks, and the tests: the record, or the entry, changed)
+            if self._entry[0] != self.pair_tests:  # (a world's tests change in carry only)
+                self._entry = (self.pair_tests,
+                               ws.entry(K.family(self._store.coefficients), self.pair_tests))
+            record = self._record_now()
+            run = self._run = (store.state, store.spare, self.pair_tests, jit.swaps, record,
+                               ws.entry_point(self._entry[1], record))
+        return run[5](run[4], n)
 
     def _record_now(self):
         """The record world_steps takes: the one made before, while the tier and the store's
@@ -535,6 +579,7 @@ class CollisionWorld:
         """Bring the outputs of the record here and drop it (the next call makes another)."""
         self._outputs = self._current_outputs()
         self._record = None
+        self._run = (None, None, -1, -1, None, None)
 
     def _world(self) -> tuple:
         """The world's arrays for the step kernel (the store's, as they are now), in the order
@@ -550,13 +595,6 @@ class CollisionWorld:
             self._plane_points, self._x, self._rot, self._v, self._w, self._margin,
             self._asleep, self._slow_steps, self._settings_array, self._config, self._status,
             self._stats, self._flagged, self._energy)
-
-    def _account(self, steps: int, seconds: float) -> None:
-        """Note a call's wall time; ``last_stats`` and ``totals`` are made from the kernel's
-        statistics when read (``_sync``), not after every call."""
-        self._call_seconds = seconds / max(steps, 1)
-        self._unsynced_seconds += seconds
-        self._unsynced = True
 
     @property
     def last_stats(self) -> StepStats:

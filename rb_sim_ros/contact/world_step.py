@@ -3,9 +3,9 @@
 """The collision world's step as one compiled call: n steps of integrate, detect, solve, write.
 
 ``world_steps(record, n)`` (a kernel for each family of methods, ``world_steps_two``,
-``_k``, ``_split``; ``steps`` calls the one of a world's bodies) takes a world's arrays as one
-record (``WorldRecord``, made once by ``collision_world.CollisionWorld``; read on entry as
-``w``, a named tuple ``World``) through ``n`` steps of the order written in
+``_k``, ``_split``; ``entry_point`` gives the one of a world's bodies) takes a world's
+arrays as one record (``WorldRecord``, made once by ``collision_world.CollisionWorld``; read
+on entry as ``w``, a named tuple ``World``) through ``n`` steps of the order written in
 ``collision_world``'s module docstring:
 
 1. the awake bodies take one step of the step kernel (``step_kernel.body_step``), the ones
@@ -56,11 +56,15 @@ CONFIG_WIDTH = 9
 
 # -- w.status (int64): what happened, set by world_steps ---------------------------------------
 S_STEP, S_UNCHECKED, S_KIND, S_ERROR_STEP, S_ROW, S_FLAGGED, S_STEPS_DONE = 0, 1, 2, 3, 4, 5, 6
+# 1 once a contact pass has run (it stays): the record holds the last step's contacts
 S_COLLIDED = 7
 # 1 if a moving body may now turn faster than its method's energy bound (warn_sq):
 # Python then looks (``BodyStore.check_turns``), else it need not
 S_TURNED = 8
 STATUS_WIDTH = 9
+# What world_steps returns when Python must look at the status (a failure, a turn to check);
+# 0 when all n steps were taken and there is nothing to say
+LOOK = 1
 OK, INTEGRATION, SOLVE_NON_FINITE, SOLVE_ENERGY, WRITE_NON_FINITE = 0, 1, 2, 3, 4
 CROWDED = 5  # past broad_phase.MAX_PAIRS or MAX_SWEEP, or MAX_CONTACTS: no contacts solved
 # The most contacts a step solves: the solver's rows take 416 bytes a contact (220 MB here);
@@ -186,18 +190,18 @@ def _world_steps_of(family, tests, name):
     def world_steps(record, n):
         """``n`` steps of the world (see the module doc) of ``record`` (a WorldRecord, or a
         WorldHost in the interpreted tier). Leaves its OUTPUTS there: the warm-start arrays
-        and, when a contact pass ran in this call (w.status[S_COLLIDED]), its last step's
-        contacts (point, normal, depth, normal_impulse, collider_a, collider_b)."""
+        and, when a contact pass ran in this call (then w.status[S_COLLIDED] = 1), its last
+        step's contacts (point, normal, depth, normal_impulse, collider_a, collider_b)."""
         f = family
         w = world_of(record)
         warm_keys, warm_normal, warm_tangent = (record.warm_keys, record.warm_normal,
                                                 record.warm_tangent)
-        point, normal = np.zeros((0, 3)), np.zeros((0, 3))
-        depth, impulse = np.zeros(0), np.zeros(0)
-        ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        # the last contacts, as they are until a contact pass runs (kept only if one does)
+        point, normal, depth = record.point, record.normal, record.depth
+        impulse, ca, cbb = record.impulse, record.collider_a, record.collider_b
         w.status[S_KIND] = OK
         w.status[S_STEPS_DONE] = 0
-        w.status[S_COLLIDED] = 0
+        collided = False  # a contact pass ran in this call
         while w.status[S_STEPS_DONE] < n:
             # The first step (or the first after a teleport) collides before it integrates: the
             # contacts of the starting state, so that a speculative contact already holds for
@@ -219,6 +223,22 @@ def _world_steps_of(family, tests, name):
             nb = w.rows.shape[0]
             nc = w.cbody.shape[0]
             step = w.status[S_STEP] - 1 if integrated else w.status[S_STEP]
+            if integrated and _all_asleep(w.asleep, nb):
+                # Nothing can touch (sleepers pair like static colliders, and none is awake):
+                # what a pass would leave, without one (a sleeping body costs nothing). Their
+                # bodies did not move, so the placed colliders and the warm starts (all of
+                # sleepers) stand as they are.
+                for k in range(8):
+                    w.stats[k] = 0
+                w.energy[SOLVE_BEFORE] = w.energy[SOLVE_AFTER] = 0.0
+                for k in range(nb):
+                    w.slow_steps[k] = 0
+                _finish_stats(w.asleep, w.stats, nb)
+                point, normal, depth = point[:0], normal[:0], depth[:0]
+                impulse, ca, cbb = impulse[:0], ca[:0], cbb[:0]
+                collided = True
+                w.status[S_UNCHECKED] = 0
+                continue
             static = np.empty(nc, dtype=np.bool_)
             crowded = False
             while True:
@@ -278,7 +298,7 @@ def _world_steps_of(family, tests, name):
                 point, normal = np.zeros((0, 3)), np.zeros((0, 3))
                 depth, impulse = np.zeros(0), np.zeros(0)
                 ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-                w.status[S_COLLIDED] = 1
+                collided = True
                 break
             # Planes: the awake moving colliders only.
             awake = np.empty(w.dyn.shape[0], dtype=np.int64)
@@ -322,7 +342,7 @@ def _world_steps_of(family, tests, name):
                 point, normal = np.zeros((0, 3)), np.zeros((0, 3))
                 depth, impulse = np.zeros(0), np.zeros(0)
                 ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-                w.status[S_COLLIDED] = 1
+                collided = True
                 break
             ca = np.empty(m, dtype=np.int64)
             cbb = np.empty(m, dtype=np.int64)
@@ -345,7 +365,7 @@ def _world_steps_of(family, tests, name):
                 for k in range(nb):
                     w.slow_steps[k] = 0
                 _finish_stats(w.asleep, w.stats, nb)
-                w.status[S_COLLIDED] = 1
+                collided = True
                 w.status[S_UNCHECKED] = 0
                 continue
             # 4. The solve: the bodies (the last slot static), warm start, materials.
@@ -414,17 +434,18 @@ def _world_steps_of(family, tests, name):
             stats[ACTIVE], stats[TOUCHED] = active, n_touched
             stats[COLOURS], stats[V_ITER], stats[P_ITER] = colours, v_iter, p_iter
             _finish_stats(w.asleep, w.stats, nb)
-            w.status[S_COLLIDED] = 1
+            collided = True
             if w.status[S_KIND] != OK:
                 break
             w.status[S_UNCHECKED] = 0
         w.status[S_TURNED] = _turned(w.step_rows, w.state, w.warn_sq)
         record.warm_keys = warm_keys
         record.warm_normal, record.warm_tangent = warm_normal, warm_tangent
-        if w.status[S_COLLIDED]:
+        if collided:
+            w.status[S_COLLIDED] = 1
             record.point, record.normal, record.depth = point, normal, depth
             record.impulse, record.collider_a, record.collider_b = impulse, ca, cbb
-        return w.status[S_KIND]
+        return LOOK if w.status[S_KIND] != OK or w.status[S_TURNED] != 0 else 0
 
     world_steps.__name__ = world_steps.__qualname__ = name
     return kernel(world_steps)
@@ -555,10 +576,12 @@ def tests_keeping(family, needed: int, current: int | None) -> int:
     return tests_for(family, needed | current)
 
 
-def steps(name, record, n):
-    """``world_steps`` from Python: the entry named ``name`` (``entry``), on ``record`` (a
-    WorldRecord compiled, a WorldHost interpreted)."""
-    return globals()[name](record, n)
+def entry_point(name, record):
+    """``world_steps`` from Python: what to call as ``f(record, n)``, for the entry named
+    ``name`` (``entry``) on ``record`` (a WorldRecord compiled, a WorldHost interpreted), with
+    any ``n``, in the tier of now: the compiled entry itself (``jit.entry_point``: numba's
+    dispatch costs more than a small world's step), compiled or loaded now."""
+    return jit.entry_point(globals()[name], record, 0)
 
 
 # The stages take the arrays they use, never ``w``, and steps 2 - 5 are written out in
@@ -626,6 +649,15 @@ def _finish_stats(asleep, stats, nb):
     stats[SLEEPING] = sleeping
     for k in range(7):
         stats[8 + k] += stats[k]
+
+
+@inline_kernel
+def _all_asleep(asleep, nb):
+    """Every one of the nb bodies with colliders asleep (none: False)."""
+    for k in range(nb):
+        if not asleep[k]:
+            return False
+    return nb > 0
 
 
 @inline_kernel

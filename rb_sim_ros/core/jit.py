@@ -47,6 +47,7 @@ os.environ.setdefault('NUMBA_DISABLE_INTEL_SVML', '1')
 
 import numba  # noqa: E402
 from numba.core import caching, errors, types  # noqa: E402
+from numba.core.dispatcher import Dispatcher  # noqa: E402
 from numba.core.registry import cpu_target  # noqa: E402
 from numba.extending import overload  # noqa: E402
 
@@ -63,6 +64,9 @@ _PY_FUNCS: dict = {}
 _KERNELS: dict = {}
 _tier = threading.RLock()
 _interpreted = False
+# How many times the tier changed (run_interpreted, run_compiled): what was made for a tier
+# (jit.entry_point's) is good while this stays the same.
+swaps = 0
 
 
 def _made(compiled):
@@ -101,6 +105,17 @@ def compiled(function):
     with _tier:
         pair = _KERNELS.get(id(function))
         return pair[1] if pair is not None and pair[0] is function else function
+
+
+def entry_point(function, *args):
+    """What to call for ``function(*args)`` many times with arguments of exactly these types:
+    a kernel's compiled entry for their signature (compiled or loaded from the cache now),
+    called without numba's dispatch, which costs about 0.7 us a call (more than a resting
+    world's step); ``function`` itself when it is not a kernel (the interpreted tier). The
+    entry unboxes by the signature it was made for: never call it with other types."""
+    if not isinstance(function, Dispatcher):
+        return function
+    return function.compile(tuple(numba.typeof(a) for a in args))
 
 
 def made_global(space: dict, name: str, make):
@@ -183,18 +198,20 @@ def run_interpreted() -> None:
     """From now on every kernel runs in the interpreter, with the bits of the compiled one,
     until ``run_compiled``: no call compiles meanwhile. Only for a process that imported every
     module of the package it will use (the layers import nothing deferred)."""
-    global _interpreted
+    global _interpreted, swaps
     with _tier:
         _swap(_PY_FUNCS)
         _interpreted = True
+        swaps += 1
 
 
 def run_compiled() -> None:
     """Back to the compiled kernels (the next call of each loads or compiles it)."""
-    global _interpreted
+    global _interpreted, swaps
     with _tier:
         _swap(_KERNELS)
         _interpreted = False
+        swaps += 1
 
 
 def _swap(by: dict) -> None:

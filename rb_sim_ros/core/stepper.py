@@ -33,11 +33,11 @@ import warnings
 
 import numpy as np
 
-from rb_sim_ros.core import euler_dynamics, multistep, so3
+from rb_sim_ros.core import euler_dynamics, jit, multistep, so3
 from rb_sim_ros.core import step_kernel as K
 from rb_sim_ros.core.rigid_body import (finite_floats, Frame, rate, RigidBody, State, Wrench,
                                         ZERO_WRENCH)
-from rb_sim_ros.core.step_count import check_steps
+from rb_sim_ros.core.step_count import check_steps, MAX_STEPS
 
 
 # The energy bound of each method (docs/integrators.md, "Energy and the turn per step";
@@ -218,9 +218,14 @@ class BodyStore:
         # (and for rows that never warn: isotropic, a flow).
         self.warn_sq = np.full(count, math.inf)
         self._used = 0
-        # the name of the kernel of one row's step (step_kernel.STEP_ONE), looked up at each
-        # call: a tier swap rebinds it
+        # How many times a wrench of its rows changed (Stepper.set_wrench): a world that
+        # wakes a sleeper on a new wrench looks at its bodies only when this moved.
+        self.wrench_changes = 0
+        # the name of the kernel of one row's step (step_kernel.STEP_ONE), looked up again
+        # after a tier swap (which rebinds it), and (jit.swaps then, what advance calls: its
+        # jit.entry_point, for the types of these arrays, which stay those)
         self._step_one = K.STEP_ONE[K.family(self.coefficients)]
+        self._one: tuple = (-1, None)
 
     def __len__(self) -> int:
         return len(self.clock)
@@ -257,20 +262,25 @@ class BodyStore:
         """Take n >= 1 steps of the bodies ``rows`` (int64, ascending, no repeats). A body
         that fails (``Stepper.step``'s errors) stays at its state after the last good step;
         the rows that failed are returned, their reason in ``status``."""
-        if not len(rows):
-            return []
-        args = (self.params, self.coefficients, rows, n)
-        out = (self.status, self.taken, self.bad, self.work)
         if len(rows) == 1:  # a Stepper's step: all of it in one compiled call
-            code = getattr(K, self._step_one)(self.state, self.spare, self.params,
-                                              self.coefficients, int(rows[0]), n, self.status,
-                                              self.taken, self.bad, self.work, self.clock,
-                                              self.warn_sq)
+            one = self._one
+            if one[0] != jit.swaps:  # (made for another tier)
+                one = self._one = (jit.swaps, jit.entry_point(
+                    getattr(K, self._step_one), self.state, self.spare, self.params,
+                    self.coefficients, 0, 1, self.status, self.taken, self.bad, self.work,
+                    self.clock, self.warn_sq))
+            code = one[1](self.state, self.spare, self.params, self.coefficients, int(rows[0]),
+                          n, self.status, self.taken, self.bad, self.work, self.clock,
+                          self.warn_sq)
             if code != 1:
                 if code == 2:
                     self.check_turns(rows)
                 return []
-        else:
+        elif not len(rows):
+            return []
+        args = (self.params, self.coefficients, rows, n)
+        out = (self.status, self.taken, self.bad, self.work)
+        if len(rows) > 1:
             K.advance(self.state, self.spare, *args, False, *out)
         failed = rows[self.status[rows] != K.STATUS_OK]
         if len(failed):
@@ -513,6 +523,7 @@ class Stepper(FixedStep):
         store.clock[row] = other._store.clock[other._row]
         store.warn_sq[row] = other._store.warn_sq[other._row]
         self._wrench, self._has_state = other._wrench, other._has_state
+        self._store.wrench_changes += 1
 
     def rest(self, n: int) -> None:
         """Count ``n`` >= 0 steps spent asleep (the collision world's): the clock advances,
@@ -531,6 +542,7 @@ class Stepper(FixedStep):
         if wrench == self._wrench:
             return
         self._wrench = wrench
+        self._store.wrench_changes += 1
         in_body = wrench.frame is Frame.BODY
         force: Any = wrench.force
         torque: Any = wrench.torque
@@ -560,9 +572,10 @@ class Stepper(FixedStep):
         Warns (TurnWarning, once for the body) if the steps end with it turning faster than
         its method's energy bound, ``TURN_BOUNDS`` rad a step (checked at the end, as MAX_TURN).
         """
-        check_steps(n)
-        if n == 0:
-            return
+        if type(n) is not int or not 0 < n <= MAX_STEPS:  # (the common case, quickly)
+            check_steps(n)
+            if n == 0:
+                return
         if self._store.advance(self._rows, n):
             raise self._error()
 
