@@ -3,10 +3,12 @@
 """Where the benchmarks' figures go, their sanity checks, and which text quotes them.
 
 Every benchmark writes its figures to ``docs/bench/<name>.json`` (with the command that made
-them, the date and the machine); README.md and docs/*.md quote only those figures, and
-``QUOTES`` below says where, as the exact text each figure is formatted to. ``python
-bench/figures.py`` (and test/test_bench_quick.py) checks that every quoted text is where it
-should be, so a stale figure fails the suite.
+them, the date and the machine); docs/benchmarks.md gathers them (its hand-written sections,
+after the ones bench/report.py writes), docs/collisions.md and docs/sweeps.md quote some beside
+their measurements, and README.md quotes none (it says in words what the simulator is and
+links to docs/benchmarks.md). ``quotes`` below says where each figure is quoted, as the exact
+text it is formatted to. ``python bench/figures.py`` (and test/test_bench_quick.py) checks
+that every quoted text is where it should be, so a stale figure fails the suite.
 
 Rules for derived figures: a ratio is the quotient of the two JSON values named, rounded to
 the digits shown; ms and us are the JSON's seconds times 1e3 and 1e6, rounded likewise.
@@ -113,7 +115,7 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     contains ``anchor`` (with the indented lines that continue it), or, for an anchor starting
     with '#', in that section (spaces and line breaks counted as one space)."""
     q: list[tuple[str, str, str]] = []
-    readme, coll = 'README.md', 'docs/collisions.md'
+    figs, coll = 'docs/benchmarks.md', 'docs/collisions.md'
 
     step = load('step_cost', folder)
     cost = {(r['method'], r['body'], r['call']): r['us_per_step'] for r in step['rows']}
@@ -121,33 +123,35 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     one, ten, amort = (cost[('rb_sim_ros eq27', full, c)]
                        for c in ('step(1)', 'step(10)', 'amortised'))
     step_text = f'{one:.2f} / {ten:.2f} / {amort:.2f} us'
-    q.append((readme, 'cost of one step', step_text))
-    q.append((readme, '**Fast**', f'{amort * 1e3:.0f} ns'))
+    q.append((figs, 'cost of one step', step_text))
+    q.append((figs, '**Fast**', f'{amort * 1e3:.0f} ns'))
+    rk4 = cost[('MuJoCo RK4', 'full inertia, world-frame wrench (mj_step, nstep)', 'amortised')]
+    q.append((figs, '**Fast**', f"about {100 * amort / rk4:.0f}% of MuJoCo's RK4 step"))
 
     skip = load('skip_bench', folder)
     general = _row(skip['rows'], key='general')
     projectile = _row(skip['rows'], key='projectile')
     parked = _row(skip['rows'], key='parked')
-    q.append((readme, 'a projectile', f'{projectile["specialised_us"]:.2f} us '
+    q.append((figs, 'a projectile', f'{projectile["specialised_us"]:.2f} us '
               f'({general["specialised_us"] / projectile["specialised_us"]:.1f}x) / '
               f'{parked["specialised_us"]:.2f}'))
 
     node = load('node_timing', folder)
     rates = {r['publish_rate_hz']: r for r in node['rates']}
     r1k, r100 = rates[1000.0], rates[100.0]
-    q.append((readme, 'node at 1 kHz: late ticks',
+    q.append((figs, 'node at 1 kHz: late ticks',
               f'{100 * r1k["late_tick_fraction"]:.2f}%, {r1k["tick_lateness_p99_ms"]:.1f} ms, '
               f'{100 * r1k["cpu_per_core"]:.0f}% of a core'))
-    q.append((readme, 'wrench-to-pose latency',
+    q.append((figs, 'wrench-to-pose latency',
               f'{r100["latency_p50_ms"]:.1f} / {r100["latency_p99_ms"]:.1f} ms (1 kHz: '
               f'{r1k["latency_p50_ms"]:.1f} / {r1k["latency_p99_ms"]:.1f} ms)'))
     fast = {(f['body'], f['pose_subscriber']): f['real_time_factor'] for f in node['fastest']}
     moving = 'spinning, full tensor'
-    q.append((readme, 'fastest real-time factor',
+    q.append((figs, 'fastest real-time factor',
               f'{fast[(moving, False)]:.0f}x / {fast[(moving, True)]:.0f}x '
               f'(at rest: {fast[("at rest", False)]:.0f}x)'))
-    q.append((readme, '**Fast**', f'{fast[(moving, False)]:.0f}x real time'))
-    q.append((readme, '**Fast**', f'{100 * r1k["late_tick_fraction"]:.2f}% late ticks'))
+    q.append((figs, '**Fast**', f'{fast[(moving, False)]:.0f}x real time'))
+    q.append((figs, '**Fast**', f'{100 * r1k["late_tick_fraction"]:.2f}% late ticks'))
     scene = node['scene']['sim_over_wall']
     sw = {e['engine']: e for e in load('sweep_bench', folder)['engines']}
     one, two = sw['local, 1 worker'], sw['local, 2 workers']
@@ -157,10 +161,10 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
                   f'{two["runs_per_s"]:.2f} runs/s ({scaling:.2f}x), '
                   f'Ray with 2 CPUs {ray["runs_per_s"]:.2f} runs/s')
     cpu = one['cpu_s_per_run']
-    for doc, where in ((readme, '#Sweeps: many runs'), ('docs/sweeps.md', '#On a Ray cluster')):
-        q.append((doc, where, sweep_text))
-        q.append((doc, where, f'{cpu * 1e3:.0f} ms of one core'))
-        q.append((doc, where, f'{cpu * 1e6 / 3600:.0f} core-hours'))
+    sweeps = ('docs/sweeps.md', '#On a Ray cluster')
+    q.append((*sweeps, sweep_text))
+    q.append((*sweeps, f'{cpu * 1e3:.0f} ms of one core'))
+    q.append((*sweeps, f'{cpu * 1e6 / 3600:.0f} core-hours'))
 
     sleeping = '#Sleeping'
     q.append((coll, sleeping, f'{scene[0]:.2f} sim seconds per wall second in the first'))
@@ -168,7 +172,7 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
               'three seconds'))
     q.append((coll, '#Benchmark: 1000 spheres', f'{scene[0]:.2f} sim seconds per wall'))
     off = node['scene_sleeping_off']['sim_over_wall']
-    q.append((readme, 'collision demo through the node', f'{min(off):.0f}x / {scene[0]:.0f}x'))
+    q.append((figs, 'collision demo through the node', f'{min(off):.0f}x / {scene[0]:.0f}x'))
     q.append((coll, '#Sleeping', f'{min(off):.0f} to {max(off):.0f} with sleeping off'))
 
     col = load('collision_bench', folder)
@@ -177,15 +181,15 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     ratio_like = ours['seconds_per_step'] / like['seconds_per_step']
     ratio_cg = ours['seconds_per_step'] / mj['CG, 10 iterations']['seconds_per_step']
     ratio_default = ours['seconds_per_step'] / mj['Newton (default)']['seconds_per_step']
-    q.append((readme, '1000 spheres settled',
+    q.append((figs, '1000 spheres settled',
               f'{_ms(ours["seconds_per_step"])} ({_ms(like["seconds_per_step"])} / '
               f'{_ms(mj["CG, 10 iterations"]["seconds_per_step"])} / '
               f'{_ms(mj["Newton (default)"]["seconds_per_step"], 0)})'))
-    q.append((readme, '#Collisions', f'{_ms(ours["seconds_per_step"])} ms a step'))
-    q.append((readme, '#Collisions', f'{ratio_like:.1f}x MuJoCo'))
-    q.append((readme, '#Collisions', f'{ratio_cg:.1f}x its CG'))
-    q.append((readme, '**Fast**', f'{ratio_cg:.1f}x its'))
-    q.append((readme, '#Collisions', f'takes {1 / ratio_default:.0f} times as long as ours'))
+    q.append((figs, '#Collisions', f'{_ms(ours["seconds_per_step"])} ms a step'))
+    q.append((figs, '#Collisions', f'{ratio_like:.1f}x MuJoCo'))
+    q.append((figs, '#Collisions', f'{ratio_cg:.1f}x its CG'))
+    q.append((figs, '**Fast**', f'{ratio_cg:.1f}x its'))
+    q.append((figs, '#Collisions', f'takes {1 / ratio_default:.0f} times as long as ours'))
     bench = '#Benchmark: 1000 spheres'
     for anchor, r, cap in [('| rb_sim_ros CollisionWorld', ours, 10)] + [
             (f'| MuJoCo {name} |', r, r['max_iterations']) for name, r in mj.items()]:
@@ -208,7 +212,7 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     rest = load('resting_bench', folder)
     awake, asleep, mj_awake, mj_asleep = (rest[k] for k in ('awake', 'asleep', 'mujoco',
                                                             'mujoco_sleeping'))
-    q.append((readme, '200 boxes at rest',
+    q.append((figs, '200 boxes at rest',
               f'{_ms_auto(awake["seconds_per_step"])} / {_ms(asleep["seconds_per_step"], 3)} '
               f'({_ms(mj_awake["seconds_per_step"], 3)} / '
               f'{_ms(mj_asleep["seconds_per_step"], 3)})'))
@@ -234,8 +238,8 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
               'in its first'))
     q.append((coll, '#Sleeping', f'{_ms(demo["asleep_seconds_per_step"], 3)} ms from 4 to 5 s'))
     q.append((coll, bench, f'costs {_ms_auto(demo["moving_seconds_per_step"])} ms per step'))
-    q.append((readme, '#Collisions', f'from {_ms_auto(demo["moving_seconds_per_step"])} ms'))
-    q.append((readme, '#Collisions', f'to {_ms(demo["asleep_seconds_per_step"], 3)} ms'))
+    q.append((figs, '#Collisions', f'from {_ms_auto(demo["moving_seconds_per_step"])} ms'))
+    q.append((figs, '#Collisions', f'to {_ms(demo["asleep_seconds_per_step"], 3)} ms'))
 
     cases = load('collision_cases', folder)
     for test, cell in cases['cells'].items():
@@ -246,26 +250,26 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((coll, '#Speculative contacts',
               f'{wall["phases"]} phases): every phase held at {wall["discrete_held_up_to"]} m/s, '
               f'some tunnelled at {wall["discrete_first_failure"]} m/s'))
-    q.append((readme, '#Collisions',
+    q.append((figs, '#Collisions',
               f'held to {wall["speculative_held_up_to"] / 1e3:,.0f} km/s'))
 
     batch = load('batch_bench', folder)
     rows = {r['n']: r for r in batch['rows']}
     big = rows[100_000]
-    q.append((readme, 'batch path, ns per body-step',
+    q.append((figs, 'batch path, ns per body-step',
               f'{big["batch_free_one_thread_ns"]:.1f} / {big["batch_free_ns"]:.1f} / '
               f'{big["batch_free_one_step_per_call_ns"]:.0f} '
               f'({big["mujoco_euler_ns"]:.0f} / {big["mujoco_euler_all_cores_ns"]:.0f}; '
               f'{big["mujoco_rk4_ns"]:.0f})'))
-    q.append((readme, 'memory per body',
+    q.append((figs, 'memory per body',
               f'{big["memory_per_body"]["batch_arrays_B"] / 1e3:.1f} kB / '
               f'{big["memory_per_body"]["mujoco_model_plus_data_B"] / 1e3:.1f} kB'))
     life = load('node_lifecycle', folder)
     big_start = max(life['startup'], key=lambda r: r['bodies'])
-    q.append((readme, '#Scenes', f'A {big_start["bodies"]:,}-body scene publishes its first '
-              f'`poses` {big_start["first_poses_s"]:.1f} s after the process starts, with '
+    q.append((figs, '**Large scenes**', f'A {big_start["bodies"]:,}-body scene publishes its '
+              f'first `poses` {big_start["first_poses_s"]:.1f} s after the process starts, with '
               f'{big_start["peak_memory_mb"]:.0f} MB'))
-    q.append((readme, '#What bad input gets', f'{life["stop_clean"]} of {life["stop_runs"]} '
+    q.append((figs, '**Stopping**', f'{life["stop_clean"]} of {life["stop_runs"]} '
               f'runs at `real_time_factor:=0` within {max(life["stop_exit_s"]):.2f} s'))
     first = life['first_start_s']
     tier = first['cold_background']
@@ -274,17 +278,18 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     table = (f'{tier["first_poses_s"]:.1f} s ({tier["compiled_s"]:.0f} s) / '
              f'{first["cold"]:.0f} s / {first["warm"]:.1f} s ({warm_ready:.1f} s) / '
              f'{first["installed"]:.1f} s ({first["install_s"]:.0f} s)')
-    q.append((readme, 'node start on the collision demo', table))
-    q.append((readme, '#The engine', f'the install took {first["install_s"]:.0f} s'))
-    q.append((readme, '#The engine', f'after it was stepping after {installed_ready:.1f} s'))
-    q.append((readme, '#The engine', f'first poses of a step after {first["installed"]:.1f} s, '
+    q.append((figs, 'node start on the collision demo', table))
+    cache, tiers = '**A cache**', '**Two tiers on a first start**'
+    q.append((figs, cache, f'the install took {first["install_s"]:.0f} s'))
+    q.append((figs, cache, f'after it was stepping after {installed_ready:.1f} s'))
+    q.append((figs, cache, f'first poses of a step after {first["installed"]:.1f} s, '
               'the rest being DDS discovery'))
-    q.append((readme, '#The engine', f'(the node stepping after {warm_ready:.1f} s, '
+    q.append((figs, cache, f'(the node stepping after {warm_ready:.1f} s, '
               f'{first["warm"]:.1f} s to a subscriber'))
-    q.append((readme, '#The engine', f'after {tier["first_poses_s"]:.1f} s and ran at '
+    q.append((figs, tiers, f'after {tier["first_poses_s"]:.1f} s and ran at '
               f'{tier["interpreted_early_sim_over_wall"]:.2f}x real time'))
-    q.append((readme, '#The engine', f'done after {tier["compiled_s"]:.0f} s'))
-    q.append((readme, '#The engine', f'step instead: {first["cold"]:.0f} s to those poses'))
+    q.append((figs, tiers, f'done after {tier["compiled_s"]:.0f} s'))
+    q.append((figs, tiers, f'step instead: {first["cold"]:.0f} s to those poses'))
     q.append((coll, '#What is left', f'(first poses after {tier["first_poses_s"]:.1f} s)'))
     q.append((coll, '#What is left',
               f'runs the demo at {tier["interpreted_early_sim_over_wall"]:.2f}x'))
@@ -293,29 +298,30 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     names = ('sliding box', 'bouncing ball', 'rolling ball', 'tipping cube')
     ours = ' / '.join(f'{contact[n]["rb_sim_ros, 10"] * 1e6:.1f}' for n in names)
     theirs = ' / '.join(f'{contact[n]["MuJoCo Newton, 10"] * 1e6:.1f}' for n in names)
-    q.append((readme, 'one body in contact', f'{ours} us ({theirs} us)'))
+    q.append((figs, 'one body in contact', f'{ours} us ({theirs} us)'))
     ratios = {c: [contact[n][f'rb_sim_ros, {c}'] / contact[n][f'MuJoCo Newton, {c}']
                   for n in names] for c in ('1', '10')}
-    q.append((readme, '#Collisions', f'{min(ratios["10"]):.1f}x to {max(ratios["10"]):.1f}x'))
-    q.append((readme, '#Collisions', f'{min(ratios["1"]):.1f}x to {max(ratios["1"]):.1f}x'))
+    q.append((figs, '#Collisions', f'{min(ratios["10"]):.1f}x to {max(ratios["10"]):.1f}x'))
+    q.append((figs, '#Collisions', f'{min(ratios["1"]):.1f}x to {max(ratios["1"]):.1f}x'))
     spread = max(contact[n]['rb_sim_ros, 1, mean'] / contact[n]['rb_sim_ros, 1'] for n in names)
-    q.append((readme, '#Collisions', f'within {math.ceil(100 * (spread - 1)):.0f}% of their'))
-    q.append((readme, '**Fast**', f'costs {ratios["10"][0]:.1f}x'))
-    q.append((readme, '**Fast**', f'({ratios["1"][0]:.1f}x at one step a call'))
+    q.append((figs, '#Collisions', f'within {math.ceil(100 * (spread - 1)):.0f}% of their'))
+    q.append((figs, '**Fast**', f'costs {ratios["10"][0]:.1f}x'))
+    q.append((figs, '**Fast**', f'({ratios["1"][0]:.1f}x at one step a call'))
 
-    q.append((readme, '#Many bodies', f'{big["batch_free_one_thread_ns"]:.1f} ns per body-step'
+    many = '#Many bodies at once'
+    q.append((figs, many, f'{big["batch_free_one_thread_ns"]:.1f} ns per body-step'
               f' on one core'))
     one = big['mujoco_euler_ns'] / big['batch_free_one_thread_ns']
-    q.append((readme, '#Many bodies', f'{one:.1f}x less than MuJoCo'))
-    q.append((readme, '#Many bodies', f'{big["batch_free_ns"]:.1f} ns on both'))
-    q.append((readme, '#Many bodies',
+    q.append((figs, many, f'{one:.1f}x less than MuJoCo'))
+    q.append((figs, many, f'{big["batch_free_ns"]:.1f} ns on both'))
+    q.append((figs, many,
               f'{big["mujoco_euler_all_cores_ns"] / big["batch_free_ns"]:.1f}x less than'))
-    q.append((readme, '#Many bodies', f'{big["batch_free_one_step_per_call_ns"]:.0f} ns'))
+    q.append((figs, many, f'{big["batch_free_one_step_per_call_ns"]:.0f} ns'))
 
     compiled = {r['case']: r for r in load('compile_cost', folder)['rows']}
     steppers = [compiled[f'stepper {m}'] for m in ('eq27', 'lie4', 'flow4')]
     total = load('compile_cost', folder)['package_kernels']
-    q.append((readme, 'first use on an empty kernel cache',
+    q.append((figs, 'first use on an empty kernel cache',
               ' / '.join(f'{r["seconds"]:.1f}' for r in steppers) + ' s ('
               + ' / '.join(str(r['kernels_compiled']) for r in steppers) + f' of {total}); '
               f'{compiled["node default scene"]["seconds"]:.0f} / '
@@ -324,42 +330,43 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
               f'{compiled["all parts"]["seconds"]:.0f} s'))
     demo = f'{compiled["node collision demo"]["seconds"]:.0f} s'
     q.append((coll, '#What is left', f'compiles its kernels in {demo}'))
-    q.append((readme, '#The engine', f'the child now takes {demo} for the demo'))
-    q.append((readme, 'for the collision demo', f'for the collision demo {demo} alone'))
+    q.append((figs, tiers, f'the child now takes {demo} for the demo'))
     balls = compiled['node balls on the ground']
     demo_row = compiled['node collision demo']
-    q.append((readme, "**Compiled for the scene's shapes**",
+    q.append((figs, "**Compiled for the scene's shapes**",
               f'Their first start took {balls["seconds"]:.0f} s and '
               f'{balls["cpu_seconds"]:.0f} CPU seconds ({balls["kernels_compiled"]} kernels), '
               f'the collision demo\'s {demo_row["seconds"]:.0f} s and '
               f'{demo_row["cpu_seconds"]:.0f} CPU seconds ({demo_row["kernels_compiled"]} '
               'kernels'))
     spawned = list(compiled['node balls, a crate spawned']['parts'].values())[-1]
-    q.append((readme, "**Compiled for the scene's shapes**",
+    q.append((figs, "**Compiled for the scene's shapes**",
               f'a crate spawned among the balls: {spawned:.0f} s more'))
     lock = load('lockstep_bench', folder)
+    lockstep = '#Closed loops and lockstep'
     one, two = lock['one_controller'], lock['two_controllers']
     rec, op = lock['one_recorded'], lock['open_loop']
-    q.append((readme, '#Lockstep', 'one body and its controller make '
+    q.append((figs, lockstep, 'one body and its controller make '
               f"{one['periods_per_s']:,.0f} round trips a second "
-              f"({1e6 / one['periods_per_s'] / 1e3:.2f} ms each"))
-    q.append((readme, '#Lockstep', f"{rec['periods_per_s']:,.0f} when recorded; two bodies with "
+              f"({1e6 / one['periods_per_s'] / 1e3:.2f} ms each: a 100 Hz controller at "
+              f"{one['periods_per_s'] / 100:.0f}x real time)"))
+    q.append((figs, lockstep, f"{rec['periods_per_s']:,.0f} when recorded; two bodies with "
               f"a controller each {two['periods_per_s']:,.0f}."))
-    q.append((readme, '#Lockstep', f"open loop steps {op['periods_per_s']:,.0f} periods a second, "
+    q.append((figs, lockstep, f"open loop steps {op['periods_per_s']:,.0f} periods a second, "
               f"so lockstep costs {op['periods_per_s'] / one['periods_per_s']:.0f}x"))
-    q.append((readme, '#Lockstep', f"makes {lock['rclpy_ping_pong_per_s']:,.0f} round trips a "
+    q.append((figs, lockstep, f"makes {lock['rclpy_ping_pong_per_s']:,.0f} round trips a "
               'second in the'))
-    q.append((readme, '#Lockstep', f"({1e6 / lock['rclpy_ping_pong_per_s']:.0f} us each; "
+    q.append((figs, lockstep, f"({1e6 / lock['rclpy_ping_pong_per_s']:.0f} us each; "
               f"{lock['rclpy_ping_pong_executors_per_s']:,.0f} spun by executors)"))
-    q.append((readme, '#Lockstep', f"Of a lockstep round trip of {1e6 / one['periods_per_s']:.0f} "
+    q.append((figs, lockstep, f"Of a lockstep round trip of {1e6 / one['periods_per_s']:.0f} "
               f"us, the node's"))
-    q.append((readme, '#Lockstep', f"own work is {one['own_work_us']:.0f} us"))
+    q.append((figs, lockstep, f"own work is {one['own_work_us']:.0f} us"))
     rest = 1e6 / one['periods_per_s'] - one['own_work_us']
-    q.append((readme, '#Lockstep', f'the other {rest:.0f} us, the controller and DDS'))
+    q.append((figs, lockstep, f'the other {rest:.0f} us, the controller and DDS'))
     ex = lock['one_controller_executed']
-    q.append((readme, '#Lockstep', f"({ex['periods_per_s']:,.0f} round trips a second through its "
+    q.append((figs, lockstep, f"({ex['periods_per_s']:,.0f} round trips a second through its "
               f"executor instead: {one['periods_per_s'] / ex['periods_per_s']:.2f}x)"))
-    q.append((readme, '#Lockstep', 'are identical in every field'
+    q.append((figs, lockstep, 'are identical in every field'
               if all(lock['identical'].values()) else 'are not all identical'))
     return q
 
