@@ -307,7 +307,7 @@ PARAMS = (
           'until every lockstep input has answered the state with a WrenchStamped stamped as '
           "that state (frame_id 'hold': no change), applies the answers at the next step and "
           'only then steps on, so a closed-loop run is the same on any machine, under any '
-          'load, at any real_time_factor (README, "Lockstep").', True, _bool),
+          'load, at any real_time_factor (docs/recording.md, "Lockstep").', True, _bool),
     Param('lockstep_inputs', '', 'The lockstep inputs: bodies or their wrench_stamped topics, '
           "as a list or comma-separated ('ball, box/wrench_stamped'); step 0 waits for every "
           "one. Empty: every body's wrench_stamped that has a publisher when step 0 is taken "

@@ -133,7 +133,7 @@ MAX_BACKLOG = 10_000
 
 
 class SimulatorNode(Node):
-    """Rigid bodies on ROS topics; see README.md for topics, services and parameters."""
+    """Rigid bodies on ROS topics; see docs/interface.md for topics, services and parameters."""
 
     def __init__(self, **kwargs) -> None:
         super().__init__('rb_sim', **kwargs)
