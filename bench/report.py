@@ -44,8 +44,9 @@ def header(s: dict) -> list[str]:
         '`bench/run.py`, which also writes these figures to `docs/bench/run.json`. The cost '
         'of one step alone: `python bench/step_cost.py`. The other benchmarks (skips, the '
         'batch path, collisions, sleeping, the node) each write `docs/bench/<name>.json` with '
-        'the command that ran them; README.md and docs/collisions.md quote only those files, '
-        'and `python bench/figures.py` checks that they do.', '',
+        'the command that ran them; this page (from "Accuracy and speed" on), '
+        'docs/collisions.md and docs/sweeps.md quote only those files, and `python '
+        'bench/figures.py` checks that they do.', '',
         'Order of work: the references are checked against each other, then every '
         'integrator’s error is checked to fall at its order, and only then is anything '
         'timed. A method off its order by more than '
@@ -463,7 +464,16 @@ def console(s: dict) -> str:
     return step_cost.table(s['step_cost']) + '\n\n' + '\n'.join(lines)
 
 
+# Where the page's written part starts: the figures of the other benchmarks, with their
+# commands, kept as they are when the generated part above is written again.
+WRITTEN = '\n## Accuracy and speed\n'
+
+
 def write(out: Path, summary: dict) -> Path:
+    """Write OUT/benchmarks.md: the generated part, then the written part of the page there
+    (from ``WRITTEN`` on), if any."""
     path = Path(out) / 'benchmarks.md'
-    path.write_text(render(summary))
+    old = path.read_text() if path.exists() else ''
+    kept = old[old.index(WRITTEN):] if WRITTEN in old else ''
+    path.write_text(render(summary).rstrip('\n') + '\n' + kept if kept else render(summary))
     return path

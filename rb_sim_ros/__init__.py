@@ -1,6 +1,7 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""rb_sim_ros: a deterministic rigid-body simulator; this package's core imports numpy only."""
+"""rb_sim_ros: a deterministic rigid-body simulator; its core and contact layers import numpy
+and numba only, no ROS."""
 
 from rb_sim_ros.core.multistep import EQ27, METHODS, Multistep
 from rb_sim_ros.core.rigid_body import Frame, RigidBody, State, Wrench, ZERO_WRENCH

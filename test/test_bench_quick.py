@@ -29,6 +29,24 @@ def _bench(name):
         sys.path.remove(str(ROOT / 'bench'))
 
 
+def test_the_report_keeps_the_written_part_of_the_benchmarks_page(tmp_path):
+    """bench/report.py writes the top of docs/benchmarks.md; the figures of the other
+    benchmarks below it (from "Accuracy and speed" on) are written by hand and must survive
+    a regeneration, and the generated part is what report.py renders from run.json."""
+    report = _bench('report')
+    page = (ROOT / 'docs' / 'benchmarks.md').read_text() + 'A line written by hand.\n'
+    assert report.WRITTEN in page
+    summary = json.loads((ROOT / 'docs' / 'bench' / 'run.json').read_text())
+    (tmp_path / 'benchmarks.md').write_text(page)
+    assert page.startswith(report.render(summary).rstrip('\n') + '\n')  # as committed
+    written = report.write(tmp_path, summary).read_text()
+    assert written.startswith(report.render(summary).rstrip('\n') + '\n')
+    assert written[written.index(report.WRITTEN):] == page[page.index(report.WRITTEN):]
+    fresh = tmp_path / 'fresh'
+    fresh.mkdir()
+    assert report.write(fresh, summary).read_text() == report.render(summary)
+
+
 @pytest.mark.slow  # a benchmark
 def test_quick_benchmark_checks_orders_and_writes_its_report(tmp_path):
     result = subprocess.run([sys.executable, str(ROOT / 'bench' / 'run.py'), '--quick',

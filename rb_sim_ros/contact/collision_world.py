@@ -71,8 +71,6 @@ from rb_sim_ros.core.rigid_body import finite_floats, non_negative, State
 from rb_sim_ros.core.step_count import check_steps, MAX_STEPS
 from rb_sim_ros.core.stepper import carry_over, IntegrationError, Stepping
 
-# Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
-FEATURE_BITS = 12
 # Position corrections that turn a body by less than this (rad) are not applied: they are the
 # rounding noise of contacts whose lever arm is parallel to the normal (a sphere's), and
 # skipping them saves an exp() per body. A real correction is ~depth / size, 1e-6 rad or more.
