@@ -316,6 +316,28 @@ def _world_steps_of(family, tests, name):
                 plane_pairs = np.zeros((0, 2), dtype=np.int64)
             # 3. The narrow phase of every candidate: collider pairs, then (collider, plane).
             p1, p2 = pairs.shape[0], plane_pairs.shape[0]
+            if p1 + p2 == 0:
+                # No candidate (bodies in flight): what the pass below leaves with no contact,
+                # without making its arrays: none found, none solved, the warm starts of
+                # sleepers only.
+                for k in range(8):
+                    w.stats[k] = 0
+                w.energy[SOLVE_BEFORE] = w.energy[SOLVE_AFTER] = 0.0
+                point, normal, depth = point[:0], normal[:0], depth[:0]
+                impulse, ca, cbb = impulse[:0], ca[:0], cbb[:0]
+                if any_asleep:
+                    warm_keys, warm_normal, warm_tangent = _store_warm(
+                        nb, w.cbody, planes, w.asleep, ca, depth, normal, warm_keys,
+                        warm_normal, warm_tangent)
+                else:
+                    warm_keys = warm_keys[:0]
+                    warm_normal, warm_tangent = warm_normal[:0], warm_tangent[:0]
+                for k in range(nb):
+                    w.slow_steps[k] = 0
+                _finish_stats(w.asleep, w.stats, nb)
+                collided = True
+                w.status[S_UNCHECKED] = 0
+                continue
             pair_a = np.empty(p1 + p2, dtype=np.int64)
             pair_b = np.empty(p1 + p2, dtype=np.int64)
             margins = np.empty(p1 + p2)
