@@ -195,8 +195,8 @@ def thin_wall(quick: bool) -> dict:
 
 def mixed(quick: bool) -> dict:
     """test_mixed_scene_...: the largest rise of mechanical energy over 0.1 s steps, and
-    whether the three runs (one with the numpy kernel only) agree bit for bit."""
-    worlds = [tc.mixed_scene(), tc.mixed_scene(), tc.mixed_scene(batch_threshold=0)]
+    whether three runs agree bit for bit."""
+    worlds = [tc.mixed_scene(), tc.mixed_scene(), tc.mixed_scene()]
     energy = [tc.mechanical_energy(worlds[0])]
     for _ in range(5 if quick else 15):
         for w in worlds:

@@ -302,9 +302,8 @@ def test_a_world_without_colliders_is_the_plain_simulation():
 def test_mixed_scene_stays_inside_its_walls_loses_energy_and_is_deterministic():
     """Spheres, a capsule, a box and a body of three colliders among walls and a static
     pillar. Balls and the rod go on rolling (rigid bodies have no rolling resistance); the
-    crate comes to rest. Three runs agree bit for bit, one with batch_threshold=0 (ignored
-    now that one kernel solves every contact set: kept so that old scene files load)."""
-    worlds = [mixed_scene(), mixed_scene(), mixed_scene(batch_threshold=0)]
+    crate comes to rest. Three runs agree bit for bit."""
+    worlds = [mixed_scene(), mixed_scene(), mixed_scene()]
     energy = [mechanical_energy(worlds[0])]
     for _ in range(15):
         for w in worlds:

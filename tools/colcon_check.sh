@@ -18,7 +18,7 @@ echo "[rb_sim_ros] colcon build in $ws" >&2
   set -u
   # Once, before the workers start: every kernel part into the shared cache, which the
   # workers, the nodes and replays they start, and the test installs load (a --symlink-install
-  # tree is this checkout; the tests' installs are seeded from it, test/ros_harness.py).
+  # tree is this checkout; the tests' installs are seeded from it, test/support/ros_harness.py).
   start=$SECONDS
   echo "[rb_sim_ros] compiling the kernels into $NUMBA_CACHE_DIR (about 2-4 min the first" \
     "time, seconds once cached; log: $ws/precompile.log)" >&2

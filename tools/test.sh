@@ -6,7 +6,7 @@
 #   ./tools/test.sh ARGS...   pytest ARGS on the suite, here (e.g. -k convergence, -m 'not slow')
 # Compiled kernels are cached in $NUMBA_CACHE_DIR (default .venv/numba-cache), so a later run
 # of unchanged sources loads them; the installed package the node tests start is shared too
-# (test/ros_harness.py shared_install).
+# (test/support/ros_harness.py shared_install).
 set -euo pipefail
 . "$(dirname "$0")/venv.sh" requirements-test.txt
 cd "$root"

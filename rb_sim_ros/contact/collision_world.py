@@ -162,7 +162,7 @@ class CollisionWorld:
                  slop: float = 1e-4, position_fraction: float = 0.8,
                  bounce_threshold: float = 0.1, tolerance: float = 1e-6,
                  speculative: bool = True, warm_start: bool = True,
-                 batch_threshold: int = 48, sleep_time: float = 0.5,
+                 sleep_time: float = 0.5,
                  sleep_speed: float = 1e-3, rolling_resistance: float = 0.0,
                  torsional_friction: float = 0.0, pair_tests: int | None = None) -> None:
         # What a world rebuilt around other bodies is made with (``rebuilt``).
@@ -172,7 +172,7 @@ class CollisionWorld:
             position_iterations=position_iterations, slop=slop,
             position_fraction=position_fraction, bounce_threshold=bounce_threshold,
             tolerance=tolerance, speculative=speculative, warm_start=warm_start,
-            batch_threshold=batch_threshold, sleep_time=sleep_time, sleep_speed=sleep_speed,
+            sleep_time=sleep_time, sleep_speed=sleep_speed,
             rolling_resistance=rolling_resistance, torsional_friction=torsional_friction)
         bodies = tuple(bodies)
         if not bodies or not all(isinstance(b, BodySpec) for b in bodies):
@@ -185,7 +185,7 @@ class CollisionWorld:
             restitution=restitution, friction=friction, dt=dt,
             velocity_iterations=velocity_iterations, position_iterations=position_iterations,
             slop=slop, position_fraction=position_fraction, bounce_threshold=bounce_threshold,
-            tolerance=tolerance, batch_threshold=batch_threshold,
+            tolerance=tolerance,
             rolling_resistance=rolling_resistance, torsional_friction=torsional_friction)
         for name, flag in (('speculative', speculative), ('warm_start', warm_start)):
             if not isinstance(flag, bool):

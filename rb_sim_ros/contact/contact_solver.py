@@ -80,8 +80,7 @@ class SolverSettings:
     that changed no contact's velocity by more (the position pass: by more than tolerance dt,
     in m); rolling_resistance (m): the lever arm of the moment resisting rolling, mu_r (0:
     none); torsional_friction (m): that of the moment resisting spin about the normal, mu_t
-    (0: none). batch_threshold is ignored (it chose between two kernels, now one): it is kept,
-    and validated, so that callers and scene files that set it still work."""
+    (0: none)."""
 
     restitution: float = 0.0
     friction: float = 0.5
@@ -92,7 +91,6 @@ class SolverSettings:
     position_fraction: float = 0.8
     bounce_threshold: float = 0.1
     tolerance: float = 1e-6
-    batch_threshold: int = 48
     rolling_resistance: float = 0.0
     torsional_friction: float = 0.0
 
@@ -106,7 +104,7 @@ class SolverSettings:
         _number('tolerance', self.tolerance, 0.0, math.inf)
         _number('rolling_resistance', self.rolling_resistance, 0.0, math.inf)
         _number('torsional_friction', self.torsional_friction, 0.0, math.inf)
-        for name in ('velocity_iterations', 'position_iterations', 'batch_threshold'):
+        for name in ('velocity_iterations', 'position_iterations'):
             value = getattr(self, name)
             # (at most 2^31 - 1: the kernel reads the counts back from floats)
             if (not isinstance(value, int) or isinstance(value, bool) or value < 0
@@ -190,8 +188,8 @@ def tangent_basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def settings_array(settings: SolverSettings) -> np.ndarray:
     """``settings`` as the float64 array of ``solver_kernels.solve_arrays`` (indices
-    ``solver_kernels.RESTITUTION`` ... ``TORSIONAL_FRICTION``; iteration counts as floats;
-    batch_threshold is not in it)."""
+    ``solver_kernels.RESTITUTION`` ... ``TORSIONAL_FRICTION``; iteration counts as
+    floats)."""
     out = np.zeros(kernels.SETTINGS_WIDTH)
     out[kernels.RESTITUTION] = settings.restitution
     out[kernels.FRICTION] = settings.friction

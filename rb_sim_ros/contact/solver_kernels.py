@@ -44,9 +44,9 @@ comments are its equations.
 Determinism: only + - * / abs sqrt copysign on float64, each sum in the order written, no
 BLAS, no numpy reduction, no fused multiply-add (``core.jit``): the compiled and the
 interpreted path (``NUMBA_DISABLE_JIT=1``) give the same bits, on every machine
-(``test/solver_fingerprint.py``). Divisions by what can be 0 for valid input (the effective
-mass of a contact between static bodies, a singular inertia, a zero normal) are guarded, so
-that neither path raises; the others are positive for valid input (dt > 0, mu >= 0).
+(``test/support/solver_fingerprint.py``). Divisions by what can be 0 for valid input (the
+effective mass of a contact between static bodies, a singular inertia, a zero normal) are
+guarded, so that neither path raises; the others are positive for valid input (dt > 0, mu >= 0).
 Arguments passed from one kernel to another are never literal constants: numba would compile
 the callee once more for each literal value.
 """
