@@ -35,10 +35,11 @@ The engines, each built from the same poses (not timed) and stepped through the 
   ``mjENBL_SLEEP``.
 
 Timed: the whole 2 s run, best of ``--repeats`` (wall clock, and the process's CPU time beside
-it: the cores busy, Rapier's workers counted whether working or waiting), as users run them: a Python loop of one step a call
-(``world.step()``, ``world.step(1)``, ``mj_step``), and for the engines that take n steps in one
-call the whole run in one call (``world.step(2000)``, ``mj_step(m, d, 2000)``; Rapier's
-bindings have none). Reported: ms per step and ours / Rapier (2 threads) in the same run.
+it: the cores busy, Rapier's workers counted whether working or waiting), as users run them: a
+Python loop of one step a call (``world.step()``, ``world.step(1)``, ``mj_step``), and for the
+engines that take n steps in one call the whole run in one call (``world.step(2000)``,
+``mj_step(m, d, 2000)``; Rapier's bindings have none). Reported: ms per step and ours / Rapier
+(2 threads) in the same run.
 
 Checks first, on a run of each engine apart from the timed ones (exit 1 if one fails): every
 box finite, inside the scene (within 3 m of the axis), none fallen through the ground (no
