@@ -378,6 +378,10 @@ def main() -> int:
     for row, r in rows.items():
         print(f'| {row} | {r["seconds_per_step"] * 1e3:.3f} | {r["cpu_over_wall"]:.2f} | '
               f'{ratios[row]:.2f}x |')
+    busy = rows['Rapier 2 threads, step()']['cpu_over_wall']
+    if busy < 1.3:
+        print(f'note: Rapier on 2 threads kept {busy:.2f} cores busy, so its second thread found '
+              'no free core\n(another process?): its ratio is then about that of one thread')
     print('\nlike for like, ours over theirs:')
     for k, v in like.items():
         print(f'  {k}: {v:.2f}x')
