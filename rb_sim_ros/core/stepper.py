@@ -263,26 +263,42 @@ class BodyStore:
         that fails (``Stepper.step``'s errors) stays at its state after the last good step;
         the rows that failed are returned, their reason in ``status``."""
         if len(rows) == 1:  # a Stepper's step: all of it in one compiled call
-            one = self._one
-            if one[0] != jit.swaps:  # (made for another tier)
-                one = self._one = (jit.swaps, jit.entry_point(
-                    getattr(K, self._step_one), self.state, self.spare, self.params,
-                    self.coefficients, 0, 1, self.status, self.taken, self.bad, self.work,
-                    self.clock, self.warn_sq))
-            code = one[1](self.state, self.spare, self.params, self.coefficients, int(rows[0]),
-                          n, self.status, self.taken, self.bad, self.work, self.clock,
-                          self.warn_sq)
+            code = self.one()[1](self.state, self.spare, self.params, self.coefficients,
+                                 int(rows[0]), n, self.status, self.taken, self.bad, self.work,
+                                 self.clock, self.warn_sq)
             if code != 1:
                 if code == 2:
                     self.check_turns(rows)
                 return []
         elif not len(rows):
             return []
-        args = (self.params, self.coefficients, rows, n)
-        out = (self.status, self.taken, self.bad, self.work)
-        if len(rows) > 1:
-            K.advance(self.state, self.spare, *args, False, *out)
+        else:
+            K.advance(self.state, self.spare, self.params, self.coefficients, rows, n, False,
+                      self.status, self.taken, self.bad, self.work)
+        return self.finish(rows, n, 5)
+
+    def one(self) -> tuple:
+        """(jit.swaps, f): f(state, spare, params, coefficients, row, n, status, taken, bad,
+        work, clock, warn_sq) takes n steps of one row (``step_kernel.STEP_ONE``: the step,
+        the copy back, the clock and the turn check) and returns 0, 1 if it failed (then
+        ``finish``), 2 if it may turn past its bound (then ``check_turns``): the kernel's
+        compiled entry for the types of these arrays, which stay those (``jit.entry_point``;
+        made again after a tier swap)."""
+        one = self._one
+        if one[0] != jit.swaps:
+            one = self._one = (jit.swaps, jit.entry_point(
+                getattr(K, self._step_one), self.state, self.spare, self.params,
+                self.coefficients, 0, 1, self.status, self.taken, self.bad, self.work,
+                self.clock, self.warn_sq))
+        return one
+
+    def finish(self, rows: np.ndarray, n: int, stacklevel: int) -> list[int]:
+        """After n steps of ``rows`` by a kernel that checked only their end states: the
+        rows that failed taken again, one step at a time, to the state before their bad
+        step; the states copied back, the clocks moved on, the turns checked (a TurnWarning
+        at ``stacklevel`` from here). The rows that failed, as ``advance`` returns them."""
         failed = rows[self.status[rows] != K.STATUS_OK]
+        out = (self.status, self.taken, self.bad, self.work)
         if len(failed):
             # Taken again from the untouched rows, step by step: the state before the bad
             # step lands in ``spare``, and ``taken`` says how many were good.
@@ -295,15 +311,17 @@ class BodyStore:
         self.clock[rows] += n
         if len(failed):
             self.clock[failed] -= n - self.taken[failed]
-            self.check_turns(rows[self.status[rows] == K.STATUS_OK])  # the others raise
+            # (the others raise)
+            self.check_turns(rows[self.status[rows] == K.STATUS_OK], stacklevel)
         else:
-            self.check_turns(rows)
+            self.check_turns(rows, stacklevel)
         return failed.tolist()
 
-    def check_turns(self, rows: np.ndarray) -> None:
+    def check_turns(self, rows: np.ndarray, stacklevel: int = 4) -> None:
         """A TurnWarning for each of ``rows`` (int64) whose body now turns faster than its
         method's energy bound, once for each row (after a run of any kernel that steps
-        them)."""
+        them), at ``stacklevel`` frames up from here (4, from ``advance``: the line that
+        called its caller, a Stepper's step)."""
         watched = rows[self.warn_sq[rows] != math.inf]
         if not len(watched):
             return
@@ -313,7 +331,7 @@ class BodyStore:
                            w2[w2 > self.warn_sq[watched]].tolist()):
             self.warn_sq[row] = math.inf
             warnings.warn(turn_message(self.method, self.dt, math.sqrt(sq), 'a body'),
-                          TurnWarning, stacklevel=4)
+                          TurnWarning, stacklevel=stacklevel)
 
 
 class Stepper(FixedStep):
@@ -576,7 +594,14 @@ class Stepper(FixedStep):
             check_steps(n)
             if n == 0:
                 return
-        if self._store.advance(self._rows, n):
+        # BodyStore.advance of this one row, written out (a step costs less than a call)
+        store = self._store
+        code = store.one()[1](store.state, store.spare, store.params, store.coefficients,
+                              self._row, n, store.status, store.taken, store.bad, store.work,
+                              store.clock, store.warn_sq)
+        if code == 2:
+            store.check_turns(self._rows, 3)
+        elif code == 1 and store.finish(self._rows, n, 4):
             raise self._error()
 
     def _error(self) -> IntegrationError:
