@@ -127,6 +127,13 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((figs, '**Fast**', f'{amort * 1e3:.0f} ns'))
     rk4 = cost[('MuJoCo RK4', 'full inertia, world-frame wrench (mj_step, nstep)', 'amortised')]
     q.append((figs, '**Fast**', f"about {100 * amort / rk4:.0f}% of MuJoCo's RK4 step"))
+    diag = 'diagonal inertia, torque-free'
+    ours_one = [cost[('rb_sim_ros eq27', b, 'step(1)')] for b in (diag, full)]
+    rk4_one = [cost[('MuJoCo RK4', f'{b} (mj_step)', 'step(1)')]
+               for b in (diag, 'full inertia, world-frame wrench')]
+    q.append((figs, 'one free body at one step a call',
+              f'{ours_one[0]:.2f} / {ours_one[1]:.2f} us ({rk4_one[0]:.2f} / {rk4_one[1]:.2f} '
+              f'us): {ours_one[0] / rk4_one[0]:.2f}x / {ours_one[1] / rk4_one[1]:.2f}x'))
 
     skip = load('skip_bench', folder)
     general = _row(skip['rows'], key='general')
@@ -230,16 +237,16 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((coll, '#Sleeping',
               f'{awake["seconds_per_step"] / mj_awake["seconds_per_step"]:.1f}x MuJoCo'))
     q.append((coll, '#Sleeping',
-              f'{asleep["seconds_per_step"] / mj_asleep["seconds_per_step"]:.1f}x it with both'))
+              f'{asleep["seconds_per_step"] / mj_asleep["seconds_per_step"]:.2f}x it with both'))
     q.append((coll, '#Sleeping', f'wakes {asleep["awake_after_drop"]} of '
               f'{2 * rest["side"] ** 2 + 1} bodies'))
     demo = rest['demo_scene']
     q.append((coll, '#Sleeping', f'costs {_ms_auto(demo["moving_seconds_per_step"])} ms per step '
               'in its first'))
-    q.append((coll, '#Sleeping', f'{_ms(demo["asleep_seconds_per_step"], 3)} ms from 4 to 5 s'))
+    q.append((coll, '#Sleeping', f'{demo["asleep_seconds_per_step"] * 1e6:.2f} us from 4 to 5 s'))
     q.append((coll, bench, f'costs {_ms_auto(demo["moving_seconds_per_step"])} ms per step'))
     q.append((figs, '#Collisions', f'from {_ms_auto(demo["moving_seconds_per_step"])} ms'))
-    q.append((figs, '#Collisions', f'to {_ms(demo["asleep_seconds_per_step"], 3)} ms'))
+    q.append((figs, '#Collisions', f'to {demo["asleep_seconds_per_step"] * 1e6:.2f} us'))
 
     cases = load('collision_cases', folder)
     for test, cell in cases['cells'].items():
@@ -301,12 +308,28 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((figs, 'one body in contact', f'{ours} us ({theirs} us)'))
     ratios = {c: [contact[n][f'rb_sim_ros, {c}'] / contact[n][f'MuJoCo Newton, {c}']
                   for n in names] for c in ('1', '10')}
+    means = [contact[n]['rb_sim_ros, 1, mean'] / contact[n]['MuJoCo Newton, 1, mean']
+             for n in names]
+    q.append((figs, 'one body in contact at one step a call',
+              ' / '.join(f'{r:.2f}x' for r in ratios['1']) + '; mean over the run '
+              + ' / '.join(f'{r:.2f}x' for r in means)))
     q.append((figs, '#Collisions', f'{min(ratios["10"]):.1f}x to {max(ratios["10"]):.1f}x'))
     q.append((figs, '#Collisions', f'{min(ratios["1"]):.1f}x to {max(ratios["1"]):.1f}x'))
     spread = max(contact[n]['rb_sim_ros, 1, mean'] / contact[n]['rb_sim_ros, 1'] for n in names)
     q.append((figs, '#Collisions', f'within {math.ceil(100 * (spread - 1)):.0f}% of their'))
     q.append((figs, '**Fast**', f'costs {ratios["10"][0]:.1f}x'))
     q.append((figs, '**Fast**', f'({ratios["1"][0]:.1f}x at one step a call'))
+
+    pile = load('pile_bench', folder)
+    rows, out = pile['rows'], pile['outcomes']
+    ms = [rows[k]['seconds_per_step'] * 1e3 for k in (
+        'rb_sim_ros, step(1)', 'Rapier 2 threads, step()', 'Rapier 1 thread, step()',
+        'MuJoCo Newton, mj_step')]
+    q.append((figs, '100 boxes piling for 2 s',
+              ' / '.join(f'{m:.3f}' for m in ms) + f' ms: {ms[0] / ms[1]:.2f}x / '
+              f'{ms[0] / ms[2]:.2f}x / {ms[0] / ms[3]:.2f}x; '
+              f'{out["rb_sim_ros"]["box_penetration"] * 1e3:.2f} / '
+              f'{out["Rapier, 2 threads"]["box_penetration"] * 1e3:.1f} mm'))
 
     many = '#Many bodies at once'
     q.append((figs, many, f'{big["batch_free_one_thread_ns"]:.1f} ns per body-step'
