@@ -10,8 +10,9 @@ from visualization_msgs.msg import Marker
 
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
 from rb_sim_ros.contact.collision_world import WorldContact
+from rb_sim_ros.contact.shapes import base
 from rb_sim_ros.core import so3
-from rb_sim_ros.ros.collision_markers import CollisionMarkers, PLANE_THICKNESS
+from rb_sim_ros.ros.collision_markers import CollisionMarkers, MARKERS, PLANE_THICKNESS
 from rb_sim_ros.sim.simulation import BodySpec, Config
 
 S = math.sqrt(0.5)
@@ -78,3 +79,9 @@ def test_a_plane_is_drawn_square_to_its_normal(normal):
     np.testing.assert_allclose(_rotation(m.markers[0])[:, 2], n, atol=1e-12)
     np.testing.assert_allclose(_position(m.markers[0]) @ n, 0.5 - PLANE_THICKNESS / 2,
                                atol=1e-12)
+
+
+def test_every_drawing_primitive_has_markers():
+    """The markers draw every primitive a kind may draw with (contact.shapes.base), so a new
+    kind drawn with them needs nothing here."""
+    assert set(MARKERS) == set(base.PRIMITIVES)

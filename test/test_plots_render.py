@@ -288,8 +288,8 @@ def test_a_name_spawned_again_is_plotted_and_drawn_as_the_body_it_names_then(tmp
     times, forces, _, _ = plots.wrench_steps(rec, 'b', 0.3)
     assert list(times) == pytest.approx([0.0, 0.01, 0.09, 0.19, 0.3])
     r = render.Renderer(rec, 'top', (200, 200))
-    assert [p.kind for p in r.timeline.life('b', 0.05)[1]] == ['sphere']
-    assert [p.kind for p in r.timeline.life('b', 0.25)[1]] == ['box']
+    assert [p.primitive for p in r.timeline.life('b', 0.05)[1]] == ['sphere']
+    assert [p.primitive for p in r.timeline.life('b', 0.25)[1]] == ['box']
     assert r.timeline.state('b', 0.15) is None  # deleted then
 
 

@@ -14,6 +14,7 @@ import pytest
 
 from rb_sim_ros.contact import broad_phase, narrow_kernels as nk, narrow_phase as nph, shapes
 from rb_sim_ros.contact import world_kernels as wk
+from rb_sim_ros.contact.shapes import base
 from rb_sim_ros.core import so3
 
 PACKAGE = Path(__file__).resolve().parents[1] / 'rb_sim_ros'
@@ -177,12 +178,13 @@ BY_TYPE = re.compile(r'isinstance\([^)]*,\s*\(?(Sphere|Capsule|Box)\b')  # isins
 
 
 def test_no_module_outside_the_kinds_tells_kinds_apart_by_name():
-    """The contact and sim layers read a kind through its module (shapes.BY_NAME, KIND,
-    STATIC_ONLY), so that a new kind is a module and rows: no ``.kind == 'box'`` elsewhere.
-    (The plane alone is met by type: the world keeps half-spaces apart from the colliders
-    that have bounds.)"""
+    """The package reads a kind through its module (shapes.BY_NAME, KIND, STATIC_ONLY, and
+    its drawing pieces), so that a new kind is a module and rows: no ``.kind == 'box'``
+    elsewhere, nor in the drawings (RViz markers, pictures), which draw pieces of
+    ``base.PRIMITIVES``. (The plane alone is met by type: the world keeps half-spaces apart
+    from the colliders that have bounds.)"""
     found = []
-    for layer in ('contact', 'sim'):
+    for layer in ('contact', 'sim', 'ros', 'pictures', 'offline', 'recording'):
         for path in sorted((PACKAGE / layer).rglob('*.py')):
             if 'shapes' in path.relative_to(PACKAGE).parts:
                 continue
@@ -190,3 +192,26 @@ def test_no_module_outside_the_kinds_tells_kinds_apart_by_name():
                 if re.search(BY_NAME, line) or re.search(BY_TYPE, line):
                     found.append(f'{path.relative_to(PACKAGE)}:{n}: {line.strip()}')
     assert found == []
+
+
+def test_every_kind_draws_with_pieces_that_cover_it_exactly():
+    """A kind's ``draw`` gives pieces of the primitives every drawing knows, and they are
+    the shape: a solid's farthest piece point from its centre is its bounding radius (the
+    shape's own reach, from its sizes), along its own axes; a plane's piece is its plane."""
+    reach = {'sphere': lambda size: size[0],
+             'box': lambda size: math.sqrt(sum(h * h for h in size)),
+             'capsule': lambda size: size[0] + size[1]}
+    for module in shapes.KINDS:
+        shape = shapes.shape_from_dict(EXAMPLES[module.NAME])
+        pieces = shapes.pieces(shape)
+        assert pieces and all(p[0] in base.PRIMITIVES for p in pieces), module.NAME
+        for primitive, size, position, rotation in pieces:
+            assert np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-12)
+            if primitive == 'plane':
+                # z along the normal, through the point nearest the body origin
+                assert np.allclose(rotation[:, 2], shape.normal, atol=1e-12)
+                assert np.allclose(position, np.array(shape.normal) * shape.offset)
+                continue
+            assert reach[primitive](size) == pytest.approx(shape.bounding_radius, rel=1e-12)
+            assert np.array_equal(position, shape.position)
+            assert np.array_equal(rotation, shape.rotation)

@@ -28,6 +28,7 @@ import sys
 
 import numpy as np
 
+from rb_sim_ros.contact import shapes
 from rb_sim_ros.core.so3 import rotation9_from_unit_quaternion as rotation_from_quaternion
 from rb_sim_ros.pictures.plots import lifetimes, rotation_matrices
 from rb_sim_ros.sim.simulation import Delete, Spawn
@@ -72,11 +73,11 @@ def camera(view: str) -> np.ndarray:
 
 @dataclass
 class Part:
-    """One drawable piece of a body, in its body frame: 'sphere' (radius), 'box' (half
-    extents) or 'capsule' (radius, half length along z), at ``position`` turned by
-    ``rotation``."""
+    """One drawable piece of a body, in its body frame, a drawing primitive of its collider
+    (contact.shapes.pieces): 'sphere' (radius), 'box' (half extents) or 'capsule' (radius,
+    half length along z), at ``position`` turned by ``rotation``."""
 
-    kind: str
+    primitive: str
     size: tuple
     position: np.ndarray
     rotation: np.ndarray
@@ -106,22 +107,14 @@ def parts_of(spec) -> list[Part]:
     larger, or not finite, is left out (its pixels would overflow), in one line."""
     out, far = [], 0
     for c in spec.colliders:
-        if c.kind == 'plane':
-            continue
-        r = np.array(rotation_from_quaternion(c.orientation_xyzw)).reshape(3, 3)
-        at = np.array(c.position, dtype=float)
-        if c.kind == 'sphere':
-            part = Part('sphere', (c.radius,), at, r)
-        elif c.kind == 'box':
-            part = Part('box', tuple(0.5 * s for s in c.size), at, r)
-        elif c.kind == 'capsule':
-            part = Part('capsule', (c.radius, c.half_length), at, r)
-        else:
-            continue
-        if _drawable_part(part):
-            out.append(part)
-        else:
-            far += 1
+        for primitive, size, at, r in shapes.pieces(c):
+            if primitive == 'plane':  # (drawn as the ground grid)
+                continue
+            part = Part(primitive, tuple(size), np.array(at, dtype=float), np.array(r))
+            if _drawable_part(part):
+                out.append(part)
+            else:
+                far += 1
     if far:
         _note(f'body {spec.name!r}: {far} of its colliders are larger than {MAX_EXTENT:g} m, '
               'further from its centre, or not finite: not drawn')
@@ -155,22 +148,24 @@ def ground_height(specs) -> float:
         if not spec.static:
             continue
         for c in spec.colliders:
-            if c.kind != 'plane':
-                continue
-            r = np.array(rotation_from_quaternion(spec.initial_orientation_xyzw)).reshape(3, 3)
-            normal = r @ np.array(c.normal)
-            if normal[2] > 0.999:  # the half-space normal . p <= offset, body frame
-                point = np.array(spec.initial_position) + r @ (np.array(c.normal) * c.offset)
-                if abs(point[2]) <= MAX_EXTENT:  # (else the grid is drawn at 0)
-                    return float(point[2])
+            for primitive, _, at, rot in shapes.pieces(c):
+                if primitive != 'plane':
+                    continue
+                r = np.array(rotation_from_quaternion(spec.initial_orientation_xyzw))
+                r = r.reshape(3, 3)
+                normal = r @ rot[:, 2]  # the plane's, solid below it
+                if normal[2] > 0.999:
+                    point = np.array(spec.initial_position) + r @ at
+                    if abs(point[2]) <= MAX_EXTENT:  # (else the grid is drawn at 0)
+                        return float(point[2])
     return 0.0
 
 
 def _extent(p: Part) -> float:
     """How far a part reaches from its own centre (m)."""
-    if p.kind == 'capsule':
+    if p.primitive == 'capsule':
         return p.size[0] + p.size[1]
-    return max(p.size) * (math.sqrt(3.0) if p.kind == 'box' else 1.0)
+    return max(p.size) * (math.sqrt(3.0) if p.primitive == 'box' else 1.0)
 
 
 def _reach(parts) -> float:
@@ -183,9 +178,9 @@ def _part_points(part: Part, x, r) -> tuple[np.ndarray, float]:
     convex hull (a box's 8 corners, a capsule's two ends, a sphere's centre)."""
     rot = r @ part.rotation
     at = x + r @ part.position
-    if part.kind == 'sphere':
+    if part.primitive == 'sphere':
         return at[None, :], part.size[0]
-    if part.kind == 'capsule':
+    if part.primitive == 'capsule':
         radius, half = part.size
         return np.array([at - rot[:, 2] * half, at + rot[:, 2] * half]), radius
     signs = np.array([[a, b, c] for a in (-1, 1) for b in (-1, 1) for c in (-1, 1)], float)
@@ -378,16 +373,16 @@ class Renderer:
             if state is not None:
                 centre = state[0] @ self.cam[:2].T
         self._grid(draw, centre)
-        shapes = []  # (depth, kind, pixels, colour)
+        drawn = []  # (depth, kind, pixels, colour)
         for name in tl.order:
             state = tl.state(name, t)
             if state is None:
                 continue
             x, r = state
             for part in tl.life(name, t)[1]:
-                shapes.extend(self._part(part, x, r, tl.colour[name], centre))
-        shapes.sort(key=lambda s: s[0])
-        for _, kind, pixels, colour in shapes:
+                drawn.extend(self._part(part, x, r, tl.colour[name], centre))
+        drawn.sort(key=lambda s: s[0])
+        for _, kind, pixels, colour in drawn:
             if kind == 'circle':
                 (cx, cy), radius = pixels
                 draw.ellipse([cx - radius, cy - radius, cx + radius, cy + radius], fill=colour,
@@ -418,11 +413,11 @@ class Renderer:
         rot = r @ part.rotation
         at = x + r @ part.position
         depth_axis = self.cam[2]
-        if part.kind == 'sphere':
+        if part.primitive == 'sphere':
             uv = self._to_pixels(at @ self.cam[:2].T, centre)
             return [(float(at @ depth_axis), 'circle', (uv, part.size[0] * self.scale),
                      _shade(colour, 1.0))]
-        if part.kind == 'capsule':
+        if part.primitive == 'capsule':
             radius, half = part.size
             ends = np.array([at + rot @ (0.0, 0.0, -half), at + rot @ (0.0, 0.0, half)])
             uv = self._to_pixels(ends @ self.cam[:2].T, centre)

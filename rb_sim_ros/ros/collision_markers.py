@@ -2,12 +2,13 @@
 # Licensed under the Apache License, Version 2.0
 """The colliders and contacts of a scene as visualization_msgs/MarkerArray, for RViz or Foxglove.
 
-One marker per collider, in namespace ``<body>``, with ids in the order of the scene's
-colliders: a sphere is a SPHERE, a box a CUBE, a capsule a CYLINDER with two SPHERE caps (ids
-``3 k``, ``3 k + 1``, ``3 k + 2`` for collider k, so that every collider's ids stay fixed), a
-plane a thin square CUBE of ``PLANE_SIZE`` m centred on the point of the plane nearest its body's
-origin. Moving bodies are blue-grey, static ones grey. ``contacts`` (namespace ``contacts``, id
-0) is a SPHERE_LIST of the last step's contact points that carried an impulse, in red. All
+Markers per collider, in namespace ``<body>``, drawn from the pieces its kind gives
+(``contact.shapes.pieces``): a sphere piece is a SPHERE, a box a CUBE, a capsule a CYLINDER
+with two SPHERE caps, a plane a thin square CUBE of ``PLANE_SIZE`` m centred on the piece's
+origin (the point of the plane nearest its body's origin). Collider k's markers have ids
+``3 k``, ``3 k + 1``, ... (at most 3 each, so that every collider's ids stay fixed). Moving
+bodies are blue-grey, static ones grey. ``contacts`` (namespace ``contacts``, id 0) is a
+SPHERE_LIST of the last step's contact points that carried an impulse, in red. All
 poses are in ``world_frame``; the messages are built once and only their poses change.
 """
 
@@ -18,7 +19,7 @@ import numpy as np
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from rb_sim_ros.contact.collision_shapes import Plane
+from rb_sim_ros.contact import shapes
 from rb_sim_ros.core import so3
 from rb_sim_ros.ros.ros_messages import time_msg
 
@@ -28,16 +29,6 @@ MOVING = ColorRGBA(r=0.45, g=0.6, b=0.8, a=0.9)
 STATIC = ColorRGBA(r=0.6, g=0.6, b=0.6, a=0.5)
 CONTACT = ColorRGBA(r=0.9, g=0.1, b=0.1, a=1.0)
 CONTACT_SIZE = 0.02     # m
-
-
-def _z_to(normal: np.ndarray) -> np.ndarray:
-    """A rotation taking +z to the unit ``normal``."""
-    z = np.array([0.0, 0.0, 1.0])
-    axis = np.cross(z, normal)
-    s, c = np.linalg.norm(axis), float(normal @ z)
-    if s < 1e-12:
-        return np.eye(3) if c > 0.0 else np.diag([1.0, -1.0, -1.0])
-    return so3.exp(axis / s * np.arctan2(s, c))
 
 
 class CollisionMarkers:
@@ -86,19 +77,37 @@ class CollisionMarkers:
 
 
 def _pieces(shape):
-    """(marker type, scale, position, rotation in the body frame) of the markers of ``shape``."""
-    pos, rot = np.array(shape.position, dtype=float), np.array(shape.rotation)
-    if isinstance(shape, Plane):
-        n = np.array(shape.normal)
-        return [(Marker.CUBE, (PLANE_SIZE, PLANE_SIZE, PLANE_THICKNESS),
-                 n * shape.offset - n * PLANE_THICKNESS / 2, _z_to(n))]
-    if shape.kind == 'sphere':
-        d = 2.0 * shape.radius
-        return [(Marker.SPHERE, (d, d, d), pos, rot)]
-    if shape.kind == 'box':
-        return [(Marker.CUBE, tuple(shape.size), pos, rot)]
-    d, h = 2.0 * shape.radius, shape.half_length
-    axis = rot[:, 2]
+    """(marker type, scale, position, rotation in the body frame) of the markers of ``shape``:
+    one or more of each piece its kind draws it with (``contact.shapes.pieces``)."""
+    out = []
+    for primitive, size, pos, rot in shapes.pieces(shape):
+        out += MARKERS[primitive](size, pos, rot)
+    if len(out) > 3:
+        raise ValueError(f'a {shape.kind} takes {len(out)} markers: at most 3 fit its ids')
+    return out
+
+
+def _sphere(size, pos, rot):
+    d = 2.0 * size[0]
+    return [(Marker.SPHERE, (d, d, d), pos, rot)]
+
+
+def _box(size, pos, rot):
+    return [(Marker.CUBE, tuple(2.0 * h for h in size), pos, rot)]
+
+
+def _capsule(size, pos, rot):
+    (radius, h), axis = size, rot[:, 2]
+    d = 2.0 * radius
     return [(Marker.CYLINDER, (d, d, 2.0 * h), pos, rot),
             (Marker.SPHERE, (d, d, d), pos + h * axis, rot),
             (Marker.SPHERE, (d, d, d), pos - h * axis, rot)]
+
+
+def _plane(size, pos, rot):
+    return [(Marker.CUBE, (PLANE_SIZE, PLANE_SIZE, PLANE_THICKNESS),
+             pos - rot[:, 2] * PLANE_THICKNESS / 2, rot)]
+
+
+# The markers of each drawing primitive (contact.shapes.base.PRIMITIVES).
+MARKERS = {'sphere': _sphere, 'box': _box, 'capsule': _capsule, 'plane': _plane}

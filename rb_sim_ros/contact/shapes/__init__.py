@@ -15,7 +15,10 @@ to know more of it:
 * ``pack(shape, geom, rotation)``, its sizes into its kernels' row (``base.GEOM_WIDTH``);
 * ``support(geoms, c, l0, l1, l2)``, a kernel: how far it reaches from its centre along a
   unit direction given in its own axes, which bounds (``world_kernels.extents``) and the
-  plane test of the broad phase read through ``support_of``.
+  plane test of the broad phase read through ``support_of``;
+* ``draw(shape)``, the pieces that draw it (``base.PRIMITIVES``: sphere, box, capsule,
+  plane), which RViz's markers (``ros.collision_markers``) and the pictures of a recording
+  (``pictures.render``) read through ``pieces``.
 
 The contact tests of each pair of kinds are rows of ``narrow_kernels.PAIR_TESTS``. A new kind
 is a module here, its place in ``KINDS``, and its rows there (docs/collisions.md).
@@ -56,6 +59,12 @@ def is_shape(value: Any) -> bool:
 def module_of(shape):
     """The module of ``shape``'s kind."""
     return BY_NAME[shape.kind]
+
+
+def pieces(shape) -> list[tuple]:
+    """What draws ``shape``: (primitive, size, position, rotation) in its body's frame, of
+    ``base.PRIMITIVES`` (its module's ``draw``)."""
+    return BY_NAME[shape.kind].draw(shape)
 
 
 def kind_of(shape) -> int:

@@ -61,6 +61,11 @@ def pack(shape: Box, geom: np.ndarray, rotation: np.ndarray) -> None:
     geom[HX:HZ + 1] = shape.half_extents
 
 
+def draw(shape: Box) -> list[tuple]:
+    """Its pieces to draw (base.PRIMITIVES): one box."""
+    return [('box', shape.half_extents, np.array(shape.position), np.array(shape.rotation))]
+
+
 @inline_kernel
 def support(geoms, c, l0, l1, l2):
     """How far the box of row ``c`` reaches along (l0, l1, l2) (its axes, unit): its corner

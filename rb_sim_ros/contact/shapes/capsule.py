@@ -54,6 +54,12 @@ class Capsule:
 VALUE = Capsule
 
 
+def draw(shape: Capsule) -> list[tuple]:
+    """Its pieces to draw (base.PRIMITIVES): one capsule."""
+    return [('capsule', (shape.radius, shape.half_length), np.array(shape.position),
+             np.array(shape.rotation))]
+
+
 def pack(shape: Capsule, geom: np.ndarray, rotation: np.ndarray) -> None:
     """Write ``shape``'s sizes into its row ``geom`` (zeros)."""
     geom[RADIUS], geom[HALF_LENGTH] = shape.radius, shape.half_length

@@ -12,6 +12,7 @@ import sys
 import numpy as np
 
 from rb_sim_ros.contact.shapes.base import material, MAX_LENGTH, NORMAL, number
+from rb_sim_ros.core import so3
 from rb_sim_ros.core.jit import inline_kernel
 from rb_sim_ros.core.rigid_body import finite_floats, scaled_to_one
 
@@ -82,6 +83,23 @@ def pack(shape: Plane, geom: np.ndarray, rotation: np.ndarray) -> None:
     geom[NORMAL:NORMAL + 3] = (r[0] * nx + r[1] * ny + r[2] * nz,
                                r[3] * nx + r[4] * ny + r[5] * nz,
                                r[6] * nx + r[7] * ny + r[8] * nz)
+
+
+def draw(shape: Plane) -> list[tuple]:
+    """Its pieces to draw (base.PRIMITIVES): one plane, its z along the normal, at the point
+    nearest the body origin."""
+    n = np.array(shape.normal)
+    return [('plane', (), n * shape.offset, _z_to(n))]
+
+
+def _z_to(normal: np.ndarray) -> np.ndarray:
+    """A rotation taking +z to the unit ``normal``."""
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(z, normal)
+    s, c = np.linalg.norm(axis), float(normal @ z)
+    if s < 1e-12:
+        return np.eye(3) if c > 0.0 else np.diag([1.0, -1.0, -1.0])
+    return so3.exp(axis / s * np.arctan2(s, c))
 
 
 @inline_kernel

@@ -52,6 +52,11 @@ def pack(shape: Sphere, geom: np.ndarray, rotation: np.ndarray) -> None:
     geom[RADIUS] = shape.radius
 
 
+def draw(shape: Sphere) -> list[tuple]:
+    """Its pieces to draw (base.PRIMITIVES): one sphere."""
+    return [('sphere', (shape.radius,), np.array(shape.position), np.array(shape.rotation))]
+
+
 @inline_kernel
 def support(geoms, c, l0, l1, l2):
     """How far the shape of row ``c`` of ``geoms`` reaches from its centre along a unit
