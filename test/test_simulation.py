@@ -33,7 +33,8 @@ def test_bad_body(change, field):
 
 
 @pytest.mark.parametrize('change, field', [
-    ({'dt': 0.0}, 'dt'), ({'steps_per_publish': 0}, 'steps_per_publish'),
+    ({'dt': 0.0}, 'dt'), ({'dt': float('nan')}, 'dt'), ({'dt': 'fast'}, 'dt'),
+    ({'steps_per_publish': 0}, 'steps_per_publish'),
     ({'integrator': 'rk4'}, 'integrator'), ({'gravity': (0, 0)}, 'gravity'),
     ({'bodies': (BODY, BODY)}, 'unique'), ({'bodies': ()}, 'bodies'),
 ])

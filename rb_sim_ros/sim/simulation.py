@@ -20,7 +20,7 @@ from rb_sim_ros.contact.collision_shapes import shape_from_dict, shape_to_dict, 
 from rb_sim_ros.contact.collision_world import CollisionWorld, pairs_met
 from rb_sim_ros.core import multistep, step_kernel as K
 from rb_sim_ros.core.rigid_body import finite_floats, State, Wrench, ZERO_WRENCH
-from rb_sim_ros.core.stepper import carry_over, Stepper, Stepping
+from rb_sim_ros.core.stepper import carry_over, check_dt, Stepper, Stepping
 
 __all__ = ['BodySpec', 'body_from_dict', 'body_to_dict', 'Config', 'ContactSettings', 'Delete',
            'Event', 'make_steppers', 'Reset', 'SetPose', 'SetTwist', 'SetWrench', 'Simulation',
@@ -60,7 +60,7 @@ class Config:
         object.__setattr__(self, 'bodies', bodies)
         if not isinstance(self.contact, ContactSettings):
             raise ValueError(f'contact must be a ContactSettings, got {self.contact!r}')
-        Stepper(bodies[0].body(), self.dt)  # validates dt
+        check_dt(self.dt)
 
     def body(self, name: str = '') -> BodySpec:
         """The body called ``name`` ('' = the first)."""
