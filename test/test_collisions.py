@@ -168,6 +168,24 @@ def test_ball_bounces_to_e_squared_h(speculative):
             previous = top - r
 
 
+def test_warm_starts_are_the_last_steps_impulses_only():
+    """The next step's warm start is this step's impulses (and those of sleepers): a ball in
+    flight between bounces keeps none, however it got there, so that no landing starts from
+    the impulse of the last one. Checked at every step of two bounces, with sleeping off,
+    against the contacts the step reports (one key for each, none in flight)."""
+    world = CollisionWorld([ball(radius=0.1, position=(0.0, 0.0, 0.4))], 1e-3, G,
+                           restitution=0.8, planes=GROUND, sleep_time=0.0)
+    flights = landings = 0
+    for _ in range(1200):
+        world.step(1)
+        keys = world._current_outputs()[0]  # the warm-start keys the next step reads
+        contacts = world.last_contacts()
+        assert len(keys) == len(contacts)
+        flights += not contacts
+        landings += bool(contacts)
+    assert flights > 100 and landings >= 2  # both phases met, each more than once
+
+
 def test_resting_box_stays_still_for_10_s():
     """dt = 1 ms, 10 s: no sinking (penetration <= slop + g dt^2 / 2), no drift, no jitter.
     Without sleeping, which would freeze the box after 0.5 s: this is the solver's test."""
