@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 """N free rigid bodies at once: rb_sim_ros's BatchStepper next to MuJoCo, same bodies, one run.
 
-    python bench/batch_bench.py [--quick] [--sizes 1 100 10000 100000] [--json out.json]
+    python -m bench.batch_bench [--quick] [--sizes 1 100 10000 100000] [--json out.json]
 
 First the checks, which stop the run (exit 1) if they fail:
 
@@ -48,12 +48,12 @@ import sys
 import time
 import tracemalloc
 
-import figures  # a bench module
 import mujoco
 import numba
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from bench import figures
 from rb_sim_ros import RigidBody, State, Stepper, Wrench
 from rb_sim_ros.core import so3
 from rb_sim_ros.core.batch import BatchStepper
@@ -315,8 +315,9 @@ def memory(b: dict, model, datas) -> dict:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.batch_bench', description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--quick', action='store_true',
                         help='N up to 10,000, tiles above 1,000 bodies, shorter timings')
     parser.add_argument('--sizes', type=int, nargs='+', help='the N to time')

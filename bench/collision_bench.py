@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 """Spheres settled in a box: rb_sim_ros's CollisionWorld next to MuJoCo, same scene, one run.
 
-    python bench/collision_bench.py [--quick] [--spheres 1000] [--json out.json]
+    python -m bench.collision_bench [--quick] [--spheres 1000] [--json out.json]
 
 The scene: N spheres (radius 5 cm, 0.5 kg) on a cubic lattice with 1 cm gaps, the lowest
 layer 5 mm above the floor, small random velocities (seeded), inside a box of five planes
@@ -42,10 +42,10 @@ from pathlib import Path
 import sys
 import time
 
-import figures  # a bench module
 import mujoco
 import numpy as np
 
+from bench import figures
 from rb_sim_ros.contact.collision_shapes import Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core.stepper import Stepper
@@ -268,8 +268,9 @@ def sanity(ours: dict, theirs: dict) -> figures.Sanity:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.collision_bench', description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--quick', action='store_true',
                         help='125 spheres, at most 300 settling steps (not required to '
                              'settle), 20 timed (a few seconds)')

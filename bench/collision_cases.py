@@ -4,7 +4,7 @@
 test/test_collisions.py, run again and measured (the tests assert the bounds; this prints what
 the runs reach).
 
-    python bench/collision_cases.py [--quick] [--json out.json]
+    python -m bench.collision_cases [--quick] [--json out.json]
 
 Each scenario is built with the test module's own helpers (the same bodies, seeds and
 settings), at dt = 1 ms, g = 9.81 m/s^2. Prints the "measured" cell of each row and writes
@@ -19,14 +19,12 @@ import math
 from pathlib import Path
 import sys
 
-import figures  # a bench module
 import numpy as np
 
-from rb_sim_ros.contact import contact_solver as cs  # noqa: I100
+from bench import figures
+from oracles import contact_cases as tc  # the tests' scenarios
+from rb_sim_ros.contact import contact_solver as cs
 from rb_sim_ros.contact.collision_world import CollisionWorld
-
-sys.path.insert(0, str(figures.ROOT))  # oracles/ (python bench/x.py puts bench/ on the path)
-from oracles import contact_cases as tc  # noqa: E402, I100, I202 (the tests' scenarios)
 
 RESTITUTIONS = (0.0, 0.3, 1.0)
 FRICTIONS = (0.05, 5.0)
@@ -291,8 +289,9 @@ def sanity(m: dict) -> figures.Sanity:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.collision_cases', description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--quick', action='store_true', help='1.2 s instead of 10 for the '
                         'resting box and the stack, 6 phases, fewer speeds (a few seconds)')
     parser.add_argument('--json', type=Path, help='write the figures here (default: '

@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 """What a first use compiles: seconds and kernels, per case, on an empty kernel cache.
 
-    python bench/compile_cost.py [--cases NAME ...]
+    python -m bench.compile_cost [--cases NAME ...]
 
 Each case runs in a new process with a new, empty NUMBA_CACHE_DIR (so nothing is loaded from
 an earlier run) and counts numba's compile events, which name each kernel compiled, and the
@@ -39,7 +39,7 @@ import sys
 import tempfile
 import time
 
-import figures  # a bench module
+from bench import figures
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -157,7 +157,8 @@ def run_case(name: str) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.compile_cost', description=__doc__.split('\n\n')[0])
     parser.add_argument('--cases', nargs='+', choices=sorted(CASES), metavar='NAME',
                         help=f'only these cases (of: {", ".join(CASES)}); writes no JSON')
     args = parser.parse_args(argv)

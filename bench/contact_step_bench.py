@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 """One body in contact, per step: rb_sim_ros's CollisionWorld next to MuJoCo, same scene, one run.
 
-    python bench/contact_step_bench.py [--quick] [--json out.json]
+    python -m bench.contact_step_bench [--quick] [--json out.json]
 
 The scenes a controller test meets, each moving the whole time it is timed (no sleeping):
 
@@ -36,10 +36,10 @@ from pathlib import Path
 import sys
 import time
 
-import figures  # a bench module
 import mujoco
 import numpy as np
 
+from bench import figures
 from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import so3
@@ -170,8 +170,9 @@ def check(name: str, world: CollisionWorld, data: mujoco.MjData) -> list[str]:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.contact_step_bench', description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--quick', action='store_true', help='the checks, and 1 repeat')
     parser.add_argument('--repeats', type=int, help='timed runs of each scene (default 5)')
     parser.add_argument('--json', type=Path, help='write the figures here (default: '

@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 """Kinetic-energy drift of a torque-free body, method by method, against the turn per step.
 
-    python bench/energy_drift.py [--steps 2000] [--bodies 24] [--seed 1] [--turns 0.01,0.1]
+    python -m bench.energy_drift [--steps 2000] [--bodies 24] [--seed 1] [--turns 0.01,0.1]
 
 For every method and every turn per step |omega| dt on the grid, ``bodies`` random asymmetric
 bodies (principal moments obeying the triangle inequality, plates I1 + I2 = I3 among them),
@@ -19,19 +19,15 @@ one is not within it.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 import sys
 import warnings
 
-HERE = Path(__file__).resolve().parent
-sys.path[:0] = [str(HERE.parent)]
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from rb_sim_ros import METHODS, RigidBody, State, Stepper  # noqa: E402
-from rb_sim_ros.core import so3  # noqa: E402
-from rb_sim_ros.core.stepper import (ENERGY_STEPS, ENERGY_TOLERANCE,  # noqa: E402
-                                     IntegrationError, TURN_BOUNDS, TurnWarning)
+from rb_sim_ros import METHODS, RigidBody, State, Stepper
+from rb_sim_ros.core import so3
+from rb_sim_ros.core.stepper import (ENERGY_STEPS, ENERGY_TOLERANCE, IntegrationError,
+                                     TURN_BOUNDS, TurnWarning)
 
 TURNS = (0.005, 0.01, 0.02, 0.03, 0.05, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8,
          0.9)
@@ -103,7 +99,8 @@ def largest_within(row, turns, tolerance: float) -> float:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.energy_drift', description=__doc__.split('\n\n')[0])
     parser.add_argument('--steps', type=int, default=2000)
     parser.add_argument('--bodies', type=int, default=24)
     parser.add_argument('--seed', type=int, default=1)

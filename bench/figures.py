@@ -7,7 +7,7 @@ them, the date and the machine); docs/benchmarks.md gathers them (its hand-writt
 after the ones bench/report.py writes), docs/collisions.md and docs/sweeps.md quote some beside
 their measurements, and README.md quotes none (it says in words what the simulator is and
 links to docs/benchmarks.md). ``quotes`` below says where each figure is quoted, as the exact
-text it is formatted to. ``python bench/figures.py`` (and test/test_bench_quick.py) checks
+text it is formatted to. ``python -m bench.figures`` (and test/test_bench_quick.py) checks
 that every quoted text is where it should be, so a stale figure fails the suite.
 
 Rules for derived figures: a ratio is the quotient of the two JSON values named, rounded to
@@ -28,13 +28,17 @@ DOCS_BENCH = ROOT / 'docs' / 'bench'
 
 
 def command(argv=None) -> str:
-    """The command line that ran this benchmark, as a user would type it."""
+    """The command line that ran this benchmark, as a user would type it from the repository
+    root: ``python -m bench.<name> ...`` for a module of bench/ (run with -m, argv[0] is the
+    module's file), else ``python <script> ...``."""
     argv = sys.argv if argv is None else argv
     script = Path(argv[0])
     try:
         script = script.resolve().relative_to(ROOT)
     except ValueError:
         pass
+    if script.parent == Path('bench') and script.suffix == '.py':
+        return ' '.join(['python', '-m', f'bench.{script.stem}', *argv[1:]])
     return ' '.join(['python', str(script), *argv[1:]])
 
 

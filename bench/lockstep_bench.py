@@ -4,7 +4,7 @@
 """Lockstep round trips a second, what they cost against the open loop, what bounds them, and
 whether a closed loop repeats bit for bit under load and at any pace.
 
-    python bench/lockstep_bench.py [--quick] [--seconds 20] [--no-write]
+    python -m bench.lockstep_bench [--quick] [--seconds 20] [--no-write]
 
 Each case is a fresh simulator process (``python -m rb_sim_ros.ros.simulator_node``) run to
 ``stop_after`` at real_time_factor 0 (as fast as possible), with ``examples/
@@ -41,7 +41,7 @@ import sys
 import tempfile
 import time
 
-import figures  # a bench module
+from bench import figures
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -199,7 +199,8 @@ def ping_pong(n: int, lean: bool = False) -> float:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.lockstep_bench', description=__doc__.split('\n\n')[0])
     parser.add_argument('--seconds', type=float, default=20.0,
                         help='sim seconds of each rate run (100 periods a second)')
     parser.add_argument('--quick', action='store_true', help='1 s runs; writes nothing')

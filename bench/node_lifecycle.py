@@ -3,7 +3,7 @@
 """How the node starts and stops: start-up time and memory against scene size, and a loop of
 SIGINT/SIGTERM at full speed with recordings that must verify.
 
-    python bench/node_lifecycle.py [--bodies 1000 10000] [--runs 20] [--quick]
+    python -m bench.node_lifecycle [--bodies 1000 10000] [--runs 20] [--quick]
 
 Start-up: the simulator as users run it (a separate process, a private ROS domain), on a scene of
 N free bodies; the time from starting the process to the first 'poses' message this process
@@ -38,10 +38,10 @@ import threading
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
-import figures  # a bench module
 from geometry_msgs.msg import PoseArray, PoseStamped
 
-from node_timing import Probe
+from bench import figures
+from bench.node_timing import Probe
 
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -252,7 +252,8 @@ def stop_loop(runs: int, tmp: Path, timed: bool = True) -> tuple[list[str], list
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.node_lifecycle', description=__doc__.split('\n\n')[0])
     parser.add_argument('--bodies', type=int, nargs='*', default=[1000, 10000])
     parser.add_argument('--runs', type=int, default=20)
     parser.add_argument('--quick', action='store_true',

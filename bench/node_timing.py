@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 """The node's timing: late ticks, tick jitter, CPU, wrench-to-pose latency, fastest RTF.
 
-    python bench/node_timing.py [--quick] [--seconds 10] [--json out.json]
+    python -m bench.node_timing [--quick] [--seconds 10] [--json out.json]
 
 Starts the simulator as a separate process (as users run it) on a private ROS domain, and a
 probe node in this process. For publish rates of 100 Hz and 1 kHz at dt = 1 ms and real time:
@@ -38,13 +38,13 @@ import tempfile
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
-import figures  # a bench module
 from geometry_msgs.msg import PoseStamped, Wrench, WrenchStamped
 import numpy as np
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 import yaml
 
+from bench import figures
 from rb_sim_ros import RigidBody, State, Stepper
 from rb_sim_ros.ros.body_ports import APPLIED_QOS
 
@@ -247,8 +247,9 @@ def sanity(rates, fastest, scene) -> figures.Sanity:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.node_timing', description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--quick', action='store_true', help='a short sanity run (~15 s)')
     parser.add_argument('--seconds', type=float, help='per measurement (default 10)')
     parser.add_argument('--samples', type=int, help='latency samples per rate (default 100)')

@@ -25,10 +25,10 @@ import time
 import mujoco
 import numpy as np
 
+from bench import references
+from bench.scenes import Scene
 from rb_sim_ros import IntegrationError, METHODS, RigidBody, State, Stepper, Wrench
 from rb_sim_ros.core import so3
-import references  # noqa: I100, I201
-from scenes import Scene  # noqa: I201
 
 # MuJoCo prints its warnings (and appends them to MUJOCO_LOG.TXT in the working directory)
 # unless a handler takes them; the runners read the warning counters instead.

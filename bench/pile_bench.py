@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 """100 boxes piling for 2 s: rb_sim_ros's CollisionWorld next to Rapier and MuJoCo, one run.
 
-    python bench/pile_bench.py [--quick] [--repeats 3] [--json out.json]
+    python -m bench.pile_bench [--quick] [--repeats 3] [--json out.json]
 
 The figure of issue 31 ("100 boxes piling for 2 s vs Rapier 0.36 on 2 threads"). The scene:
 100 cubes of 0.2 m (1 kg) dropped as 5 x 5 columns of 4, 0.24 m apart across and 0.3 m up
@@ -62,11 +62,11 @@ from pathlib import Path
 import sys
 import time
 
-import figures  # a bench module
 import mujoco
 import numpy as np
 import rapier3d
 
+from bench import figures
 from rb_sim_ros.contact.collision_shapes import Box, Plane
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import so3
@@ -309,8 +309,9 @@ def timed(make, steps: int, per_call: int | None) -> tuple[float, float]:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.pile_bench', description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--quick', action='store_true',
                         help='27 boxes (3 layers of 3 x 3) for 1 s, 1 repeat')
     parser.add_argument('--repeats', type=int, help='timed runs of each engine (default 3)')

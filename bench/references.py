@@ -21,10 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from bench.scenes import Scene
 from oracles.dop853 import integrate, matrix_from_wxyz, quaternion_wxyz, rhs_body_quaternion
 from oracles.free_rotation import elliptic_omega_body, flip_period, symmetric_top
 from rb_sim_ros.core import so3
-from scenes import Scene
 
 __all__ = ['AGREEMENT', 'flip_period', 'integrate', 'matrix_from_wxyz', 'quaternion_wxyz',
            'reference', 'rhs_body_quaternion', 'self_check', 'top']

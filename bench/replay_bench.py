@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 """Republishing a recording (``replay FILE``): start-up time and peak memory.
 
-    python bench/replay_bench.py [--keep DIR]
+    python -m bench.replay_bench [--keep DIR]
 
 Records, as the node records them (oracles/node_recording.py: pose, twist and odom of every
 moving body), the collision fixture's scene (scenes/collisions.yaml, 3 s at 50 Hz output, as
@@ -54,9 +54,7 @@ def _child(path: str) -> int:
 
 
 def _record(out: Path) -> list[tuple[str, Path]]:
-    sys.path.insert(0, str(ROOT))  # oracles/ (python bench/x.py puts bench/ on the path)
     from oracles.node_recording import record_offline
-
     from rb_sim_ros.sim.scene import load_scene
     from rb_sim_ros.sim.simulation import BodySpec, Config
 
@@ -76,8 +74,9 @@ def _record(out: Path) -> list[tuple[str, Path]]:
 def _measure(path: Path, env: dict) -> tuple[float, float, float]:
     """(start-up s, of which until loaded s, peak RSS MiB) of republishing ``path``."""
     start = time.monotonic()
-    proc = subprocess.Popen([sys.executable, __file__, '--child', str(path)], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    # this module again, as python -m bench.replay_bench: env's PYTHONPATH has the root
+    proc = subprocess.Popen([sys.executable, '-m', 'bench.replay_bench', '--child', str(path)],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     out = proc.stdout.read()
     _pid, status, usage = os.wait4(proc.pid, 0)
     proc.returncode = os.waitstatus_to_exitcode(status)
@@ -90,7 +89,8 @@ def _measure(path: Path, env: dict) -> tuple[float, float, float]:
 
 
 def main(args=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.replay_bench', description=__doc__.split('\n')[0])
     parser.add_argument('--child', help=argparse.SUPPRESS)
     parser.add_argument('--keep', metavar='DIR', help='record into DIR and keep the files')
     opts = parser.parse_args(args)

@@ -7,8 +7,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import step_cost  # noqa: I100, I201 (a bench module)
-import work_precision as wp  # noqa: I201
+from bench import step_cost, work_precision as wp
 
 
 def _e(x) -> str:
@@ -41,12 +40,12 @@ def header(s: dict) -> list[str]:
         '', '    ./tools/bench.sh                       # full, under 10 minutes on 2 cores',
         '    ./tools/bench.sh --quick --out /tmp/b  # a few seconds; what the tests run', '',
         '`tools/bench.sh` sets up `.venv` with `requirements-bench.txt` and runs '
-        '`bench/run.py`, which also writes these figures to `docs/bench/run.json`. The cost '
-        'of one step alone: `python bench/step_cost.py`. The other benchmarks (skips, the '
+        '`python -m bench.run`, which also writes these figures to `docs/bench/run.json`. The '
+        'cost of one step alone: `python -m bench.step_cost`. The other benchmarks (skips, the '
         'batch path, collisions, sleeping, the node) each write `docs/bench/<name>.json` with '
         'the command that ran them; this page (from "Accuracy and speed" on), '
-        'docs/collisions.md and docs/sweeps.md quote only those files, and `python '
-        'bench/figures.py` checks that they do.', '',
+        'docs/collisions.md and docs/sweeps.md quote only those files, and `python -m '
+        'bench.figures` checks that they do.', '',
         'Order of work: the references are checked against each other, then every '
         'integrator’s error is checked to fall at its order, and only then is anything '
         'timed. A method off its order by more than '
@@ -296,7 +295,7 @@ def findings(s: dict) -> list[str]:
                f'{step_cost.GOAL_US:g} us), compiled (numba)'
                + (f', of the flows {min(flows):.2f}-{max(flows):.2f} us' if flows else '')
                + '; a call per step costs more (step(1) and step(10), as the node steps: '
-               '`python bench/step_cost.py`, docs/bench/step_cost.json). MuJoCo’s mj_step on '
+               '`python -m bench.step_cost`, docs/bench/step_cost.json). MuJoCo’s mj_step on '
                'one free body, for scale, is in the table below.')
     # At dt = 1 ms: eq27 against MuJoCo's first-order integrators.
     better, cost_ratio, best, cross = {}, [], {}, []

@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 """What sleeping buys: a floor of boxes at rest, awake and asleep, next to MuJoCo, one run.
 
-    python bench/resting_bench.py [--quick] [--side 10] [--json out.json]
+    python -m bench.resting_bench [--quick] [--side 10] [--json out.json]
 
 The scene: side x side stacks of two 0.2 m cubes (2 kg each) on the ground, 5 cm apart, at
 rest, gravity 9.81 m/s^2, dt = 1 ms, friction 0.5. Each engine settles it for ``--settle``
@@ -32,10 +32,10 @@ from pathlib import Path
 import sys
 import time
 
-import figures  # a bench module
 import mujoco
 import numpy as np
 
+from bench import figures
 from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core.rigid_body import State
@@ -156,8 +156,9 @@ def sanity(rows: dict, demo: dict) -> figures.Sanity:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.resting_bench', description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--quick', action='store_true', help='3 x 3 stacks, fewer steps')
     parser.add_argument('--side', type=int, help='stacks per side (default 10: 200 boxes)')
     parser.add_argument('--json', type=Path, help='write the figures here (default: '

@@ -2,8 +2,8 @@
 # Licensed under the Apache License, Version 2.0
 """Regenerate the benchmark report: run time against error, and numerical stress.
 
-    python bench/run.py                          # docs/benchmarks.md and docs/img/*.png
-    python bench/run.py --quick --out /tmp/b     # a few seconds' check that nothing rotted
+    python -m bench.run                          # docs/benchmarks.md and docs/img/*.png
+    python -m bench.run --quick --out /tmp/b     # a few seconds' check that nothing rotted
 
 Work-precision: rb_sim_ros's methods, MuJoCo (Euler, implicitfast, RK4; one free body) and
 scipy's DOP853 on four scenes with references (elliptic oracle, closed-form top, DOP853 at
@@ -23,20 +23,14 @@ import platform
 import sys
 import time
 
+import mujoco
+import numpy as np
+import scipy
+from tqdm import tqdm
+
+from bench import figures, peers, report, step_cost, stress, work_precision as wp
+
 HERE = Path(__file__).resolve().parent
-sys.path[:0] = [str(HERE), str(HERE.parent)]
-
-import figures  # noqa: E402 (a bench module)
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-import scipy  # noqa: E402
-from tqdm import tqdm  # noqa: E402
-
-import peers  # noqa: E402
-import report  # noqa: E402, I100, I201 (bench modules)
-import step_cost  # noqa: E402
-import stress  # noqa: E402, I201
-import work_precision as wp  # noqa: E402
 
 
 def machine() -> dict:
@@ -67,8 +61,9 @@ def _json_default(x):
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.run', description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--quick', action='store_true',
                         help='short scenes, small sweeps, few repeats (a few seconds); the '
                              'orders are still checked')

@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 """What each skip saves: the specialised step against the general path, on scenes that need less.
 
-    python bench/skip_bench.py [--quick] [--steps 100000] [--repeats 5] [--json out.json]
+    python -m bench.skip_bench [--quick] [--steps 100000] [--repeats 5] [--json out.json]
 
 For each scene, first checks that the specialised and the general path agree (bit for bit
 where the maths is the same, else to 1e-12), then times both (minimum of --repeats runs of
@@ -20,9 +20,9 @@ from pathlib import Path
 import sys
 import time
 
-import figures  # a bench module
 import numpy as np
 
+from bench import figures
 from rb_sim_ros import RigidBody, State, Stepper, Wrench
 from rb_sim_ros.core import so3
 
@@ -58,8 +58,9 @@ def _time(stepper: Stepper, steps: int, repeats: int) -> float:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.skip_bench', description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--quick', action='store_true', help='5,000 steps, 2 repeats')
     parser.add_argument('--steps', type=int, help='steps per timed run (default 100,000)')
     parser.add_argument('--repeats', type=int, help='timed runs (default 5)')

@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 """The cost of one Stepper step (issue 2: goal <= 3 us on the reference machine).
 
-    python bench/step_cost.py [--quick] [--steps 100000] [--repeats 5] [--json out.json]
+    python -m bench.step_cost [--quick] [--steps 100000] [--repeats 5] [--json out.json]
 
 For each of rb_sim_ros's methods and two bodies (diagonal inertia, torque-free; a full,
 non-diagonal inertia under a body-frame force and torque), first checks that one simulated
@@ -24,19 +24,13 @@ from pathlib import Path
 import sys
 import time
 
-HERE = Path(__file__).resolve().parent
-sys.path[:0] = [str(HERE), str(HERE.parent)]
+import mujoco
+import numpy as np
+from scipy.integrate import solve_ivp
 
-import figures  # noqa: E402 (a bench module)
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-from scipy.integrate import solve_ivp  # noqa: E402
-
-import peers  # noqa: E402
-from rb_sim_ros import METHODS, RigidBody, State, Stepper, Wrench  # noqa: E402
-from rb_sim_ros.core import so3  # noqa: E402
-import references  # noqa: E402, I100, I201
-import scenes as sc  # noqa: E402, I201
+from bench import figures, peers, references, scenes as sc
+from rb_sim_ros import METHODS, RigidBody, State, Stepper, Wrench
+from rb_sim_ros.core import so3
 
 GOAL_US = 3.0
 DT = 1e-3
@@ -170,8 +164,9 @@ def sanity(rows: list[dict]) -> figures.Sanity:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.step_cost', description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--quick', action='store_true', help='2,000 steps, 2 repeats')
     parser.add_argument('--steps', type=int, help='steps per timed run (default 100,000)')
     parser.add_argument('--repeats', type=int, help='timed runs (the minimum counts; default 5)')

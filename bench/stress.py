@@ -14,11 +14,9 @@ import math
 import mujoco
 import numpy as np
 
-import peers
+from bench import peers, references, scenes as sc
 from rb_sim_ros import IntegrationError, METHODS, RigidBody, State, Stepper
 from rb_sim_ros.core import so3
-import references  # noqa: I100, I201
-import scenes as sc  # noqa: I201
 
 TILT = (0.3, -0.5, 0.8)  # R0 of every stress scene (rotation vector, rad)
 

@@ -2,7 +2,7 @@
 # Licensed under the Apache License, Version 2.0
 """Sweep throughput: runs per second with 1 and 2 local workers and on a local Ray, one run.
 
-    python bench/sweep_bench.py [--runs 24] [--steps 1000] [--quick]
+    python -m bench.sweep_bench [--runs 24] [--steps 1000] [--quick]
 
 Each run is the collision demo (scenes/collisions.yaml, 8 bodies, gravity, contacts) for
 ``--steps`` steps of 1 ms with the ball's height varied, recorded as the node records it. The
@@ -21,8 +21,8 @@ import sys
 import tempfile
 import time
 
-import figures  # a bench module
 
+from bench import figures
 from rb_sim_ros.offline import sweep
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -42,8 +42,9 @@ def timed(engine, runs: int, steps: int, out: str):
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog='python -m bench.sweep_bench', description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--runs', type=int, default=24)
     parser.add_argument('--steps', type=int, default=1000)
     parser.add_argument('--quick', action='store_true', help='8 runs of 200 steps')

@@ -19,9 +19,7 @@ import math
 
 import numpy as np
 
-import peers
-import references  # noqa: I100, I201
-import scenes as sc  # noqa: I201
+from bench import peers, references, scenes as sc
 
 # dt = SEGMENT / n: these divide the sample spacing and every torque segment.
 FULL_STEPS = (2, 4, 10, 20, 40, 100, 200, 400, 1000, 2000)

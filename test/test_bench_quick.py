@@ -21,12 +21,16 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _bench(name):
-    """A module of bench/ (which is not a package), imported by name."""
-    sys.path.insert(0, str(ROOT / 'bench'))
-    try:
-        return importlib.import_module(name)
-    finally:
-        sys.path.remove(str(ROOT / 'bench'))
+    """A module of the bench package (the checkout's, on the path by test/conftest.py)."""
+    module = importlib.import_module(f'bench.{name}')
+    assert Path(module.__file__).parent == ROOT / 'bench', module  # not another 'bench'
+    return module
+
+
+def _run_bench(name, *args, timeout, env=None):
+    """``python -m bench.<name> args`` from the repository root, as the docs say to run it."""
+    return subprocess.run([sys.executable, '-m', f'bench.{name}', *args], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=timeout)
 
 
 def test_the_report_keeps_the_written_part_of_the_benchmarks_page(tmp_path):
@@ -49,9 +53,7 @@ def test_the_report_keeps_the_written_part_of_the_benchmarks_page(tmp_path):
 
 @pytest.mark.slow  # a benchmark
 def test_quick_benchmark_checks_orders_and_writes_its_report(tmp_path):
-    result = subprocess.run([sys.executable, str(ROOT / 'bench' / 'run.py'), '--quick',
-                             '--out', str(tmp_path)], capture_output=True, text=True,
-                            timeout=300)
+    result = _run_bench('run', '--quick', '--out', str(tmp_path), timeout=300)
     assert result.returncode == 0, result.stderr[-3000:]
     summary = json.loads((tmp_path / 'summary.json').read_text())
     assert summary['quick'] and summary['orders_checked'] and not summary.get('failures')
@@ -120,14 +122,13 @@ def test_order_check_fails_loudly_on_a_method_off_its_order():
 
 
 def _quick(name: str, tmp_path: Path) -> dict:
-    """Run bench/<name>.py --quick (its checks and sanity checks must pass) and return the
-    figures it wrote."""
+    """Run python -m bench.<name> --quick (its checks and sanity checks must pass) and return
+    the figures it wrote."""
     out = tmp_path / f'{name}.json'
-    result = subprocess.run([sys.executable, str(ROOT / 'bench' / f'{name}.py'), '--quick',
-                             '--json', str(out)], capture_output=True, text=True, timeout=300)
+    result = _run_bench(name, '--quick', '--json', str(out), timeout=300)
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     figures = json.loads(out.read_text())
-    assert figures['quick'] and figures['command'].startswith(f'python bench/{name}.py')
+    assert figures['quick'] and figures['command'].startswith(f'python -m bench.{name} ')
     return figures
 
 
@@ -175,8 +176,7 @@ def test_node_lifecycle_passes_its_checks_in_quick_mode():
     speed exit 0 without a traceback and leave recordings that verify."""
     env = dict(os.environ)
     env.setdefault('AMENT_PREFIX_PATH', sys.prefix)
-    result = subprocess.run([sys.executable, str(ROOT / 'bench' / 'node_lifecycle.py'),
-                             '--quick'], capture_output=True, text=True, timeout=600, env=env)
+    result = _run_bench('node_lifecycle', '--quick', timeout=600, env=env)
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     assert 'start-up, 200 bodies' in result.stdout and '2 of 2 clean' in result.stdout
 
@@ -206,7 +206,7 @@ def test_every_number_of_the_accuracy_and_speed_table_is_accounted_for():
     figures = _bench('figures')
     text = (ROOT / FIGURES_DOC).read_text()
     table = [line for line in figures.section(text, 'Accuracy and speed').splitlines()
-             if line.startswith('| ') and '`python bench/' in line]
+             if line.startswith('| ') and '`python -m bench.' in line]
     assert len(table) >= 8
     quotes = figures.quotes()
     for line in table:
@@ -243,7 +243,7 @@ def test_every_measured_figure_of_the_hand_written_sections_is_accounted_for():
                                   if doc == FIGURES_DOC)))
     checked = 0
     for paragraph in _paragraphs(hand):
-        cited = re.findall(r'python bench/(\w+)\.py', paragraph)
+        cited = re.findall(r'python -m bench\.(\w+)', paragraph)
         if not any((ROOT / 'docs' / 'bench' / f'{name}.json').exists() for name in cited):
             continue
         checked += 1
@@ -309,5 +309,5 @@ def test_what_points_to_a_readme_section_names_one():
 def test_every_benchmark_json_names_its_command():
     for path in sorted((ROOT / 'docs' / 'bench').glob('*.json')):
         data = json.loads(path.read_text())
-        assert data['command'].startswith(f'python bench/{path.stem}.py'), path
+        assert re.fullmatch(rf'python -m bench\.{path.stem}( .*)?', data['command']), path
         assert not data['quick'], path

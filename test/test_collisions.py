@@ -3,7 +3,7 @@
 """Collision response: the solver on single impacts, then whole worlds (docs/collisions.md).
 
 The figures of these scenarios (dt = 1 ms, gravity 9.81 m/s^2) in docs/collisions.md
-("Measured") come from `python bench/collision_cases.py`, which runs them with the same
+("Measured") come from `python -m bench.collision_cases`, which runs them with the same
 helpers (oracles/contact_cases.py); the bounds asserted here are the documented ones.
 """
 

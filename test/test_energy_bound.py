@@ -102,7 +102,7 @@ def test_the_docs_quote_the_bounds_the_stepper_warns_at():
     assert {m: float(v) for m, v in quoted.items()} == TURN_BOUNDS
     said = re.search(r'within\s+(\S+)\s+of\s+the\s+energy\s+over\s+(\d+)\s+steps', section)
     assert float(said.group(1)) == ENERGY_TOLERANCE and int(said.group(2)) == ENERGY_STEPS
-    assert 'python bench/energy_drift.py' in section
+    assert 'python -m bench.energy_drift' in section
 
 
 def _spinning(method, turn, moments=(1.0, 2.0, 2.5), dt=1e-3, torque=(0.0, 0.0, 0.0),

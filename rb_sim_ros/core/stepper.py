@@ -41,7 +41,7 @@ from rb_sim_ros.core.step_count import check_steps, MAX_STEPS
 
 
 # The energy bound of each method (docs/integrators.md, "Energy and the turn per step";
-# measured by ``python bench/energy_drift.py``): up to TURN_BOUNDS[name] rad a step,
+# measured by ``python -m bench.energy_drift``): up to TURN_BOUNDS[name] rad a step,
 # |omega| dt, a torque-free body with unequal moments keeps its kinetic energy within
 # ENERGY_TOLERANCE (relative) over ENERGY_STEPS steps; beyond it the drift grows fast (the
 # explicit Adams-Bashforth update of Euler's equations: AB2, eq27's, drifts by the order of
