@@ -300,3 +300,103 @@ def test_step_all_refuses_a_stepper_listed_twice():
     with pytest.raises(ValueError, match='twice'):
         step_all([s, s], 1)
     assert s.step_count == 0
+
+
+def _resting_balls(names=('a', 'b', 'c')):
+    """Balls of 0.1 m on the ground: a and b side by side, touching; c alone, 5 m away."""
+    where = {'a': (0.0, 0.0, 0.1), 'b': (0.2, 0.0, 0.1), 'c': (5.0, 0.0, 0.1)}
+    return [BodySpec(n, 1.0, (0.004,) * 3, initial_position=where[n], colliders=(Sphere(0.1),))
+            for n in names]
+
+
+def _asleep_story():
+    """What a user can read of a world of three balls while all of them sleep, after a
+    teleport, and after a delete made with all of them asleep (every body's state, the
+    sleepers, the contact accelerations, the last contacts and statistics at each point)."""
+    seen = []
+
+    def look(world, moment):
+        counts = [{k: v for k, v in vars(s).items() if k != 'seconds'}  # not the times
+                  for s in (world.last_stats, world.totals)]
+        seen.append((moment, world.sleeping, counts, world.last_solve_energy,
+                     [(c.a, c.b, c.point.tolist(), c.normal_impulse)
+                      for c in world.last_contacts()],
+                     [(n, world.state(n).position.tolist(),
+                       world.state(n).linear_velocity.tolist(),
+                       world.state(n).angular_velocity.tolist(),
+                       world.contact_accelerations(n)) for n in world.steppers]))
+
+    def sleep(world):
+        for _ in range(200):
+            if len(world.sleeping) == len(world.steppers):
+                return
+            world.step(1)
+        raise AssertionError('the balls never slept')
+    world = CollisionWorld(_resting_balls(), 1e-2, G, planes=GROUND, sleep_time=0.1)
+    sleep(world)
+    look(world, 'asleep')
+    world.step(3)
+    look(world, 'asleep 3 steps on')
+    branch = world.rebuilt(_resting_balls(), recheck=False)
+    world.set_state('b', world.state('b'))
+    look(world, 'b teleported where it was')
+    world.step(10)
+    look(world, 'b teleported, 10 steps on')
+    sleep(world)  # again, after passes that found contacts
+    world.step(3)
+    look(world, 'asleep again, 3 steps on')
+    world.set_state('a', world.state('a'))
+    look(world, 'a teleported where it was')
+    world.step(3)
+    look(world, 'a teleported, 3 steps on')
+    # c deleted while everything sleeps: the new world has never placed its colliders
+    deleted = branch.rebuilt(_resting_balls(('a', 'b')), recheck=False)
+    deleted.step(2)
+    look(deleted, 'c deleted, 2 steps on')
+    deleted.set_state('b', deleted.state('b'))
+    look(deleted, 'c deleted, b teleported')
+    deleted.step(10)
+    look(deleted, 'c deleted, b teleported, 10 steps on')
+    return seen
+
+
+def test_a_world_asleep_skips_its_pass_and_leaves_what_the_pass_would(monkeypatch):
+    """Once a pass has found every body asleep, the steps after it skip the pass (a sleeping
+    world costs nothing) and must leave what running it would: the same sleepers, states,
+    contacts, statistics and contact accelerations, also after a teleport or a delete (whose
+    wakes read the placed colliders). The oracle is the same world with the skip turned off
+    (interpreted, where the kernel's stages can be replaced), and the compiled tier."""
+    from rb_sim_ros.contact import world_kernels, world_step
+    from rb_sim_ros.core import jit
+    compiled = _asleep_story()
+    reads = []
+    read_bodies = world_kernels.read_bodies
+    jit.run_interpreted()
+    try:
+        monkeypatch.setattr(world_kernels, 'read_bodies',
+                            lambda *args: (reads.append(1), read_bodies(*args))[1])
+        skipping = _asleep_story()
+        skipped_reads = len(reads)
+        monkeypatch.setattr(world_step, '_all_asleep', lambda asleep, nb: False)
+        reads.clear()
+        full = _asleep_story()
+    finally:
+        monkeypatch.undo()
+        jit.run_compiled()
+    assert skipped_reads < len(reads)  # the skip was taken
+    assert skipping == full
+    assert compiled == full
+    # What the story must show, whatever the tier: the skip saw sleepers; a teleport wakes
+    # its neighbour a, which was at rest, so its contacts had not accelerated it.
+    moments = {moment: rest for moment, *rest in full}
+    assert moments['asleep 3 steps on'][0] == ['a', 'b', 'c']
+    # a skipped pass found nothing and solved nothing (the sleepers hold their rest)
+    sleeping, (last, _), energy, contacts = moments['asleep 3 steps on'][:4]
+    assert last == {**{k: 0 for k in last}, 'sleeping': 3} and energy == (0.0, 0.0)
+    assert contacts == []
+    assert moments['b teleported where it was'][0] == ['c']
+    woken_a = moments['b teleported where it was'][4][0]
+    assert woken_a[0] == 'a' and woken_a[4] == ((0.0,) * 3, (0.0,) * 3)
+    assert moments['asleep again, 3 steps on'][0] == ['a', 'b', 'c']
+    assert moments['a teleported where it was'][0] == ['c']
+    assert moments['c deleted, b teleported'][0] == []

@@ -12,7 +12,9 @@ on entry as ``w``, a named tuple ``World``) through ``n`` steps of the order wri
    without colliders too;
 2. the colliders are placed, and paired: sweep and prune on their AABBs (sleepers pair like
    static colliders; an awake body that reaches a sleeper wakes it, and its whole pile, in this
-   step: they take the step they missed and the pairs are found again), and the planes;
+   step: they take the step they missed and the pairs are found again), and the planes. A
+   step that finds every body asleep leaves ``S_QUIET``: the steps after it, while every body
+   still sleeps, leave what it left without a pass (nothing has moved; ``_found_none``);
 3. the narrow phase of every pair (``narrow_kernels.collide_pairs_of``, with the contact
    tests the entry is compiled for: ``entry``, ``tests_for``);
 4. the solve (``solver_kernels.solve_arrays``), warm-started from the impulses of the same
@@ -61,7 +63,12 @@ S_COLLIDED = 7
 # 1 if a moving body may now turn faster than its method's energy bound (warn_sq):
 # Python then looks (``BodyStore.check_turns``), else it need not
 S_TURNED = 8
-STATUS_WIDTH = 9
+# 1 after a step whose contact pass found every body with colliders asleep (so no pair): its
+# colliders are placed where the bodies still are, and the next such step leaves what it left
+# without running (a sleeping world costs nothing). Any other step clears it; a new world
+# starts at 0, so its first step places its colliders.
+S_QUIET = 9
+STATUS_WIDTH = 10
 # What world_steps returns when Python must look at the status (a failure, a turn to check);
 # 0 when all n steps were taken and there is nothing to say
 LOOK = 1
@@ -223,22 +230,17 @@ def _world_steps_of(family, tests, name):
             nb = w.rows.shape[0]
             nc = w.cbody.shape[0]
             step = w.status[S_STEP] - 1 if integrated else w.status[S_STEP]
-            if integrated and _all_asleep(w.asleep, nb):
-                # Nothing can touch (sleepers pair like static colliders, and none is awake):
-                # what a pass would leave, without one (a sleeping body costs nothing). Their
-                # bodies did not move, so the placed colliders and the warm starts (all of
-                # sleepers) stand as they are.
-                for k in range(8):
-                    w.stats[k] = 0
-                w.energy[SOLVE_BEFORE] = w.energy[SOLVE_AFTER] = 0.0
-                for k in range(nb):
-                    w.slow_steps[k] = 0
-                _finish_stats(w.asleep, w.stats, nb)
+            if integrated and w.status[S_QUIET] != 0 and _all_asleep(w.asleep, nb):
+                # The step before ran a pass with every body asleep (S_QUIET), and they still
+                # are: no body has moved since, so that pass would find what it found (no pair:
+                # sleepers pair like static colliders, and none is awake) and leave what it
+                # left (its placed colliders, and the warm starts, all of sleepers).
                 point, normal, depth = point[:0], normal[:0], depth[:0]
                 impulse, ca, cbb = impulse[:0], ca[:0], cbb[:0]
+                _found_none(w.status, w.stats, w.energy, w.slow_steps, w.asleep, nb, 0, 0, True)
                 collided = True
-                w.status[S_UNCHECKED] = 0
                 continue
+            w.status[S_QUIET] = 0
             static = np.empty(nc, dtype=np.bool_)
             crowded = False
             while True:
@@ -317,12 +319,9 @@ def _world_steps_of(family, tests, name):
             # 3. The narrow phase of every candidate: collider pairs, then (collider, plane).
             p1, p2 = pairs.shape[0], plane_pairs.shape[0]
             if p1 + p2 == 0:
-                # No candidate (bodies in flight): what the pass below leaves with no contact,
-                # without making its arrays: none found, none solved, the warm starts of
-                # sleepers only.
-                for k in range(8):
-                    w.stats[k] = 0
-                w.energy[SOLVE_BEFORE] = w.energy[SOLVE_AFTER] = 0.0
+                # No candidate (bodies in flight, or all asleep): what the pass below leaves
+                # with no contact, without making its arrays: none found, none solved, the warm
+                # starts of sleepers only.
                 point, normal, depth = point[:0], normal[:0], depth[:0]
                 impulse, ca, cbb = impulse[:0], ca[:0], cbb[:0]
                 if any_asleep:
@@ -332,11 +331,9 @@ def _world_steps_of(family, tests, name):
                 else:
                     warm_keys = warm_keys[:0]
                     warm_normal, warm_tangent = warm_normal[:0], warm_tangent[:0]
-                for k in range(nb):
-                    w.slow_steps[k] = 0
-                _finish_stats(w.asleep, w.stats, nb)
+                _found_none(w.status, w.stats, w.energy, w.slow_steps, w.asleep, nb, 0, 0,
+                            any_asleep and _all_asleep(w.asleep, nb))
                 collided = True
-                w.status[S_UNCHECKED] = 0
                 continue
             pair_a = np.empty(p1 + p2, dtype=np.int64)
             pair_b = np.empty(p1 + p2, dtype=np.int64)
@@ -384,11 +381,9 @@ def _world_steps_of(family, tests, name):
                 warm_keys, warm_normal, warm_tangent = _store_warm(
                     nb, w.cbody, w.plane_normals.shape[0], w.asleep, keys, impulse,
                     np.zeros((0, 3)), warm_keys, warm_normal, warm_tangent)
-                for k in range(nb):
-                    w.slow_steps[k] = 0
-                _finish_stats(w.asleep, w.stats, nb)
+                _found_none(w.status, w.stats, w.energy, w.slow_steps, w.asleep, nb, p1, p2,
+                            False)
                 collided = True
-                w.status[S_UNCHECKED] = 0
                 continue
             # 4. The solve: the bodies (the last slot static), warm start, materials.
             inv_inertia = np.zeros((nb + 1, 9))
@@ -527,8 +522,9 @@ WORLD_STEPS = {K.FAMILY_TWO: 'world_steps_two', K.FAMILY_K: 'world_steps_k',
 
 def entry(family, tests) -> str:
     """The name of the module global holding ``world_steps`` for ``family`` and the contact
-    tests ``tests`` (none, for a world of one body), made now if it is not there yet: looked
-    up at each call, since ``jit.run_interpreted`` rebinds the module's globals. Not
+    tests ``tests`` (none, for a world of one body), made now if it is not there yet: a name,
+    not the kernel, since ``jit.run_interpreted`` rebinds the module's globals (a world looks
+    it up again, and makes its ``entry_point``, after a tier swap: ``jit.swaps``). Not
     compiled here."""
     nk.checked_tests(tests)
     name = WORLD_STEPS[family] + ('' if tests == nk.PAIRS_ALL else f'_{tests}')
@@ -601,8 +597,9 @@ def tests_keeping(family, needed: int, current: int | None) -> int:
 def entry_point(name, record):
     """``world_steps`` from Python: what to call as ``f(record, n)``, for the entry named
     ``name`` (``entry``) on ``record`` (a WorldRecord compiled, a WorldHost interpreted), with
-    any ``n``, in the tier of now: the compiled entry itself (``jit.entry_point``: numba's
-    dispatch costs more than a small world's step), compiled or loaded now."""
+    any int ``n`` (typed int64), in the tier of now: the compiled entry itself
+    (``jit.entry_point``: numba's dispatch costs more than a small world's step), compiled or
+    loaded now."""
     return jit.entry_point(globals()[name], record, 0)
 
 
@@ -671,6 +668,23 @@ def _finish_stats(asleep, stats, nb):
     stats[SLEEPING] = sleeping
     for k in range(7):
         stats[8 + k] += stats[k]
+
+
+@inline_kernel
+def _found_none(status, stats, energy, slow_steps, asleep, nb, p1, p2, quiet):
+    """The end of a step whose pass found no contact (of ``p1`` candidate pairs and ``p2``
+    plane pairs): none solved, no body counted as slow (sleeping counts the steps at rest in
+    contact), the totals, the check done, and ``quiet`` (every body asleep) kept for the next
+    step (``S_QUIET``). Its caller empties the last contacts."""
+    for k in range(8):
+        stats[k] = 0
+    stats[CANDIDATE_PAIRS], stats[PLANE_PAIRS] = p1, p2
+    energy[SOLVE_BEFORE] = energy[SOLVE_AFTER] = 0.0
+    for k in range(nb):
+        slow_steps[k] = 0
+    _finish_stats(asleep, stats, nb)
+    status[S_UNCHECKED] = 0
+    status[S_QUIET] = 1 if quiet else 0
 
 
 @inline_kernel
