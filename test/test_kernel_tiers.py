@@ -144,6 +144,37 @@ def test_batch_lanes_keep_their_bits_across_tiers():
     assert _batch([True, False, True, False]) == _batch([False] * 4)
 
 
+def test_a_stepper_steps_in_the_tier_of_now_with_the_same_bits(monkeypatch):
+    """A Stepper calls its row's compiled entry directly (``BodyStore.one``), kept per tier:
+    after a swap it steps in the new tier (the interpreted one runs the kernel's Python, and
+    compiles nothing), and back, all with the bits of an all-compiled run."""
+    from rb_sim_ros.core.rigid_body import RigidBody, State
+    from rb_sim_ros.core.stepper import Stepper
+
+    def stepper():
+        return Stepper(RigidBody(2.0, [1.0, 2.0, 3.0]), 1e-3,
+                       State((0.0, 0.0, 1.0), angular_velocity=(0.3, 2.0, -0.5)),
+                       gravity=(0.0, 0.0, -9.81))
+    reference, s = stepper(), stepper()
+    reference.step(30)
+    s.step(10)
+    jit.run_interpreted()
+    name = s._store._step_one
+    calls = []
+    python = getattr(K, name)
+    monkeypatch.setattr(K, name, lambda *a: (calls.append(1), python(*a))[1])
+    with event.install_recorder('numba:compile') as compiles:
+        s.step(1)
+        s.step(9)
+    assert len(calls) == 2 and not compiles.buffer
+    monkeypatch.undo()
+    jit.run_compiled()
+    s.step(10)
+    assert len(calls) == 2  # compiled again, not the Python of before
+    assert s.step_count == reference.step_count == 30
+    assert s.components() == reference.components()
+
+
 def test_the_precompiled_marker_names_these_sources(monkeypatch, tmp_path):
     """precompile's marker is per cache, source text and numba: another cache or a changed
     source is not precompiled; nor is a part that was not marked."""

@@ -497,7 +497,7 @@ class CollisionWorld:
         if not look:  # all n steps taken, nothing to say
             self._call_seconds = seconds / n
             return
-        status = self._status.tolist()  # one read of the nine (an item read costs as much)
+        status = self._status.tolist()  # one read of them all (an item read costs as much)
         self._call_seconds = seconds / max(status[ws.S_STEPS_DONE], 1)
         if status[ws.S_KIND] != ws.OK:
             raise self._error()
@@ -531,15 +531,15 @@ class CollisionWorld:
     def _call(self, n: int) -> int:
         """``world_steps`` for n steps from the world's clock and arrays as they are now: 1
         if Python must look at its status (``world_step.LOOK``), else 0."""
-        run, store = self._run, self._store
+        run, store, swaps = self._run, self._store, jit.swaps
         if (run[0] is not store.state or run[1] is not store.spare
-                or run[2] != self.pair_tests or run[3] != jit.swaps):
+                or run[2] != self.pair_tests or run[3] != swaps):
             # (what _record_now checks, and the tests: the record, or the entry, changed)
             if self._entry[0] != self.pair_tests:  # (a world's tests change in carry only)
                 self._entry = (self.pair_tests,
                                ws.entry(K.family(self._store.coefficients), self.pair_tests))
             record = self._record_now()
-            run = self._run = (store.state, store.spare, self.pair_tests, jit.swaps, record,
+            run = self._run = (store.state, store.spare, self.pair_tests, swaps, record,
                                ws.entry_point(self._entry[1], record))
         return run[5](run[4], n)
 

@@ -112,7 +112,11 @@ def entry_point(function, *args):
     a kernel's compiled entry for their signature (compiled or loaded from the cache now),
     called without numba's dispatch, which costs about 0.7 us a call (more than a resting
     world's step); ``function`` itself when it is not a kernel (the interpreted tier). The
-    entry unboxes by the signature it was made for: never call it with other types."""
+    entry checks nothing: it unboxes its arguments by the signature it was made for, so
+    arguments of other types (another dtype, layout or number of dimensions, a read-only
+    array, a float for an int) are read as if they were those, which corrupts memory. Call it
+    only with arrays that stay the types they were (made by their owner, never rebound to
+    others), as ``BodyStore.one`` and ``CollisionWorld._call`` do."""
     if not isinstance(function, Dispatcher):
         return function
     return function.compile(tuple(numba.typeof(a) for a in args))

@@ -222,8 +222,9 @@ class BodyStore:
         # wakes a sleeper on a new wrench looks at its bodies only when this moved.
         self.wrench_changes = 0
         # the name of the kernel of one row's step (step_kernel.STEP_ONE), looked up again
-        # after a tier swap (which rebinds it), and (jit.swaps then, what advance calls: its
-        # jit.entry_point, for the types of these arrays, which stay those)
+        # after a tier swap (which rebinds it), and (jit.swaps then, its jit.entry_point for
+        # the types of these arrays): what ``one`` gives. The arrays above are made here and
+        # never rebound to others (``finish`` swaps state and spare, which have one type).
         self._step_one = K.STEP_ONE[K.family(self.coefficients)]
         self._one: tuple = (-1, None)
 
