@@ -46,6 +46,7 @@ import mujoco
 import numpy as np
 
 from bench import figures
+from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core.stepper import Stepper
@@ -101,8 +102,9 @@ def _rms(v: np.ndarray) -> float:
 def run_ours(s: dict, max_settle: int, steps: int) -> dict:
     # No sleeping (MuJoCo's is off by default too): a settled heap whose bodies slept would be
     # timed doing nothing.
-    world = CollisionWorld(bodies(s), DT, GRAVITY, restitution=RESTITUTION, friction=FRICTION,
-                           planes=walls(s['half']), sleep_time=0.0)
+    world = CollisionWorld(bodies(s), DT, GRAVITY, planes=walls(s['half']),
+                           contact=ContactSettings(restitution=RESTITUTION, friction=FRICTION,
+                                                   sleep_time=0.0))
     assert world.settings.velocity_iterations == ITERATIONS
 
     def rms():

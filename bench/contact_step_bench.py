@@ -40,6 +40,7 @@ import mujoco
 import numpy as np
 
 from bench import figures
+from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import so3
@@ -109,8 +110,8 @@ def scenes() -> dict:
 
 def ours(scene, steps: int, per_call: int = 1) -> tuple[CollisionWorld, list[float]]:
     bodies, planes, e, mu = scene[:4]
-    world = CollisionWorld(bodies, DT, (0.0, 0.0, -G), restitution=e, friction=mu,
-                           planes=planes, sleep_time=0.0)
+    world = CollisionWorld(bodies, DT, (0.0, 0.0, -G), planes=planes,
+                           contact=ContactSettings(restitution=e, friction=mu, sleep_time=0.0))
     times = []
     for _ in range(steps // per_call):
         t = time.perf_counter()

@@ -67,6 +67,7 @@ import numpy as np
 import rapier3d
 
 from bench import figures
+from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Box, Plane
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import so3
@@ -155,9 +156,10 @@ class Ours:
                            colliders=(Box((SIZE,) * 3),))
                   for n, (p, r) in enumerate(zip(pos, rotvec))]
         self.names = [b.name for b in bodies]
-        self.world = CollisionWorld(bodies, DT, (0.0, 0.0, -G), friction=FRICTION,
-                                    restitution=0.0, planes=(Plane(),),
-                                    **({} if sleeping else {'sleep_time': 0.0}))
+        self.world = CollisionWorld(
+            bodies, DT, (0.0, 0.0, -G), planes=(Plane(),),
+            contact=ContactSettings(restitution=0.0, friction=FRICTION,
+                                    sleep_time=ContactSettings.sleep_time if sleeping else 0.0))
         self.step = self.world.step           # step(n): n steps in one call
 
     def poses(self):

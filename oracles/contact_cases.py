@@ -12,6 +12,7 @@ Worlds are at dt = 1 ms unless said, gravity ``G`` (m/s^2); ``GROUND`` is the pl
 import numpy as np
 
 from rb_sim_ros.contact import contact_solver as cs
+from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import so3
@@ -143,12 +144,13 @@ def thin_wall_run(speed, speculative, phase, r=0.05, width=0.01, dt=1e-3):
     start = -(0.3 + r + width / 2 + (1.0 + phase) * speed * dt)
     wall = BodySpec('wall', static=True, colliders=(Box((width, 1.0, 1.0)),))
     world = CollisionWorld([ball(radius=r, position=(start, 0.0, 0.0), velocity=(speed, 0, 0)),
-                            wall], dt, restitution=0.5, speculative=speculative)
+                            wall], dt,
+                           contact=ContactSettings(restitution=0.5, speculative=speculative))
     world.step(int(-2 * start / (speed * dt)) + 3)
     return float(world.state('ball').position[0])
 
 
-def mixed_scene(**kwargs):
+def mixed_scene():
     walls = (Plane((0, 0, 1), 0.0), Plane((1, 0, 0), -1.0), Plane((-1, 0, 0), -1.0),
              Plane((0, 1, 0), -1.0), Plane((0, -1, 0), -1.0))
     capsule_inertia = (0.02, 0.02, 0.005)
@@ -164,8 +166,8 @@ def mixed_scene(**kwargs):
                                   Capsule(0.02, 0.3))),
               BodySpec('pillar', static=True, initial_position=(0.6, -0.6, 0.25),
                        colliders=(Box((0.2, 0.2, 0.5)),))]
-    return CollisionWorld(bodies, 1e-3, G, restitution=0.3, friction=0.5, planes=walls,
-                          **kwargs)
+    return CollisionWorld(bodies, 1e-3, G, planes=walls,
+                          contact=ContactSettings(restitution=0.3, friction=0.5))
 
 
 def mechanical_energy(world):

@@ -70,7 +70,7 @@ def test_simulation_steps_the_collision_world_it_is_made_of():
     built by hand give the same states, bit for bit."""
     config = _crowd()
     sim = Simulation(config)
-    world = CollisionWorld.from_config(config, **config.contact.world_arguments())
+    world = CollisionWorld.from_config(config)
     pending = sim.run_until(600, list(EVENTS))
     assert not pending
     for step, event in EVENTS + [(600, None)]:

@@ -16,11 +16,13 @@ from oracles.contact_cases import (apexes, ball, contact_slip, cube, effective_m
                                    impact, mechanical_energy, mixed_scene, momenta,
                                    normal_velocity, random_contact_set, thin_wall_run)
 from rb_sim_ros.contact import contact_solver as cs
+from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import so3
 from rb_sim_ros.core.rigid_body import State
 from rb_sim_ros.core.stepper import step_all, Stepper
+from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import BodySpec, Config, Simulation
 from support.solver_fingerprint import solver_fingerprints
 
@@ -154,8 +156,8 @@ def test_ball_bounces_to_e_squared_h(speculative):
     -(1 - e^2) slop (measured: -0.02 to 1.5 mm against bounds of 1.1 to 4.0 mm)."""
     r, e, dt = 0.1, 0.8, 1e-3
     for h in (1.0, 0.7313, 0.25):
-        world = CollisionWorld([ball(radius=r, position=(0.0, 0.0, r + h))], dt, G,
-                               restitution=e, planes=GROUND, speculative=speculative)
+        world = CollisionWorld([ball(radius=r, position=(0.0, 0.0, r + h))], dt, G, planes=GROUND,
+                               contact=ContactSettings(restitution=e, speculative=speculative))
         tops = apexes(world, 'ball', int(4.2 * math.sqrt(2 * h / 9.81) / dt) + 50)
         assert len(tops) >= 2
         previous = h
@@ -173,8 +175,8 @@ def test_warm_starts_are_the_last_steps_impulses_only():
     flight between bounces keeps none, however it got there, so that no landing starts from
     the impulse of the last one. Checked at every step of two bounces, with sleeping off,
     against the contacts the step reports (one key for each, none in flight)."""
-    world = CollisionWorld([ball(radius=0.1, position=(0.0, 0.0, 0.4))], 1e-3, G,
-                           restitution=0.8, planes=GROUND, sleep_time=0.0)
+    world = CollisionWorld([ball(radius=0.1, position=(0.0, 0.0, 0.4))], 1e-3, G, planes=GROUND,
+                           contact=ContactSettings(restitution=0.8, sleep_time=0.0))
     flights = landings = 0
     for _ in range(1200):
         world.step(1)
@@ -190,8 +192,8 @@ def test_a_step_in_flight_reports_no_contact_and_no_solve():
     """What a user reads of the last step is that step's: in flight after a bounce (a pass
     that finds no pair) no contact, no count of the solve and no solve energy, not the
     landing's."""
-    world = CollisionWorld([ball(radius=0.1, position=(0.0, 0.0, 0.4))], 1e-3, G,
-                           restitution=0.8, planes=GROUND, sleep_time=0.0)
+    world = CollisionWorld([ball(radius=0.1, position=(0.0, 0.0, 0.4))], 1e-3, G, planes=GROUND,
+                           contact=ContactSettings(restitution=0.8, sleep_time=0.0))
     landed = flown = 0
     for _ in range(700):
         world.step(1)
@@ -209,7 +211,8 @@ def _falling_and_resting():
     """A ball in flight and a box at rest on the ground (warm starts), sleeping off."""
     return ([ball(radius=0.1, position=(1.0, 0.0, 2.0)),
              cube('box', (0.2, 0.2, 0.2), (0.0, 0.0, 0.1))],
-            dict(dt=1e-3, gravity=G, friction=0.5, planes=GROUND, sleep_time=0.0))
+            dict(dt=1e-3, gravity=G, planes=GROUND,
+                 contact=ContactSettings(friction=0.5, sleep_time=0.0)))
 
 
 def test_a_world_steps_on_from_what_its_steppers_were_stepped_to():
@@ -271,7 +274,8 @@ def test_resting_box_stays_still_for_10_s():
     """dt = 1 ms, 10 s: no sinking (penetration <= slop + g dt^2 / 2), no drift, no jitter.
     Without sleeping, which would freeze the box after 0.5 s: this is the solver's test."""
     world = CollisionWorld([cube('box', (0.4, 0.3, 0.2), (0.0, 0.0, 0.1), mass=3.0)], 1e-3, G,
-                           restitution=0.5, friction=0.5, planes=GROUND, sleep_time=0.0)
+                           planes=GROUND,
+                           contact=ContactSettings(restitution=0.5, friction=0.5, sleep_time=0.0))
     start = world.state('box').position
     depth, speed = 0.0, 0.0
     for _ in range(10000):
@@ -290,7 +294,8 @@ def test_resting_box_stays_still_for_10_s():
 def test_box_stack_of_three_stands_for_10_s():
     size = (0.2, 0.2, 0.2)
     world = CollisionWorld([cube(f'box{i}', size, (0.0, 0.0, 0.1 + 0.2 * i)) for i in range(3)],
-                           1e-3, G, friction=0.5, planes=GROUND, sleep_time=0.0)  # the solver
+                           1e-3, G, planes=GROUND,
+                           contact=ContactSettings(friction=0.5, sleep_time=0.0))  # the solver
     start = [world.state(f'box{i}').position for i in range(3)]
     depth, speed = 0.0, 0.0
     for k in range(10000):
@@ -313,7 +318,8 @@ def test_tumbling_box_comes_to_rest_face_down():
     spec = cube('box', size, (0.0, 0.0, 0.5), mass=2.0, initial_orientation_xyzw=tuple(
         so3.quaternion_xyzw_from_matrix(so3.exp((0.4, 0.7, 0.2)))),
         initial_linear_velocity=(1.0, 0.3, 0.0), initial_angular_velocity=(3.0, -5.0, 8.0))
-    world = CollisionWorld([spec], 1e-3, G, restitution=0.3, friction=0.6, planes=GROUND)
+    world = CollisionWorld([spec], 1e-3, G, planes=GROUND,
+                           contact=ContactSettings(restitution=0.3, friction=0.6))
     body = spec.body()
     energies = []
     for _ in range(30):
@@ -334,8 +340,8 @@ def test_sliding_box_stops_where_coulomb_says():
     """v0^2 / (2 mu g) on 4 corner contacts: each friction impulse opposes its slip."""
     mu, v0 = 0.4, 2.0
     world = CollisionWorld([cube('box', (0.2, 0.2, 0.2), (0.0, 0.0, 0.1 - 1e-4),
-                                 initial_linear_velocity=(v0, 0.0, 0.0))], 1e-3, G,
-                           friction=mu, planes=GROUND)
+                                 initial_linear_velocity=(v0, 0.0, 0.0))], 1e-3, G, planes=GROUND,
+                           contact=ContactSettings(friction=mu))
     world.step(700)
     st = world.state('box')
     assert st.position[0] == pytest.approx(v0 ** 2 / (2 * mu * 9.81), abs=v0 * 1e-3)
@@ -360,7 +366,8 @@ def test_touched_bodies_restart_their_history_untouched_ones_keep_it():
     spin = dict(initial_angular_velocity=(2.0, 5.0, -1.0))
     far = cube('far', (0.3, 0.2, 0.1), (10.0, 0.0, 3.0), **spin)
     falling = cube('falling', (0.3, 0.2, 0.1), (0.0, 0.0, 0.3), **spin)
-    world = CollisionWorld([far, falling], 1e-3, G, restitution=0.5, planes=GROUND)
+    world = CollisionWorld([far, falling], 1e-3, G, planes=GROUND,
+                           contact=ContactSettings(restitution=0.5))
     alone = Stepper(far.body(), 1e-3, far.initial_state(), gravity=G)
     hit = None
     for k in range(400):
@@ -428,11 +435,15 @@ def test_world_refuses_bad_arguments_naming_them():
     with pytest.raises(ValueError, match=r'colliders\[0\]'):
         CollisionWorld([BodySpec('a', colliders=('sphere',))], 1e-3)
     with pytest.raises(ValueError, match='restitution'):
-        CollisionWorld([ball()], 1e-3, restitution=2.0)
+        CollisionWorld([ball()], 1e-3, contact=ContactSettings(restitution=2.0))
     with pytest.raises(ValueError, match=r'planes\[0\]'):
         CollisionWorld([ball()], 1e-3, planes=(Sphere(1.0),))
     with pytest.raises(ValueError, match='speculative'):
-        CollisionWorld([ball()], 1e-3, speculative='yes')
+        CollisionWorld([ball()], 1e-3, contact=ContactSettings(speculative='yes'))
+    with pytest.raises(ValueError, match='contact must be a ContactSettings'):
+        CollisionWorld([ball()], 1e-3, contact={'restitution': 0.5})
+    with pytest.raises(ValueError, match='warm_start'):
+        ContactSettings(warm_start=1)
     with pytest.raises(ValueError, match='gravity'):
         CollisionWorld([ball()], 1e-3, gravity=(0, 0))
     world = CollisionWorld([ball()], 1e-3, planes=GROUND)
@@ -445,13 +456,40 @@ def test_world_refuses_bad_arguments_naming_them():
 
 
 def test_from_config_and_teleport_checks_before_integrating():
-    config = Config(dt=1e-3, gravity=G, bodies=(ball(position=(0.0, 0.0, 0.5)),))
-    world = CollisionWorld.from_config(config, planes=GROUND, restitution=0.0)
+    config = Config(dt=1e-3, gravity=G, bodies=(ball(position=(0.0, 0.0, 0.5)),),
+                    contact=ContactSettings(restitution=0.0, friction=0.2))
+    world = CollisionWorld.from_config(config, planes=GROUND)
+    assert world.contact == config.contact and world.settings.friction == 0.2
     world.step(10)
     # Teleport the ball to 1 cm above the ground, falling at 100 m/s: one step would bury it.
     world.set_state('ball', State((0.0, 0.0, 0.11), None, (0.0, 0.0, -100.0)))
     world.step(1)
     assert world.state('ball').position[2] >= 0.1 - world.settings.slop
+
+
+def test_a_scenes_contact_settings_reach_the_world_that_steps_it(tmp_path):
+    """The contact settings are given once (a scene's ``contact:``, a ContactSettings) and
+    the world steps with them: the solver's (here the tolerance) and the kernel's (warm
+    starts off: a resting box keeps no impulses for the next step; on, it does)."""
+    scene = tmp_path / 'box.yaml'
+    kept = {}
+    for warm in (True, False):
+        scene.write_text(
+            'gravity: [0.0, 0.0, -9.81]\n'
+            f'contact: {{tolerance: 2.0e-5, warm_start: {str(warm).lower()}, '
+            'sleep_time: 0.0}\n'
+            'bodies:\n'
+            '  - {name: box, shape: box, size: [0.2, 0.2, 0.2], density: 125.0, '
+            'position: [0.0, 0.0, 0.1], colliders: shape}\n'
+            '  - {name: ground, static: true, colliders: [{type: plane}]}\n')
+        gravity, bodies, contact = load_scene(str(scene))[:3]
+        sim = Simulation(Config(dt=1e-3, gravity=gravity, bodies=tuple(bodies),
+                                contact=contact))
+        sim.run(100)
+        assert sim.world.contact == contact and sim.world.settings.tolerance == 2.0e-5
+        assert sim.world.warm_start is warm
+        kept[warm] = len(sim.world._current_outputs()[0])  # the keys the next step reads
+    assert kept[True] >= 4 and kept[False] == 0
 
 
 @pytest.mark.parametrize('name', ['velocity_iterations', 'position_iterations'])

@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Box, Plane, shape_from_dict, shape_to_dict, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.sim.simulation import BodySpec, Config
@@ -45,7 +46,8 @@ def test_each_ball_bounces_with_its_own_restitution():
     tops = {}
     balls = (_ball('bouncy', 0.0, h, restitution=0.9), _ball('dull', 1.0, h, restitution=0.3))
     for ball in balls:
-        world = CollisionWorld([ball, ground], DT, G, restitution=0.0, friction=0.0)
+        world = CollisionWorld([ball, ground], DT, G,
+                               contact=ContactSettings(restitution=0.0, friction=0.0))
         tops[ball.name] = _top_after_bounce(world, ball.name, 0.1)
     # (1 - e^2) v dt bounds the error of landing between steps (docs/collisions.md).
     v = (2 * 9.81 * h) ** 0.5
@@ -60,7 +62,7 @@ def test_each_box_slides_as_far_as_its_combined_friction_says():
                             _box('rubber', 1.0, v0, friction=0.8), _box('plain', 2.0, v0),
                             BodySpec('ground', static=True,
                                      colliders=(Plane(friction=ground_mu),))],
-                           DT, G, friction=0.3)
+                           DT, G, contact=ContactSettings(friction=0.3))
     world.step(2000)
     for name, mu in (('ice', (0.2 * ground_mu) ** 0.5), ('rubber', (0.8 * ground_mu) ** 0.5),
                      ('plain', (0.3 * ground_mu) ** 0.5)):
@@ -76,7 +78,7 @@ def test_materials_equal_to_the_defaults_change_no_bit():
         bodies = [_ball(f'b{i}', 0.15 * i, 0.2 + 0.25 * i, **material) for i in range(4)]
         bodies += [_box('crate', 0.5, 1.0, **material),
                    BodySpec('ground', static=True, colliders=(Plane(**material),))]
-        w = CollisionWorld(bodies, DT, G, restitution=0.35, friction=0.6)
+        w = CollisionWorld(bodies, DT, G, contact=ContactSettings(restitution=0.35, friction=0.6))
         w.step(800)
         return [w.steppers[b.name].pose_twist() for b in bodies[:-1]], w.totals.active
     plain, active = world({})
@@ -117,7 +119,7 @@ def test_colliders_planes_and_world_planes_each_have_their_material():
                            initial_linear_velocity=(v0, 0.0, 0.0),
                            colliders=(Box((0.2, 0.2, 0.1)),))
     world = CollisionWorld([platform, on_platform, _box('walker', 0.0, v0)], DT, G,
-                           friction=0.5, planes=(Plane(friction=0.8),))
+                           planes=(Plane(friction=0.8),), contact=ContactSettings(friction=0.5))
     world.step(1000)
     assert world.state('skater').linear_velocity[0] == pytest.approx(v0, rel=1e-6)
     mu = (0.5 * 0.8) ** 0.5

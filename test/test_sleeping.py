@@ -27,11 +27,12 @@ def _cube(name, position, size=0.2, mass=1.0, **kwargs):
                     colliders=(Box((size,) * 3),), **kwargs)
 
 
-def _stack(**kwargs):
+def _stack(**contact):
     bodies = [_cube(f'box{i}', (0.0, 0.0, 0.1 + 0.2 * i)) for i in range(3)]
     bodies.append(BodySpec('ball', 0.5, (0.002,) * 3, initial_position=(5.0, 0.0, 0.1),
                            colliders=(Sphere(0.1),)))
-    return CollisionWorld(bodies, DT, G, friction=0.5, planes=GROUND, **kwargs)
+    return CollisionWorld(bodies, DT, G, planes=GROUND,
+                          contact=ContactSettings(friction=0.5, **contact))
 
 
 STACK = ['box0', 'box1', 'box2']
@@ -91,8 +92,8 @@ def test_a_ball_dropped_on_a_sleeping_stack_wakes_all_of_it_and_matches_an_awake
 
 def test_a_changed_wrench_wakes_a_sleeper_which_slides_as_coulomb_says():
     mass, mu, force = 2.0, 0.5, 15.0
-    world = CollisionWorld([_cube('box', (0.0, 0.0, 0.1), mass=mass)], DT, G, friction=mu,
-                           planes=GROUND)
+    world = CollisionWorld([_cube('box', (0.0, 0.0, 0.1), mass=mass)], DT, G,
+                           planes=GROUND, contact=ContactSettings(friction=mu))
     world.step(1000)
     assert world.sleeping == ['box']
     x0 = world.state('box').position.copy()
@@ -157,8 +158,8 @@ def test_a_push_just_before_the_sleep_timer_runs_out_still_moves_the_body():
     """A changed wrench starts the slow count again: a push too gentle to exceed sleep_speed
     for a while must not be frozen by the count that ran before it."""
     mass, mu, accel = 2.0, 0.5, 0.5
-    world = CollisionWorld([_cube('box', (0.0, 0.0, 0.1), mass=mass)], DT, G, friction=mu,
-                           planes=GROUND)
+    world = CollisionWorld([_cube('box', (0.0, 0.0, 0.1), mass=mass)], DT, G,
+                           planes=GROUND, contact=ContactSettings(friction=mu))
     world.step(499)                      # it would sleep at the 500th step at rest
     assert world.sleeping == []
     x0 = world.state('box').position[0]
@@ -245,7 +246,7 @@ def test_poisoned_solve_interpreted(monkeypatch):
         return CollisionWorld([BodySpec(f'b{i}', 1.0, (0.004,) * 3,
                                         initial_position=(2.0 * i, 0.0, 0.1),
                                         colliders=(Sphere(0.1),)) for i in range(2)],
-                              DT, G, planes=GROUND, sleep_time=0.0)
+                              DT, G, planes=GROUND, contact=ContactSettings(sleep_time=0.0))
     reference, w = world(), world()
     reference.step(10)
     w.step(9)
@@ -269,7 +270,7 @@ def test_a_sleep_time_beyond_any_run_never_sleeps():
                             BodySpec('fly', 1.0, (0.004,) * 3, initial_position=(5.0, 0.0, 3.0),
                                      initial_linear_velocity=(1.0, 0.0, 0.0),
                                      colliders=(Sphere(0.1),))],
-                           DT, G, planes=GROUND, sleep_time=1e17)
+                           DT, G, planes=GROUND, contact=ContactSettings(sleep_time=1e17))
     world.step(50)
     assert world.sleeping == []
     assert world.state('fly').linear_velocity[0] == 1.0 and world.state('fly').position[2] < 3.0
@@ -281,7 +282,7 @@ def test_contacts_and_totals_survive_a_failed_step():
     world = CollisionWorld([BodySpec('ball', 1.0, (0.004,) * 3, initial_position=(0.0, 0.0, 0.1),
                                      colliders=(Sphere(0.1),)),
                             BodySpec('top', 1.0, (0.1, 0.2, 0.3))],  # no colliders
-                           DT, G, planes=GROUND, sleep_time=0.0)
+                           DT, G, planes=GROUND, contact=ContactSettings(sleep_time=0.0))
     world.step(5)
     before = world.last_contacts()
     assert len(before) == 1 and before[0].a == 'ball'
@@ -332,7 +333,8 @@ def _asleep_story():
                 return
             world.step(1)
         raise AssertionError('the balls never slept')
-    world = CollisionWorld(_resting_balls(), 1e-2, G, planes=GROUND, sleep_time=0.1)
+    world = CollisionWorld(_resting_balls(), 1e-2, G, planes=GROUND,
+                           contact=ContactSettings(sleep_time=0.1))
     sleep(world)
     look(world, 'asleep')
     world.step(3)

@@ -122,7 +122,8 @@ def test_deleting_the_ground_drops_what_rested_on_it():
 def test_without_warm_starts_a_delete_wakes_every_sleeper():
     """No warm start records what rested on what: every sleeper wakes (and falls)."""
     box, ground = _box_on_ground()
-    world = CollisionWorld((box, ground), 1e-3, G, warm_start=False, sleep_time=0.2)
+    world = CollisionWorld((box, ground), 1e-3, G,
+                           contact=ContactSettings(warm_start=False, sleep_time=0.2))
     world.step(1000)
     assert world.sleeping == ['box']
     world = world.rebuilt((box,), recheck=False)
@@ -219,7 +220,8 @@ def test_a_run_keeps_at_most_max_bodies(monkeypatch):
 
 def test_without_warm_starts_a_spawn_leaves_sleepers_asleep():
     box, ground = _box_on_ground()
-    world = CollisionWorld((box, ground), 1e-3, G, warm_start=False, sleep_time=0.2)
+    world = CollisionWorld((box, ground), 1e-3, G,
+                           contact=ContactSettings(warm_start=False, sleep_time=0.2))
     world.step(1000)
     far = _with(FAR, colliders=(Sphere(0.1),))
     world = world.rebuilt((box, ground, far), recheck=True)

@@ -153,10 +153,17 @@ class ContactSettings:
     (m): the lever arm of the moment that resists rolling (0: balls roll for ever);
     torsional_friction (m): that of the moment resisting spin about the contact normal;
     approaches slower than bounce_threshold (m/s) do not bounce (keep it above |g| dt);
-    speculative contacts keep fast bodies from tunnelling. A body pressed by a contact whose
+    tolerance (m/s): a Gauss-Seidel pass stops after an iteration that changed no contact's
+    velocity by more (the position pass: by more than tolerance dt, in m); speculative
+    contacts keep fast bodies from tunnelling; warm_start: each solve starts from the
+    impulses of the same contacts at the step before. A body pressed by a contact whose
     points all move slower than sleep_speed (m/s) for sleep_time (s) sleeps, at rest and at
     no cost, until an awake body comes near, its wrench changes or it is teleported
-    (sleep_time 0: never). Unused by a scene without colliders."""
+    (sleep_time 0: never). Unused by a scene without colliders.
+
+    The one place a world's contact settings are given and checked (a scene's ``contact:``,
+    ``Config.contact``, ``CollisionWorld(contact=...)``); the solver's view of them, with
+    the step, is ``solver_settings(dt)``."""
 
     restitution: float = 0.0
     friction: float = 0.5
@@ -165,15 +172,19 @@ class ContactSettings:
     slop: float = 1e-4
     position_fraction: float = 0.8
     bounce_threshold: float = 0.1
+    tolerance: float = 1e-6
     speculative: bool = True
+    warm_start: bool = True
     sleep_time: float = 0.5
     sleep_speed: float = 1e-3
     rolling_resistance: float = 0.0
     torsional_friction: float = 0.0
 
     def __post_init__(self) -> None:
-        if not isinstance(self.speculative, bool):
-            raise ValueError(f'speculative must be true or false, got {self.speculative!r}')
+        for name in ('speculative', 'warm_start'):
+            flag = getattr(self, name)
+            if not isinstance(flag, bool):
+                raise ValueError(f'{name} must be true or false, got {flag!r}')
         for name in ('sleep_time', 'sleep_speed'):
             non_negative(name, getattr(self, name))
         for name in ('velocity_iterations', 'position_iterations'):
@@ -182,13 +193,14 @@ class ContactSettings:
                     or not 0 <= value <= MAX_ITERATIONS):
                 raise ValueError(f'{name} must be an integer in [0, {MAX_ITERATIONS}] '
                                  f'(MAX_ITERATIONS), got {value!r}')
-        contact_solver.SolverSettings(**{  # validates the rest
+        self.solver_settings(contact_solver.SolverSettings.dt)  # validates the rest
+
+    def solver_settings(self, dt: float) -> contact_solver.SolverSettings:
+        """What the solver reads of these, with the step ``dt`` (s): its settings array is
+        made from it (``contact_solver.settings_array``)."""
+        return contact_solver.SolverSettings(dt=dt, **{
             f.name: getattr(self, f.name) for f in fields(self)
             if f.name in contact_solver.SolverSettings.__dataclass_fields__})
-
-    def world_arguments(self) -> dict[str, Any]:
-        """Keyword arguments of ``collision_world.CollisionWorld``."""
-        return {f.name: getattr(self, f.name) for f in fields(self)}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> 'ContactSettings':

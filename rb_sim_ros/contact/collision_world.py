@@ -5,8 +5,9 @@
     world = CollisionWorld([BodySpec('ball', mass=1.0, inertia=(4e-3,) * 3,
                                      initial_position=(0.0, 0.0, 1.0),
                                      colliders=(Sphere(0.1),))],
-                           dt=1e-3, gravity=(0.0, 0.0, -9.81), restitution=0.5, friction=0.5,
-                           planes=(Plane((0.0, 0.0, 1.0), 0.0),))
+                           dt=1e-3, gravity=(0.0, 0.0, -9.81),
+                           planes=(Plane((0.0, 0.0, 1.0), 0.0),),
+                           contact=ContactSettings(restitution=0.5, friction=0.5))
     world.step(1000)
     world.state('ball').position, world.last_stats.contacts
 
@@ -64,10 +65,10 @@ from rb_sim_ros.contact import broad_phase as bp, contact_solver, narrow_kernels
 from rb_sim_ros.contact import shapes
 from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.contact import world_step as ws
-from rb_sim_ros.contact.bodies import BodySpec, make_steppers
+from rb_sim_ros.contact.bodies import BodySpec, ContactSettings, make_steppers
 from rb_sim_ros.contact.collision_shapes import Plane, Shape
 from rb_sim_ros.core import jit, step_kernel as K
-from rb_sim_ros.core.rigid_body import finite_floats, non_negative, State
+from rb_sim_ros.core.rigid_body import finite_floats, State
 from rb_sim_ros.core.step_count import check_steps, MAX_STEPS
 from rb_sim_ros.core.stepper import carry_over, IntegrationError, Stepping
 
@@ -143,11 +144,11 @@ class CollisionWorld:
     bodies: ``simulation.BodySpec`` values; ``colliders`` holds shapes of
     ``collision_shapes`` in the body frame; a ``static`` body never moves (infinite mass).
     planes: extra static ``Plane`` values in the world frame. gravity (m/s^2, world).
-    restitution e in [0, 1] and friction mu >= 0 are those of every collider that has no
-    material of its own. The other keywords are ``contact_solver.SolverSettings`` fields;
-    ``bounce_threshold`` (m/s) must stay above |g| dt, or resting bodies bounce on the speed
-    gravity gives them in one step.
-    ``sleep_time`` (s, 0: never) and ``sleep_speed`` (m/s): see Sleeping above.
+    contact: how bodies respond when they touch, one ``bodies.ContactSettings`` (checked when
+    it is made): restitution and friction of every collider without a material of its own,
+    the solver's iterations and tolerances (``bounce_threshold`` (m/s) must stay above
+    |g| dt, or resting bodies bounce on the speed gravity gives them in one step), speculative
+    contacts, warm starts, and sleeping (``sleep_time``, ``sleep_speed``: see Sleeping above).
     ``pair_tests``: contact tests (a set of ``narrow_kernels.PAIR_BIT``) the world's step is
     compiled with besides those its bodies can meet (``pair_tests`` the attribute: the
     union); None: ``world_step.tests_for`` chooses (a precompiled set that holds them, so that
@@ -156,24 +157,12 @@ class CollisionWorld:
     """
 
     def __init__(self, bodies: Sequence[BodySpec], dt: float, gravity: Any = (0.0, 0.0, 0.0),
-                 restitution: float = 0.0, friction: float = 0.5,
                  planes: Sequence[Plane] = (), integrator: str = 'eq27',
-                 velocity_iterations: int = 10, position_iterations: int = 4,
-                 slop: float = 1e-4, position_fraction: float = 0.8,
-                 bounce_threshold: float = 0.1, tolerance: float = 1e-6,
-                 speculative: bool = True, warm_start: bool = True,
-                 sleep_time: float = 0.5,
-                 sleep_speed: float = 1e-3, rolling_resistance: float = 0.0,
-                 torsional_friction: float = 0.0, pair_tests: int | None = None) -> None:
+                 contact: ContactSettings = ContactSettings(),
+                 pair_tests: int | None = None) -> None:
         # What a world rebuilt around other bodies is made with (``rebuilt``).
-        self._arguments = dict(
-            dt=dt, gravity=gravity, restitution=restitution, friction=friction, planes=planes,
-            integrator=integrator, velocity_iterations=velocity_iterations,
-            position_iterations=position_iterations, slop=slop,
-            position_fraction=position_fraction, bounce_threshold=bounce_threshold,
-            tolerance=tolerance, speculative=speculative, warm_start=warm_start,
-            sleep_time=sleep_time, sleep_speed=sleep_speed,
-            rolling_resistance=rolling_resistance, torsional_friction=torsional_friction)
+        self._arguments = dict(dt=dt, gravity=gravity, planes=planes, integrator=integrator,
+                               contact=contact)
         bodies = tuple(bodies)
         if not bodies or not all(isinstance(b, BodySpec) for b in bodies):
             raise ValueError('bodies must be one or more BodySpec')
@@ -181,24 +170,19 @@ class CollisionWorld:
         if len(set(names)) != len(names):
             raise ValueError(f'body names must be unique, got {names}')
         self._gravity = finite_floats('gravity', gravity, 3)
-        self.settings = contact_solver.SolverSettings(
-            restitution=restitution, friction=friction, dt=dt,
-            velocity_iterations=velocity_iterations, position_iterations=position_iterations,
-            slop=slop, position_fraction=position_fraction, bounce_threshold=bounce_threshold,
-            tolerance=tolerance,
-            rolling_resistance=rolling_resistance, torsional_friction=torsional_friction)
-        for name, flag in (('speculative', speculative), ('warm_start', warm_start)):
-            if not isinstance(flag, bool):
-                raise ValueError(f'{name} must be true or false, got {flag!r}')
-        self.speculative, self.warm_start = speculative, warm_start
-        sleep_time = non_negative('sleep_time', sleep_time)
+        if not isinstance(contact, ContactSettings):
+            raise ValueError(f'contact must be a ContactSettings, got {contact!r}')
+        self.contact = contact  # checked when it was made (it is frozen)
+        self.settings = contact.solver_settings(dt)
+        self.speculative, self.warm_start = contact.speculative, contact.warm_start
+        sleep_time = contact.sleep_time
         # Steps a supported body must stay slow before it sleeps (0: never).
         # (at most 2^52: the kernel reads it back from a float; that is 1.4 million years at
         # dt = 10 us, never)
         steps = sleep_time / self.settings.dt - 1e-9
         self._sleep_steps = (min(math.ceil(steps), 2 ** 52) if steps < 2.0 ** 52 else 2 ** 52
                              ) if sleep_time else 0
-        self._sleep_speed = non_negative('sleep_speed', sleep_speed)
+        self._sleep_speed = float(contact.sleep_speed)
         planes = tuple(planes)
         for i, p in enumerate(planes):
             if not isinstance(p, Plane):
@@ -239,10 +223,11 @@ class CollisionWorld:
 
     @classmethod
     def from_config(cls, config, **kwargs) -> 'CollisionWorld':
-        """The bodies, dt, gravity and integrator of a ``sim.simulation.Config`` (read by
-        attribute: this layer does not import the one above it)."""
+        """The bodies, dt, gravity, integrator and contact settings of a
+        ``sim.simulation.Config`` (read by attribute: this layer does not import the one
+        above it)."""
         return cls(config.bodies, config.dt, config.gravity, integrator=config.integrator,
-                   **kwargs)
+                   contact=config.contact, **kwargs)
 
     # -- set-up --------------------------------------------------------------------------------
     def _build(self, planes) -> None:

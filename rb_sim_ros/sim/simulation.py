@@ -525,7 +525,6 @@ def _build(config: Config, tests: int | None):
     bodies at their initial states; the world's step compiled with the contact tests
     ``tests`` (and those its bodies need; None: ``world_step.tests_for`` chooses)."""
     if config.collides:
-        world = CollisionWorld.from_config(config, pair_tests=tests,
-                                           **config.contact.world_arguments())
+        world = CollisionWorld.from_config(config, pair_tests=tests)
         return world, world.steppers, world.static
     return (None, *make_steppers(config.bodies, config.dt, config.integrator, config.gravity))

@@ -11,6 +11,7 @@ import types
 
 import numpy as np
 
+from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import so3, step_kernel
@@ -109,8 +110,8 @@ def heap() -> str:
     planes = (Plane((0.0, 0.0, 1.0), 0.0), Plane((1.0, 0.0, 0.0), -half),
               Plane((-1.0, 0.0, 0.0), -half), Plane((0.0, 1.0, 0.0), -half),
               Plane((0.0, -1.0, 0.0), -half))
-    world = CollisionWorld(specs, 1e-3, (0.0, 0.0, -9.81), restitution=0.2, friction=0.5,
-                           planes=planes)
+    world = CollisionWorld(specs, 1e-3, (0.0, 0.0, -9.81),
+                           planes=planes, contact=ContactSettings(restitution=0.2, friction=0.5))
     world.step(3)
     states = [world.state(s.name) for s in specs]
     return _digest(*(np.concatenate([st.position, st.rotation.reshape(9), st.linear_velocity,
