@@ -17,7 +17,7 @@ from oracles.contact_cases import (apexes, ball, contact_slip, cube, effective_m
                                    normal_velocity, random_contact_set, thin_wall_run)
 from rb_sim_ros.contact import contact_solver as cs
 from rb_sim_ros.contact.bodies import ContactSettings
-from rb_sim_ros.contact.collision_shapes import Plane, Sphere
+from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import so3
 from rb_sim_ros.core.rigid_body import State
@@ -289,6 +289,26 @@ def test_resting_box_stays_still_for_10_s():
     assert np.abs(st.position[:2] - start[:2]).max() < 1e-6
     assert speed < 1e-5 and np.abs(st.angular_velocity).max() < 1e-5
     assert world.last_stats.contacts == 4 and world.last_stats.velocity_iterations <= 2
+
+
+def test_a_box_whose_principal_axes_are_not_its_own_rests_flat():
+    """A box's inertia given as a tensor whose principal axes are turned 30 degrees about x
+    (a box of uneven density): the step works in principal axes (r = R Q), the world places
+    its collider with R = r Q^T from the store's frames. Resting on a face it stays there
+    (a collider placed with r, not R, would be turned in the ground and tumble)."""
+    q = so3.exp((math.pi / 6, 0.0, 0.0))
+    tensor = q @ np.diag([0.05, 0.08, 0.1]) @ q.T
+    spec = BodySpec('box', 1.0, tuple(tensor.reshape(9)), initial_position=(0.0, 0.0, 0.1),
+                    colliders=(Box((0.4, 0.3, 0.2)),))
+    world = CollisionWorld([spec], 1e-3, G, planes=GROUND,
+                           contact=ContactSettings(friction=0.5, sleep_time=0.0))
+    store = world.steppers['box'].store
+    row = world.steppers['box'].row
+    assert store.has_frame[row] and not np.allclose(store.frames[row], np.eye(3).reshape(9))
+    world.step(1000)
+    st = world.state('box')
+    np.testing.assert_allclose(st.rotation, np.eye(3), atol=1e-6)  # 30 degrees if misplaced
+    assert abs(st.position[2] - 0.1) < 2e-4 and np.abs(st.position[:2]).max() < 1e-9
 
 
 def test_box_stack_of_three_stands_for_10_s():

@@ -315,11 +315,9 @@ class CollisionWorld:
             wk.extents(c, self._rotations9, self._kinds, self._geoms, 0.0, self._centres,
                        self._lower, self._upper)
         # The moving bodies with colliders as rows of their steppers' store.
-        self._store = self._moving_steppers[0]._store
-        self._rows = np.array([s._row for s in self._moving_steppers], dtype=np.int64)
-        self._q = np.array([s._q9 if s._q9 is not None else np.eye(3).reshape(9)
-                            for s in self._moving_steppers]).reshape(-1, 9)
-        self._has_q = np.array([s._q9 is not None for s in self._moving_steppers])
+        self._store = store = self._moving_steppers[0].store
+        self._rows = rows = np.array([s.row for s in self._moving_steppers], dtype=np.int64)
+        self._q, self._has_q = store.frames[rows], store.has_frame[rows]
         self._x = np.zeros((nb + 1, 3))
         self._rot = np.zeros((nb, 9))
         self._v = np.zeros((nb + 1, 3))
@@ -346,7 +344,7 @@ class CollisionWorld:
         self._centres = self._all_centres[:nc]
         self._rotations9 = self._all_rotations[:nc]
         self._rotations = self._rotations9.reshape(-1, 3, 3)
-        self._step_rows = np.array(sorted(s._row for s in self._all_steppers), dtype=np.int64)
+        self._step_rows = np.array(sorted(s.row for s in self._all_steppers), dtype=np.int64)
         self._body_of_row = np.full(len(self._store), -1, dtype=np.int64)
         self._body_of_row[self._rows] = np.arange(nb)
         st = self.settings
@@ -367,7 +365,7 @@ class CollisionWorld:
         self._wrench_seen = [s.wrench for s in self._moving_steppers]
         self._wrench_changes_seen = -1  # (look at the first step)
         self._index = {self.bodies[k].name: i for i, k in enumerate(self._moving_specs)}
-        self._by_row = {s._row: s for s in self._all_steppers}
+        self._by_row = {s.row: s for s in self._all_steppers}
 
     # -- read ----------------------------------------------------------------------------------
     @property
@@ -502,7 +500,7 @@ class CollisionWorld:
         taking a step: ``world_steps`` for 0 steps, or the bodies' own step kernel when the
         world is disabled (it steps them with it then)."""
         for s in self._all_steppers[:1]:
-            s._store.warm_up(stepping=not self.enabled)
+            s.store.warm_up(stepping=not self.enabled)
         if self.enabled:
             self._call(0)
 

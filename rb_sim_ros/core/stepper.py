@@ -201,8 +201,14 @@ class FixedStep:
 
 class BodyStore:
     """Rows of the step kernel's arrays (``step_kernel``) for bodies that share dt and the
-    method: each ``Stepper`` is a view of one row; a whole store, or any set of its rows,
-    takes n steps in one compiled call (``advance``). ``clock`` counts each body's steps."""
+    method: each ``Stepper`` is a view of one row (``Stepper.store``, ``Stepper.row``); a
+    whole store, or any set of its rows, takes n steps in one compiled call (``advance``).
+
+    What a stage that steps rows reads of them (a collision world's): ``state`` (each row's
+    x, v, omega and its rotation r = R Q in principal axes, with the history of its method;
+    ``step_kernel``'s columns), ``frames`` (Q of each row, 9 floats row-major: the body's
+    principal axes in its own frame; ``has_frame`` False where Q is the identity, which is
+    then not applied) and ``clock`` (each row's step count: the one clock of a body)."""
 
     def __init__(self, count: int, dt: float,
                  method: multistep.Multistep | multistep.Splitting) -> None:
@@ -210,6 +216,8 @@ class BodyStore:
         self.coefficients = coefficients(method, dt, Stepper.ORTHONORMALIZE_EVERY)
         self.state, self.params, self.work = K.new_arrays(count, method.steps)
         self.spare = np.zeros_like(self.state)
+        self.frames = np.tile(np.eye(3).reshape(9), (count, 1))
+        self.has_frame = np.zeros(count, dtype=np.bool_)
         self.status = np.zeros(count, dtype=np.int64)
         self.taken = np.zeros(count, dtype=np.int64)
         self.bad = np.zeros((count, 3))
@@ -391,6 +399,9 @@ class Stepper(FixedStep):
                              f'stepper dt = {self._dt!r} s with {self._method.name}')
         self._store, self._row = store, store.take_row()
         self._rows = np.array([self._row], dtype=np.int64)
+        if self._q is not None:
+            store.frames[self._row] = self._q9
+            store.has_frame[self._row] = True
         set_body_params(store.params[self._row], moments, gravity, linear_damping,
                         angular_damping, bool(specialize), self.MAX_TURN, self._dt)
         store.warn_sq[self._row] = turn_warning_sq(
@@ -423,6 +434,16 @@ class Stepper(FixedStep):
     def step_count(self) -> int:
         """Steps taken since construction (``set_state`` does not reset it)."""
         return int(self._store.clock[self._row])
+
+    @property
+    def store(self) -> BodyStore:
+        """The ``BodyStore`` this stepper is a row of."""
+        return self._store
+
+    @property
+    def row(self) -> int:
+        """Its row of ``store``."""
+        return self._row
 
     @property
     def state(self) -> State:
