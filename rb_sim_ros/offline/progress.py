@@ -28,7 +28,9 @@ class Progress:
         self.total, self.desc, self.unit = total, desc, unit
         self.plain_every = self.PLAIN_EVERY_S if plain_every is None else plain_every
         self.stream = stream or sys.stderr
-        self.start, self.last, self.done, self.bar = time.monotonic(), None, 0, None
+        self.start, self.bar = time.monotonic(), None
+        self.last: float | None = None
+        self.done: float = 0
         if isatty(self.stream):
             try:
                 from tqdm import tqdm

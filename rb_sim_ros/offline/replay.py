@@ -455,7 +455,10 @@ def _run_definition(reader: RecordingReader, path: str) -> tuple[dict, bool]:
         raise ReaderError(f'{path}: the run definition on {RUN_DEFINITION} and the '
                           f'{node_recorder.METADATA!r} metadata differ (in '
                           f'{", ".join(k[:40] for k in keys[:5])}): refusing to choose')
-    return (meta, False) if meta is not None else (message, True)
+    if meta is not None:
+        return meta, False
+    assert message is not None  # (neither: refused above)
+    return message, True
 
 
 def load(path: str) -> Recording:
@@ -513,7 +516,8 @@ def load(path: str) -> Recording:
     # Sequence numbers hold step mod 2^32, or are all 0: bag tools (rosbag2's SQLite3 storage)
     # keep none. The first message that has one, and the first without one.
     sequenced = unsequenced = None
-    outputs, last_step, published, last_output_ns = 0, None, 0, 0
+    outputs, published, last_output_ns = 0, 0, 0
+    last_step: int | None = None
     lockstep_notes: list = []  # (step, JSON text) of /rb_sim/lockstep
     # Outputs are checked here as bytes (their time stamps, counts and channels) and
     # deserialised when iterated; inputs are deserialised and kept.
@@ -586,7 +590,7 @@ def load(path: str) -> Recording:
                           'to re-simulate that')
     if outputs:
         implied = GAP_ALLOWANCE * config.steps_per_publish * published
-        if last_step > implied:
+        if last_step is not None and last_step > implied:
             raise ReaderError(
                 f'{path}: its last output is at step {last_step} of dt = {config.dt!r} s, '
                 f'but {published} outputs every {config.steps_per_publish} steps imply at most '
@@ -653,10 +657,11 @@ def resimulate(rec: Recording, errors: list | None = None):
     streams = len(rec.config.bodies)  # a spawned body's noise stream: after them, in order
     ported = set(rec.tf_bodies('tf') + rec.tf_bodies('tf_static'))  # bodies with topics
     spawned = set()
-    offsets, motion_filled = {}, {}
+    offsets: dict = {}
+    motion_filled: dict = {}
     events = rec.inputs
     i = 0
-    filled = {}
+    filled: dict = {}
     for step, body, kind, topic, msg, log_time in rec.outputs:
         while sim.step_count < step:
             while i < len(events) and events[i][0] <= sim.step_count:
@@ -993,7 +998,7 @@ def main(args=None) -> int:
 def _progress(what: str):
     """A progress callback ``show(done, total)`` for plots and renders (``Progress``: a tqdm bar
     on a terminal, else whole lines), closed at the last of ``total``."""
-    bar = []
+    bar: list = []
 
     def show(done: int, total: int) -> None:
         if not bar:

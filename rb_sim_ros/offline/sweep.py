@@ -65,6 +65,7 @@ import sys
 import tempfile
 import threading
 import time
+from typing import Any
 
 import numpy as np
 
@@ -294,7 +295,7 @@ def _simulate(config, params, context, out_path) -> dict:
     spp = config.steps_per_publish
     periods = max(1, math.ceil(context['steps'] / spp))
     target = context.get('wrench_body') or (moving[0] if moving else '')
-    events = {}
+    events: dict = {}
     profile = context.get('wrench') or ()
 
     def at(t):  # the first period boundary at or after t: period p starts at step (p-1) spp
@@ -327,7 +328,7 @@ def _simulate(config, params, context, out_path) -> dict:
         recorder.close()
     if recorder.failed:
         raise ValueError(recorder.failed)
-    row = {}
+    row: dict[str, Any] = {}
     energy = 0.0
     for n in moving:
         x, q, v, w = sim.pose_twist(n)
@@ -413,10 +414,11 @@ class _Files:
 
     def __init__(self, paths: list) -> None:
         self.paths = list(paths)
-        self.items = None
+        # (path, its bytes or why not): read when it is sent (__getstate__)
+        self.items: list[tuple[str, bytes | str]] | None = None
 
     def __getstate__(self) -> dict:
-        items = []
+        items: list[tuple[str, bytes | str]] = []
         for path in self.paths:  # a file that cannot be read is its own result, not the task's
             try:
                 with open(path, 'rb') as f:
@@ -436,7 +438,8 @@ def _unreadable(e: OSError) -> str:
 def verify_task(_shared, files: _Files) -> list:
     """A task of ``replay --verify``: [(path, identical, one-line summary)] of the files;
     identical is None for a file that could not be read (the summary says why)."""
-    out = []
+    out: list[tuple[str, bool | None, str]] = []
+    assert files.items is not None, 'a _Files is read when it is sent to a worker'
     with tempfile.TemporaryDirectory(prefix='rb_sim_verify_') as d:
         for name, data in files.items:
             if isinstance(data, str):
@@ -477,12 +480,12 @@ class Interrupted(KeyboardInterrupt):
 
 
 _HANDLED = (signal.SIGINT, signal.SIGTERM)  # main's: either stops the sweep, keeping rows
-_SIGNALS = []  # those main's handler took: Ray turns what a handler raises into a plain
+_SIGNALS: list[int] = []  # those main's handler took: Ray turns what a handler raises into a plain
 # KeyboardInterrupt (its waits check for signals), so the signal is kept here too
 
 
 _DEFERRING = [False]  # True while the driver waits inside the pool (it holds its locks)
-_PENDING = []  # signals that came then, raised once the wait is left
+_PENDING: list[int] = []  # signals that came then, raised once the wait is left
 
 
 def _on_signal(signum, _frame) -> None:
@@ -586,9 +589,10 @@ class LocalEngine:
         then given up (the others are not charged)."""
         pool = self._pool or self._fresh()
         waiting = collections.deque(range(len(tasks)))
-        alone = collections.deque()  # suspects of a dead worker, to run one at a time
+        # suspects of a dead worker, to run one at a time
+        alone: collections.deque[int] = collections.deque()
         attempts = [0] * len(tasks)
-        running = {}
+        running: dict = {}
         solo = None  # the task running alone, if one is
         while waiting or alone or running:
             broken = False
@@ -665,7 +669,7 @@ class RayEngine:
                              f'{str(e).strip().splitlines()[0] if str(e).strip() else e!r}'
                              ) from None
         self.workers = int(ray.cluster_resources().get('CPU', workers))
-        self._refs = {}
+        self._refs: dict = {}
 
     def map(self, fn, shared, tasks: list):
         remote = self.ray.remote(max_retries=1, retry_exceptions=True)(fn)

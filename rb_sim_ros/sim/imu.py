@@ -75,7 +75,7 @@ class ImuSensor:
         self._gyro_bias = [0.0, 0.0, 0.0]
         self._accel_bias = [0.0, 0.0, 0.0]
         self._last_ns: int | None = None
-        self._undo = None
+        self._undo: tuple | None = None
 
     def sample(self, time_ns: int):
         """The noise of the sample at sim time ``time_ns``: (gyroscope rad/s, accelerometer

@@ -210,7 +210,7 @@ class Background:
     def wait(self) -> str:
         """Wait for the child: ``poll``'s answer."""
         self._child.wait()
-        return self.poll()
+        return self.poll() or ''  # (None only while it runs)
 
     def stop(self) -> None:
         """End the child if it still runs (what it cached so far stays valid)."""

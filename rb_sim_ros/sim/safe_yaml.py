@@ -28,7 +28,7 @@ is refused as soon as it crosses a bound, whatever follows.
 from __future__ import annotations
 
 import re
-from typing import Any
+from typing import Any, Sequence
 
 import yaml
 from yaml import events
@@ -78,7 +78,7 @@ class YamlError(ValueError):
     """Refused YAML: ``reason``, at ``path`` (keys and indices from the document's root) and
     ``line`` (1-based; 0 when unknown)."""
 
-    def __init__(self, reason: str, path: tuple = (), line: int = 0) -> None:
+    def __init__(self, reason: str, path: Sequence[Any] = (), line: int = 0) -> None:
         super().__init__(reason if not line else f'{reason} (line {line})')
         self.reason, self.path, self.line = reason, tuple(path), line
 
@@ -153,8 +153,8 @@ def load(text: str, max_depth: int = MAX_DEPTH, max_nodes: int = MAX_NODES) -> A
                 if nodes > max_nodes:
                     raise YamlError(f'more than {max_nodes} values', _path(stack),
                                     _line(event))
-                top = stack[-1] if stack else None
-                awaiting_key = top is not None and top[1] is None and type(top[0]) is dict
+                top: list = stack[-1] if stack else [None, 0]  # (no container awaits a key)
+                awaiting_key = top[1] is None and type(top[0]) is dict
                 if kind is events.AliasEvent:
                     anchor = ascii(str(event.anchor)[:40])[1:-1]
                     raise YamlError(f'aliases (*{anchor}) are not allowed', _path(stack),

@@ -195,7 +195,7 @@ def _shape_mass(where: str, data: dict, shape: Any) -> tuple[float, tuple, dict]
     for key in ('mass', 'inertia'):
         if key in data:
             _fail(where, key, 'give either mass and inertia or a shape with a density, not both')
-    dims = {}
+    dims: dict[str, Any] = {}
     for key in sorted(SHAPES[shape]):
         if key not in data:
             _fail(where, key, f'missing (a {shape} needs it)')
@@ -228,7 +228,7 @@ def _inertia(where: str, value: Any) -> tuple:
     """3 moments, 9 components or 3 rows of 3, as a flat tuple of floats."""
     unit = ' (kg m^2)'
     if isinstance(value, list) and len(value) == 3 and any(isinstance(r, list) for r in value):
-        out = []
+        out: list[float] = []
         for i, row in enumerate(value):
             if not isinstance(row, list) or len(row) != 3:
                 _fail(where, 'inertia', f'row {i} must be a list of 3 numbers, got {_show(row)}')
@@ -265,7 +265,8 @@ def _body(path: str, index: int, data: Any, where: str = '') -> BodySpec:
     if not isinstance(static, bool):
         _fail(where, 'static', f'must be true or false, got {_show(static)}')
     kwargs['static'] = static
-    shape, dims = data.get('shape'), {}
+    shape = data.get('shape')
+    dims: dict[str, Any] = {}
     if 'shape' in data:
         kwargs['mass'], kwargs['inertia'], dims = _shape_mass(where, data, shape)
         field = 'shape'
@@ -383,7 +384,7 @@ def _contact(path: str, data: Any) -> ContactSettings:
     if unknown:
         raise SceneError(f'{where}: unknown contact keys {_show(unknown)} (known: '
                          f'{sorted(fields)})')
-    values = {}
+    values: dict[str, Any] = {}
     for key, value in data.items():
         default = getattr(ContactSettings, key)
         if isinstance(default, bool):

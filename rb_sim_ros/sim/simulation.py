@@ -100,8 +100,9 @@ class Config:
         bodies = [body_from_dict(b) for b in data.pop('bodies', [{}])]
         # Recordings made before collisions existed have no 'contact': the defaults.
         contact = ContactSettings.from_dict(data.pop('contact', {}))
-        return cls(bodies=tuple(bodies), contact=contact,
-                   **{k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items()})
+        rest: dict[str, Any] = {k: (tuple(v) if isinstance(v, list) else v)
+                                for k, v in data.items()}
+        return cls(bodies=tuple(bodies), contact=contact, **rest)
 
 
 def body_to_dict(spec: BodySpec) -> dict[str, Any]:
@@ -127,8 +128,9 @@ def body_from_dict(data: dict[str, Any]) -> BodySpec:
         raise ValueError(f'{named}colliders: {len(colliders)}, more than MAX_COLLIDERS = '
                          f'{MAX_COLLIDERS} on one body')
     try:
-        return BodySpec(colliders=tuple(shape_from_dict(c) for c in colliders),
-                        **{k: (tuple(v) if isinstance(v, list) else v) for k, v in b.items()})
+        rest: dict[str, Any] = {k: (tuple(v) if isinstance(v, list) else v)
+                                for k, v in b.items()}
+        return BodySpec(colliders=tuple(shape_from_dict(c) for c in colliders), **rest)
     except TypeError as e:
         raise ValueError(f'{named}not a body: {e}') from None
     except ValueError as e:
