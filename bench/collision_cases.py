@@ -1,8 +1,8 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
 """The figures of docs/collisions.md's "Measured" table: the scenarios of
-test/test_collisions.py, run again and measured (the tests assert the bounds; this prints what
-the runs reach).
+test/contact/test_collisions.py, run again and measured (the tests assert the bounds; this
+prints what the runs reach).
 
     python -m bench.collision_cases [--quick] [--json out.json]
 

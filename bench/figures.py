@@ -7,7 +7,7 @@ them, the date and the machine); docs/benchmarks.md gathers them (its hand-writt
 after the ones bench/report.py writes), docs/collisions.md and docs/sweeps.md quote some beside
 their measurements, and README.md quotes none (it says in words what the simulator is and
 links to docs/benchmarks.md). ``quotes`` below says where each figure is quoted, as the exact
-text it is formatted to. ``python -m bench.figures`` (and test/test_bench_quick.py) checks
+text it is formatted to. ``python -m bench.figures`` (and test/package/test_bench_quick.py) checks
 that every quoted text is where it should be, so a stale figure fails the suite.
 
 Rules for derived figures: a ratio is the quotient of the two JSON values named, rounded to

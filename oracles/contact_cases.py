@@ -1,10 +1,10 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""The collision scenarios of test/test_collisions.py, which bench/collision_cases.py runs again
-to measure what the tests bound (docs/collisions.md, "Measured"), and the solver cases of
-test/test_rolling_resistance.py and test/support/solver_fingerprint.py: the same bodies, seeds
-and settings wherever they run, with the closed forms they are checked against (momenta,
-the effective mass of a contact, its normal velocity and slip).
+"""The collision scenarios of test/contact/test_collisions.py, which bench.collision_cases
+runs again to measure what the tests bound (docs/collisions.md, "Measured"), and the solver
+cases of test/contact/test_rolling_resistance.py and test/support/solver_fingerprint.py: the
+same bodies, seeds and settings wherever they run, with the closed forms they are checked
+against (momenta, the effective mass of a contact, its normal velocity and slip).
 
 Worlds are at dt = 1 ms unless said, gravity ``G`` (m/s^2); ``GROUND`` is the plane z = 0.
 """

@@ -2,7 +2,7 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
 """Write config/params.yaml: every parameter of the simulator node at its default, with its
-description, from rb_sim_ros/ros/node_params.py (test/test_packaging.py checks they agree).
+description, from rb_sim_ros/ros/node_params.py (test/package/test_packaging.py checks they agree).
 
     .venv/bin/python tools/make_params_yaml.py
 """
@@ -18,7 +18,7 @@ HEADER = """\
 # Every parameter of the rb_sim_ros simulator node, at its default (`simulator --help` prints
 # the same list). Use: --ros-args --params-file config/params.yaml, or
 # ros2 launch rb_sim_ros sim.launch.py params_file:=... . Made by tools/make_params_yaml.py
-# from rb_sim_ros/ros/node_params.py (test/test_packaging.py checks they agree).
+# from rb_sim_ros/ros/node_params.py (test/package/test_packaging.py checks they agree).
 rb_sim:
   ros__parameters:
 """

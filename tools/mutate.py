@@ -35,17 +35,17 @@ import time
 
 ROOT = Path(__file__).resolve().parents[1]
 
-CONTACTS = 'test/test_mutants_contacts.py::'
-STEPPER = 'test/test_mutants_stepper.py::'
-COLLISIONS = 'test/test_collisions.py::'
-CONVERGENCE = 'test/test_convergence.py::'
-HIGH_ORDER = 'test/test_high_order.py::'
-NODE = 'test/test_node.py::'
-HARDENING = 'test/test_node_hardening.py::'
-MOTION = 'test/test_motion_sensing.py::'
-TF_IMU = 'test/test_tf_imu_node.py::'
-SIM_API = 'test/test_sim_interfaces.py::'
-SPAWN = 'test/test_spawn_delete.py::'
+CONTACTS = 'test/contact/test_mutants_contacts.py::'
+STEPPER = 'test/core/test_mutants_stepper.py::'
+COLLISIONS = 'test/contact/test_collisions.py::'
+CONVERGENCE = 'test/core/test_convergence.py::'
+HIGH_ORDER = 'test/core/test_high_order.py::'
+NODE = 'test/ros/test_node.py::'
+HARDENING = 'test/ros/test_node_hardening.py::'
+MOTION = 'test/sim/test_motion_sensing.py::'
+TF_IMU = 'test/ros/test_tf_imu_node.py::'
+SIM_API = 'test/ros/test_sim_interfaces.py::'
+SPAWN = 'test/sim/test_spawn_delete.py::'
 
 # Eq. (14) of the report as printed: R_{n+1} = (exp([w + (4 b - b_prev)/6 dt] dt)
 # - ([b][w] + [w][b]) dt^3 / 12) R_n, i.e. no (b x w) term in the rotation vector and the
@@ -177,7 +177,7 @@ MUTANTS = [
      [('if _energy(u, inverse_mass, inertia, which) > e0 * (1.0 + ENERGY_TOLERANCE):',
        'if False:')],
      [COLLISIONS + 'test_compiled_and_interpreted_solver_give_the_same_bits',
-      'test/test_untrusted_physics_contacts.py::'
+      'test/contact/test_untrusted_physics_contacts.py::'
       'test_a_contact_solve_never_creates_kinetic_energy'],
      'a solve that gains kinetic energy is not blended with the plastic one'),
     ('warm-start-pushes-a-along-n', 'rb_sim_ros/contact/solver_kernels.py',
@@ -193,21 +193,21 @@ MUTANTS = [
        '                b4 = b4 + (l1 * pb1y + l2 * pb2y)\n'
        '                b5 = b5 + (l1 * pb1z + l2 * pb2z)\n')],
      [COLLISIONS + 'test_many_contacts_keep_momentum',
-      'test/test_rolling_resistance.py::test_many_contacts_in_one_solve_keep_momentum'],
+      'test/contact/test_rolling_resistance.py::test_many_contacts_in_one_solve_keep_momentum'],
      'the rolling couple turns both bodies the same way (angular momentum not kept)'),
     ('pairs-b-rotation-from-a', 'rb_sim_ros/contact/narrow_kernels.py',
      [('            rot_a[q], rot_b[q] = rotations[i, q], rotations[j, q]\n',
        '            rot_a[q], rot_b[q] = rotations[i, q], rotations[i, q]\n')],
-     ['test/test_narrow_phase.py::test_collide_pairs_agrees_with_collide_pair_by_pair'],
+     ['test/contact/test_narrow_phase.py::test_collide_pairs_agrees_with_collide_pair_by_pair'],
      'collide_pairs gives collider B the rotation of collider A'),
     ('sphere-batch-keeps-every-pair', 'rb_sim_ros/contact/narrow_kernels.py',
      [('        keep[k] = found > 0\n', '        keep[k] = True\n')],
-     ['test/test_narrow_phase.py::test_batches_equal_collide_to_the_bit'],
+     ['test/contact/test_narrow_phase.py::test_batches_equal_collide_to_the_bit'],
      'the sphere batches report pairs that do not touch as kept'),
     ('world-skips-plane-margin', 'rb_sim_ros/contact/broad_phase.py',
      [('            if height - support <= float(margin[body[c]]):',
        '            if height - support <= 0.0:')],
-     ['test/test_narrow_phase.py::test_plane_candidates_use_the_support_distance'],
+     ['test/contact/test_narrow_phase.py::test_plane_candidates_use_the_support_distance'],
      'a collider within its speculative margin of a plane is not a candidate'),
     # -- issue 14: the higher-order methods and the flows ----------------------------------
     ('lie3-without-beta-derivative', 'rb_sim_ros/core/multistep.py',
@@ -298,7 +298,7 @@ MUTANTS = [
     ('spawned-frame-as-single-body', 'rb_sim_ros/offline/replay.py',
      [('                    outs[event.body] = outputs_of(event.body, True)',
        '                    outs[event.body] = outputs_of(event.body)')],
-     ['test/test_untrusted_recording.py::test_a_run_with_a_spawn_and_a_delete_verifies'],
+     ['test/offline/test_untrusted_recording.py::test_a_run_with_a_spawn_and_a_delete_verifies'],
      "replay stamps a spawned body beside the single body with the single body's frame"),
     ('tf-static-stamped-zero', 'rb_sim_ros/ros/simulator_node.py',
      [('            ros_messages.fill_tf(self._tf_static, t_ns, self._tf_static_poses)',
@@ -312,18 +312,18 @@ MUTANTS = [
     ('plot-first-lifetime', 'rb_sim_ros/pictures/plots.py',
      [("        which = np.maximum(np.searchsorted(starts, a[:, 0], side='left') - 1, 0)",
        '        which = np.zeros(len(a), dtype=int)')],
-     ['test/test_plots_render.py::'
+     ['test/pictures/test_plots_render.py::'
       'test_a_name_spawned_again_is_plotted_and_drawn_as_the_body_it_names_then'],
      'a body spawned again under a name is plotted with the mass of the first'),
     # -- issue 18: sweeps ------------------------------------------------------------------
     ('sweep-profile-held-for-ever', 'rb_sim_ros/offline/sweep.py',
      [('    if profile:  # as send_wrench:', '    if False:  # as send_wrench:')],
-     ['test/test_sweep.py::test_the_wrench_schedule_is_what_send_wrench_sends'],
+     ['test/offline/test_sweep.py::test_the_wrench_schedule_is_what_send_wrench_sends'],
      "the profile's last row held to the end of the run, not ended by a zero"),
     ('sweep-grid-order', 'rb_sim_ros/offline/sweep.py',
      [('        for key, grid in zip(reversed(self.keys), reversed(self.grids)):',
        '        for key, grid in zip(self.keys, self.grids):')],
-     ['test/test_sweep.py::test_specs_lists_ranges_and_distributions'],
+     ['test/offline/test_sweep.py::test_specs_lists_ranges_and_distributions'],
      'runs numbered with the first list varying fastest, not the last'),
 ]
 

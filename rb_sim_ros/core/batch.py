@@ -13,7 +13,7 @@ body-frame vectors to the world frame (``r_world = R @ r_body``), as everywhere 
 A batch is N rows of the step kernel's arrays (``step_kernel``): the same compiled function
 that steps a ``Stepper`` (its one-row case) takes every body n steps in one call, the bodies
 shared among the cores from ``chunk_size`` bodies on. So a body of a batch and a ``Stepper``
-of the same body, state and wrench give the same bits (``test/test_batch.py``), read alike:
+of the same body, state and wrench give the same bits (``test/core/test_batch.py``), read alike:
 ``rotations()`` is R as integrated, as ``Stepper.rotation()`` and ``components()`` are;
 ``state(i)`` is a ``State``, as ``Stepper.state`` is, whose R is that one projected onto SO(3)
 (up to ~10 ulp away, the integrator's orthonormality error); ``quaternions_xyzw()`` are those

@@ -4,7 +4,7 @@
 
 A kernel is a plain Python function over float64/int64 arrays and floats. Compiled with
 ``numba.njit``; with ``NUMBA_DISABLE_JIT=1`` in the environment the very same functions run in
-the interpreter, and ``test/test_kernels.py`` checks that both give the same bits. Never
+the interpreter, and ``test/core/test_kernels.py`` checks that both give the same bits. Never
 ``fastmath``: it lets LLVM reorder and fuse (a*b + c as one FMA) floating-point operations, and a
 recording would no longer replay bit for bit against the interpreter or another machine.
 

@@ -14,7 +14,7 @@ from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
 from rb_sim_ros.sim.scene import body_entry, load_scene, mass_and_inertia, SceneError
 from rb_sim_ros.sim.simulation import Config, ContactSettings
 
-SCENES = Path(__file__).resolve().parents[1] / 'scenes'
+SCENES = Path(__file__).resolve().parents[2] / 'scenes'
 EXAMPLE = SCENES / 'example.yaml'
 
 

@@ -34,7 +34,7 @@ from support import ros_harness
 from support.recordings import mcap_parts
 from support.ros_harness import stamp_ns
 
-FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
+FIXTURE = Path(__file__).resolve().parents[1] / 'fixtures' / 'regression.mcap'
 FIXTURES = FIXTURE.parent
 
 
@@ -455,7 +455,7 @@ def test_a_first_start_steps_while_compiling_and_records_the_compiled_bits(
     bit for bit (replay steps compiled only)."""
     env = dict(ros_env, NUMBA_CACHE_DIR=str(tmp_path / 'cache'))  # empty: nothing compiled
     f = tmp_path / 'run.mcap'
-    demo = Path(__file__).resolve().parents[1] / 'scenes' / 'collisions.yaml'
+    demo = Path(__file__).resolve().parents[2] / 'scenes' / 'collisions.yaml'
     arrivals = []  # (kind, value) in the order received: one callback thread
     probe.node.create_subscription(
         PoseArray, 'poses', lambda m: arrivals.append(('pose', stamp_ns(m.header.stamp))), 10)

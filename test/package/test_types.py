@@ -9,7 +9,7 @@ from pathlib import Path
 import subprocess
 import sys
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CHECKED = ('rb_sim_ros/core', 'rb_sim_ros/sim', 'rb_sim_ros/recording', 'rb_sim_ros/offline')
 
 

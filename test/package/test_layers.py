@@ -15,7 +15,7 @@ from pathlib import Path
 import subprocess
 import sys
 
-PACKAGE = Path(__file__).resolve().parents[1] / 'rb_sim_ros'
+PACKAGE = Path(__file__).resolve().parents[2] / 'rb_sim_ros'
 ALLOWED = {
     'core': {'core'},
     'contact': {'contact', 'core'},
@@ -178,3 +178,18 @@ def test_tests_import_no_test_module_and_bench_and_oracles_stay_out_of_test():
                       for n, text in enumerate(path.read_text().splitlines(), 1)
                       if 'sys.path' in text]
     assert found == []
+
+
+def test_the_tests_mirror_the_layers():
+    """A test lives in test/<layer>/ for the package of rb_sim_ros it tests (core, contact,
+    sim, recording, ros, offline, pictures), or in test/package/ for the checks of the whole
+    checkout (style, layers, types, packaging, benchmarks); none at the top of test/, whose
+    support/ and fixtures/ are shared."""
+    test_dir = PACKAGE.parent / 'test'
+    layers = {p.name for p in PACKAGE.iterdir() if (p / '__init__.py').exists()}
+    assert {'core', 'contact', 'sim', 'recording', 'ros', 'offline', 'pictures'} <= layers
+    found = {p.parent.name for p in test_dir.rglob('test_*.py')}
+    assert found <= layers | {'package'}, found - layers
+    assert not list(test_dir.glob('test_*.py'))
+    assert {p.name for p in test_dir.iterdir() if p.is_dir()} <= (
+        layers | {'package', 'support', 'fixtures', '__pycache__'})

@@ -18,7 +18,7 @@ from rb_sim_ros.offline import replay
 from rb_sim_ros.recording import ReaderError
 from support.recordings import mcap_parts
 
-FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
+FIXTURE = Path(__file__).resolve().parents[1] / 'fixtures' / 'regression.mcap'
 TRANSIENT_LOCAL = ('- history: keep_last\n  depth: 3\n  reliability: reliable\n'
                    '  durability: transient_local\n  deadline:\n    sec: 9223372036\n'
                    '    nsec: 854775807\n  liveliness: automatic\n'

@@ -30,7 +30,7 @@ from rb_sim_ros.ros.node_recorder import RUN_DEFINITION
 from rb_sim_ros.sim.simulation import BodySpec, Config, SetWrench
 from support.recordings import mcap_parts
 
-FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
+FIXTURE = Path(__file__).resolve().parents[1] / 'fixtures' / 'regression.mcap'
 CONVERT = Path(sys.executable).parent / 'rosbags-convert'
 
 

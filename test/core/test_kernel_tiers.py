@@ -22,7 +22,7 @@ from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import BodySpec, Config, Delete, SetWrench, Simulation, Spawn
 from support.kernel_fingerprint import _batch_reads, _digest, _sim_digest, mixed_inertias
 
-PACKAGE = Path(__file__).resolve().parents[1] / 'rb_sim_ros'
+PACKAGE = Path(__file__).resolve().parents[2] / 'rb_sim_ros'
 DECORATORS = {'kernel', 'inline_kernel', 'parallel_kernel'}
 
 pytestmark = pytest.mark.skipif(not jit.compiling(), reason='NUMBA_DISABLE_JIT=1: one tier')

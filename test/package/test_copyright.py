@@ -7,7 +7,7 @@ from pathlib import Path
 import subprocess
 import xml.etree.ElementTree as ET
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 HEADER = ('# Copyright 2026 The rb_sim_ros Authors',
           '# Licensed under the Apache License, Version 2.0')
 

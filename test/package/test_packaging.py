@@ -21,7 +21,7 @@ import yaml
 from rb_sim_ros.ros import node_params
 from support import ros_harness
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SHARE_FILES = ('launch/sim.launch.py', 'config/params.yaml', 'rviz/rb_sim.rviz',
                'foxglove/rb_sim_layout.json', 'scenes/collisions.yaml', 'package.xml')
 

@@ -19,7 +19,7 @@ from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Delete, SetPose,
                                        SetWrench, Spawn)
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 FIXTURE = ROOT / 'test' / 'fixtures' / 'regression.mcap'
 COLLISIONS = ROOT / 'test' / 'fixtures' / 'collision_demo.mcap'
 

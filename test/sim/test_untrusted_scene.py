@@ -20,7 +20,7 @@ from rb_sim_ros.sim import safe_yaml, scene
 from rb_sim_ros.sim.scene import load_scene, Scene, SceneError
 from rb_sim_ros.sim.simulation import BodySpec, ContactSettings
 
-SCENES = Path(__file__).resolve().parents[1] / 'scenes'
+SCENES = Path(__file__).resolve().parents[2] / 'scenes'
 BODY = '{name: a, mass: 1, inertia: [1, 1, 1]}'
 HUGE = '1' + '0' * 399  # 400 digits: more than a float holds
 

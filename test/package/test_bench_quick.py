@@ -17,7 +17,7 @@ import pytest
 
 from rb_sim_ros import METHODS
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _bench(name):

@@ -6,7 +6,7 @@ file (a refactor that moves the text must move the mutant with it)."""
 import importlib.util
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_every_mutant_still_applies():

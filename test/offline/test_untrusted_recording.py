@@ -32,7 +32,7 @@ from rb_sim_ros.sim.simulation import (BodySpec, Config, Delete, SetWrench, Simu
                                        Spawn)
 from support.recordings import disk_full_after, mcap_parts, rewrite, topic_parts
 
-FIXTURE = Path(__file__).resolve().parent / 'fixtures' / 'regression.mcap'
+FIXTURE = Path(__file__).resolve().parents[1] / 'fixtures' / 'regression.mcap'
 OUTPUT_KINDS = ('pose', 'twist', 'odom')  # what the runs recorded offline here publish
 RECORDED_KINDS = tuple(OUTPUTS)  # what the node records of a body (the fixture)
 

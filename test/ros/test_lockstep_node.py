@@ -26,7 +26,7 @@ from rb_sim_ros.recording.reader import RecordingReader
 from rb_sim_ros.ros import node_recorder
 from support.ros_harness import stamp_ns
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / 'examples'))
 ctl = importlib.import_module('attitude_controller')
 loop = importlib.import_module('closed_loop_ci')

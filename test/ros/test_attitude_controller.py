@@ -20,7 +20,7 @@ from std_srvs.srv import SetBool
 from rb_sim_ros.offline import replay
 from support.ros_harness import stamp_ns
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / 'examples'))
 ctl = importlib.import_module('attitude_controller')
 

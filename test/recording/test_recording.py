@@ -37,7 +37,7 @@ from rb_sim_ros.recording.compare import difference
 from rb_sim_ros.recording.schemas import interface_file
 from support.recordings import disk_full_after
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 TOPICS = [('/pose', PoseStamped), ('/twist', Twist), ('/odom', Odometry),
           ('/rb_sim/input/body/wrench', WrenchStamped)]
 QOS = {'/twist': QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT),

@@ -23,7 +23,7 @@ from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import (BodySpec, Config, contact_tests, Delete, kernels_after,
                                        Simulation, Spawn)
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 # Steps one free body of each integrator named on the command line, printing for each the
 # package's kernels that its first step compiled (and the state, to compare tiers).

@@ -17,7 +17,7 @@ from rb_sim_ros.core.batch import BatchStepper
 from rb_sim_ros.core.stepper import (ENERGY_STEPS, ENERGY_TOLERANCE, step_all, TURN_BOUNDS,
                                      TurnWarning)
 
-DOCS = Path(__file__).resolve().parent.parent / 'docs' / 'integrators.md'
+DOCS = Path(__file__).resolve().parents[2] / 'docs' / 'integrators.md'
 START = so3.exp((0.3, -0.2, 0.5))
 
 

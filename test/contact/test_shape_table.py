@@ -17,7 +17,7 @@ from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.contact.shapes import base
 from rb_sim_ros.core import so3
 
-PACKAGE = Path(__file__).resolve().parents[1] / 'rb_sim_ros'
+PACKAGE = Path(__file__).resolve().parents[2] / 'rb_sim_ros'
 # One shape of each kind as a scene file gives it; a new kind without one fails here.
 EXAMPLES = {
     'sphere': {'type': 'sphere', 'radius': 0.3, 'position': [0.1, 0.0, 0.0]},

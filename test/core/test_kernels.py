@@ -143,7 +143,7 @@ def test_warm_up_compiles_and_changes_nothing():
     without it, to the bit (collision demo, with a body without colliders too)."""
     from rb_sim_ros.sim.scene import load_scene
     from rb_sim_ros.sim.simulation import Config, Simulation
-    gravity, bodies, contact = load_scene(str(HERE.parent / 'scenes' / 'collisions.yaml'))[:3]
+    gravity, bodies, contact = load_scene(str(HERE.parents[1] / 'scenes' / 'collisions.yaml'))[:3]
     config = Config(gravity=gravity, bodies=tuple(bodies), contact=contact)
     warmed, cold = Simulation(config), Simulation(config)
     warmed.warm_up()

@@ -17,7 +17,7 @@ from rb_sim_ros.ros.simulator_node import _CHUNK_STEPS, _CHUNK_WALL_S, describe_
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import Simulation
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.parametrize('per_step_s, expected', [

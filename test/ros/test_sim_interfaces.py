@@ -32,7 +32,7 @@ from simulation_interfaces.srv import (DeleteEntity, GetEntities, GetEntityState
 from rb_sim_ros.ros.body_ports import APPLIED_QOS
 from support.ros_harness import stamp_ns
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 HASHES = json.loads((ROOT / 'test' / 'fixtures' / 'simulation_interfaces_jazzy_hashes.json')
                     .read_text())['hashes']
 
