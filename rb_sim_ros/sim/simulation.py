@@ -394,7 +394,7 @@ class Simulation:
             self.world.warm_up()  # its bodies' store too
         else:
             for s in self._moving[:1]:
-                s._store.warm_up()
+                s.store.warm_up()
 
     def run(self, n: int) -> None:
         """Advance every moving body n steps. If one goes non-finite the others still advance
