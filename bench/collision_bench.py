@@ -31,7 +31,7 @@ sanity checks of its figures (finite, positive, within orders of magnitude: rati
 1e-4..1000, MuJoCo's Newton solver being some 400 times slower than the rest here; contact
 counts within 5x of each other). Also the time of rb_sim_ros's step (one compiled call:
 integrate, broad, narrow, solve, write), and the same N spheres without colliders: what a
-world that skips the collision pass costs next to the bare Steppers.
+run that has no collision world (``Simulation``) costs next to the bare Steppers.
 Writes docs/bench/collision_bench.json (or ``--json``; --quick: none unless asked).
 """
 
@@ -46,11 +46,11 @@ import mujoco
 import numpy as np
 
 from bench import figures
-from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Plane, Sphere
-from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.settings import ContactSettings
 from rb_sim_ros.core.stepper import Stepper
-from rb_sim_ros.sim.simulation import BodySpec
+from rb_sim_ros.sim.bodies import collision_world
+from rb_sim_ros.sim.simulation import BodySpec, Config, Simulation
 
 DT = 1e-3
 RADIUS = 0.05
@@ -102,13 +102,14 @@ def _rms(v: np.ndarray) -> float:
 def run_ours(s: dict, max_settle: int, steps: int) -> dict:
     # No sleeping (MuJoCo's is off by default too): a settled heap whose bodies slept would be
     # timed doing nothing.
-    world = CollisionWorld(bodies(s), DT, GRAVITY, planes=walls(s['half']),
-                           contact=ContactSettings(restitution=RESTITUTION, friction=FRICTION,
-                                                   sleep_time=0.0))
+    specs = bodies(s)
+    world = collision_world(specs, DT, GRAVITY, planes=walls(s['half']),
+                            contact=ContactSettings(restitution=RESTITUTION, friction=FRICTION,
+                                                    sleep_time=0.0))
     assert world.settings.velocity_iterations == ITERATIONS
 
     def rms():
-        return _rms(np.array([world.state(b.name).linear_velocity for b in world.bodies]))
+        return _rms(np.array([world.state(b.name).linear_velocity for b in specs]))
 
     settle = calm = 0
     while settle < max_settle and calm < SETTLED_CHECKS:
@@ -129,7 +130,7 @@ def run_ours(s: dict, max_settle: int, steps: int) -> dict:
         colours.append(world.last_stats.colours)
     totals = world.totals  # read again: the sums are brought up to date when read
     per = {k: (getattr(totals, k) - v) / steps for k, v in base.items()}
-    positions = np.array([world.state(b.name).position for b in world.bodies])
+    positions = np.array([world.state(b.name).position for b in specs])
     return {'seconds_per_step': float(np.median(times)), 'settle_steps': settle,
             'rms_speed_before': rms_before, 'rms_speed_after': rms(),
             'contacts': per['contacts'], 'forced_contacts': per['active'],
@@ -226,20 +227,21 @@ def run_mujoco(s: dict, max_settle: int, steps: int, newton_steps: int) -> dict:
 
 
 def no_collider_costs(s: dict, steps: int) -> dict:
-    """Seconds per step of N colliderless bodies: a CollisionWorld against bare Steppers."""
+    """Seconds per step of N colliderless bodies: a Simulation of them (which has no collision
+    world: the one switch) against bare Steppers."""
     specs = bodies(s, colliders=False)
-    world = CollisionWorld(specs, DT, GRAVITY, planes=walls(s['half']))
+    world = Simulation(Config(dt=DT, gravity=GRAVITY, bodies=tuple(specs)))
     steppers = [Stepper(b.body(), DT, b.initial_state(), gravity=GRAVITY) for b in specs]
     best = {'world': np.inf, 'steppers': np.inf}
     for _ in range(3):
         t = time.perf_counter()
-        world.step(steps)
+        world.run(steps)
         best['world'] = min(best['world'], (time.perf_counter() - t) / steps)
         t = time.perf_counter()
         for st in steppers:
             st.step(steps)
         best['steppers'] = min(best['steppers'], (time.perf_counter() - t) / steps)
-    return {**best, 'enabled': world.enabled}
+    return {**best, 'enabled': world.world is not None}
 
 
 def check(s: dict, name: str, positions: np.ndarray) -> list[str]:
@@ -343,7 +345,7 @@ def main() -> int:
     for phase, sec in ours['phases'].items():
         print(f'| {phase} | {sec * 1e3:.3f} | {sec / total:.0%} |')
     print(f'\n{count} bodies without colliders (collision pass skipped: '
-          f'{not free["enabled"]}): CollisionWorld {free["world"] * 1e3:.3f} ms per step, '
+          f'{not free["enabled"]}): Simulation.run {free["world"] * 1e3:.3f} ms per step, '
           f'bare Steppers {free["steppers"] * 1e3:.3f} ms per step')
     sane = sanity(ours, theirs)
     path = opts.json or (None if opts.quick else figures.DOCS_BENCH / 'collision_bench.json')

@@ -24,8 +24,8 @@ import numpy as np
 from bench import figures
 from oracles import contact_cases as tc  # the tests' scenarios
 from rb_sim_ros.contact import contact_solver as cs
-from rb_sim_ros.contact.bodies import ContactSettings
-from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.settings import ContactSettings
+from rb_sim_ros.sim.bodies import collision_world
 
 RESTITUTIONS = (0.0, 0.3, 1.0)
 FRICTIONS = (0.05, 5.0)
@@ -88,9 +88,9 @@ def bounces() -> dict:
     for speculative in (True, False):
         errors = []
         for h in (1.0, 0.7313, 0.25):
-            world = CollisionWorld([tc.ball(radius=r, position=(0.0, 0.0, r + h))], dt, tc.G,
-                                   planes=tc.GROUND,
-                                   contact=ContactSettings(restitution=e, speculative=speculative))
+            world = collision_world([tc.ball(radius=r, position=(0.0, 0.0, r + h))], dt, tc.G,
+                                    planes=tc.GROUND, contact=ContactSettings(
+                                        restitution=e, speculative=speculative))
             tops = tc.apexes(world, 'ball', int(4.2 * math.sqrt(2 * h / 9.81) / dt) + 50)
             previous = h
             for top in tops[:2]:
@@ -102,9 +102,9 @@ def bounces() -> dict:
 
 def resting_box(seconds: float) -> dict:
     """test_resting_box_stays_still_for_10_s."""
-    world = CollisionWorld([tc.cube('box', (0.4, 0.3, 0.2), (0.0, 0.0, 0.1), mass=3.0)], 1e-3,
-                           tc.G, planes=tc.GROUND,
-                           contact=ContactSettings(restitution=0.5, friction=0.5, sleep_time=0.0))
+    world = collision_world([tc.cube('box', (0.4, 0.3, 0.2), (0.0, 0.0, 0.1), mass=3.0)], 1e-3,
+                            tc.G, planes=tc.GROUND,
+                            contact=ContactSettings(restitution=0.5, friction=0.5, sleep_time=0.0))
     start = world.state('box').position
     depth = speed = spin = 0.0
     iterations = set()
@@ -125,9 +125,9 @@ def resting_box(seconds: float) -> dict:
 def stack(seconds: float) -> dict:
     """test_box_stack_of_three_stands_for_10_s."""
     size = (0.2, 0.2, 0.2)
-    world = CollisionWorld([tc.cube(f'box{i}', size, (0.0, 0.0, 0.1 + 0.2 * i))
+    world = collision_world([tc.cube(f'box{i}', size, (0.0, 0.0, 0.1 + 0.2 * i))
                             for i in range(3)], 1e-3, tc.G, planes=tc.GROUND,
-                           contact=ContactSettings(friction=0.5, sleep_time=0.0))
+                            contact=ContactSettings(friction=0.5, sleep_time=0.0))
     start = [world.state(f'box{i}').position for i in range(3)]
     depth = speed = 0.0
     for k in range(round(seconds * 1000)):
@@ -150,8 +150,8 @@ def tumbling_box() -> dict:
     spec = tc.cube('box', size, (0.0, 0.0, 0.5), mass=2.0, initial_orientation_xyzw=tuple(
         tc.so3.quaternion_xyzw_from_matrix(tc.so3.exp((0.4, 0.7, 0.2)))),
         initial_linear_velocity=(1.0, 0.3, 0.0), initial_angular_velocity=(3.0, -5.0, 8.0))
-    world = CollisionWorld([spec], 1e-3, tc.G, planes=tc.GROUND,
-                           contact=ContactSettings(restitution=0.3, friction=0.6))
+    world = collision_world([spec], 1e-3, tc.G, planes=tc.GROUND,
+                            contact=ContactSettings(restitution=0.3, friction=0.6))
     body = spec.body()
     at_rest = None
     for k in range(3000):
@@ -168,9 +168,9 @@ def tumbling_box() -> dict:
 def sliding_box() -> dict:
     """test_sliding_box_stops_where_coulomb_says."""
     mu, v0 = 0.4, 2.0
-    world = CollisionWorld([tc.cube('box', (0.2, 0.2, 0.2), (0.0, 0.0, 0.1 - 1e-4),
-                                    initial_linear_velocity=(v0, 0.0, 0.0))], 1e-3, tc.G,
-                           planes=tc.GROUND, contact=ContactSettings(friction=mu))
+    world = collision_world([tc.cube('box', (0.2, 0.2, 0.2), (0.0, 0.0, 0.1 - 1e-4),
+                                     initial_linear_velocity=(v0, 0.0, 0.0))], 1e-3, tc.G,
+                            planes=tc.GROUND, contact=ContactSettings(friction=mu))
     world.step(700)
     return {'stopped_at': float(world.state('box').position[0]),
             'coulomb': v0 ** 2 / (2 * mu * 9.81)}

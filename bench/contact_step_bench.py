@@ -40,10 +40,11 @@ import mujoco
 import numpy as np
 
 from bench import figures
-from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.settings import ContactSettings
 from rb_sim_ros.core import so3
+from rb_sim_ros.sim.bodies import collision_world
 from rb_sim_ros.sim.simulation import BodySpec
 
 DT = 1e-3
@@ -110,8 +111,8 @@ def scenes() -> dict:
 
 def ours(scene, steps: int, per_call: int = 1) -> tuple[CollisionWorld, list[float]]:
     bodies, planes, e, mu = scene[:4]
-    world = CollisionWorld(bodies, DT, (0.0, 0.0, -G), planes=planes,
-                           contact=ContactSettings(restitution=e, friction=mu, sleep_time=0.0))
+    world = collision_world(bodies, DT, (0.0, 0.0, -G), planes=planes,
+                            contact=ContactSettings(restitution=e, friction=mu, sleep_time=0.0))
     times = []
     for _ in range(steps // per_call):
         t = time.perf_counter()

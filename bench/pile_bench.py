@@ -19,7 +19,7 @@ until about 2 s, so that whether all rest at the end depends on the seed and the
 
 The engines, each built from the same poses (not timed) and stepped through the whole run:
 
-* rb_sim_ros: ``CollisionWorld(bodies, dt, gravity, friction=0.5, restitution=0,
+* rb_sim_ros: ``collision_world(bodies, dt, gravity, friction=0.5, restitution=0,
   planes=(Plane(),), sleep_time=0)`` (like for like: every contact solved every step), with its
   default solver (10 velocity and 4 position iterations at most); again with its default
   sleeping (``sleep_time=0.5``). Its contact step runs on one thread.
@@ -67,10 +67,10 @@ import numpy as np
 import rapier3d
 
 from bench import figures
-from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Box, Plane
-from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.settings import ContactSettings
 from rb_sim_ros.core import so3
+from rb_sim_ros.sim.bodies import collision_world
 from rb_sim_ros.sim.simulation import BodySpec
 
 DT = 1e-3
@@ -156,7 +156,7 @@ class Ours:
                            colliders=(Box((SIZE,) * 3),))
                   for n, (p, r) in enumerate(zip(pos, rotvec))]
         self.names = [b.name for b in bodies]
-        self.world = CollisionWorld(
+        self.world = collision_world(
             bodies, DT, (0.0, 0.0, -G), planes=(Plane(),),
             contact=ContactSettings(restitution=0.0, friction=FRICTION,
                                     sleep_time=ContactSettings.sleep_time if sleeping else 0.0))

@@ -36,10 +36,11 @@ import mujoco
 import numpy as np
 
 from bench import figures
-from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.settings import ContactSettings
 from rb_sim_ros.core.rigid_body import State
+from rb_sim_ros.sim.bodies import collision_world
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import BodySpec, Config, Simulation
 
@@ -64,8 +65,8 @@ def world(side: int, sleep_time: float) -> CollisionWorld:
                        colliders=(Box((SIZE,) * 3),)) for n, p in enumerate(positions(side))]
     bodies.append(BodySpec('ball', 1.0, (0.004,) * 3, initial_position=(50.0, 0.0, 0.1),
                            colliders=(Sphere(0.1),)))     # waits on the ground, far away
-    return CollisionWorld(bodies, DT, GRAVITY, planes=(Plane(),),
-                          contact=ContactSettings(friction=FRICTION, sleep_time=sleep_time))
+    return collision_world(bodies, DT, GRAVITY, planes=(Plane(),),
+                           contact=ContactSettings(friction=FRICTION, sleep_time=sleep_time))
 
 
 def timed(step, steps: int) -> float:

@@ -12,10 +12,10 @@ Worlds are at dt = 1 ms unless said, gravity ``G`` (m/s^2); ``GROUND`` is the pl
 import numpy as np
 
 from rb_sim_ros.contact import contact_solver as cs
-from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
-from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.settings import ContactSettings
 from rb_sim_ros.core import so3
+from rb_sim_ros.sim.bodies import collision_world
 from rb_sim_ros.sim.simulation import BodySpec
 
 G = (0.0, 0.0, -9.81)
@@ -143,9 +143,9 @@ def apexes(world, name, steps):
 def thin_wall_run(speed, speculative, phase, r=0.05, width=0.01, dt=1e-3):
     start = -(0.3 + r + width / 2 + (1.0 + phase) * speed * dt)
     wall = BodySpec('wall', static=True, colliders=(Box((width, 1.0, 1.0)),))
-    world = CollisionWorld([ball(radius=r, position=(start, 0.0, 0.0), velocity=(speed, 0, 0)),
+    world = collision_world([ball(radius=r, position=(start, 0.0, 0.0), velocity=(speed, 0, 0)),
                             wall], dt,
-                           contact=ContactSettings(restitution=0.5, speculative=speculative))
+                            contact=ContactSettings(restitution=0.5, speculative=speculative))
     world.step(int(-2 * start / (speed * dt)) + 3)
     return float(world.state('ball').position[0])
 
@@ -166,11 +166,12 @@ def mixed_scene():
                                   Capsule(0.02, 0.3))),
               BodySpec('pillar', static=True, initial_position=(0.6, -0.6, 0.25),
                        colliders=(Box((0.2, 0.2, 0.5)),))]
-    return CollisionWorld(bodies, 1e-3, G, planes=walls,
-                          contact=ContactSettings(restitution=0.3, friction=0.5))
+    return collision_world(bodies, 1e-3, G, planes=walls,
+                           contact=ContactSettings(restitution=0.3, friction=0.5))
 
 
 def mechanical_energy(world):
-    return sum(world.state(b.name).kinetic_energy(b.body())
-               + b.mass * 9.81 * world.state(b.name).position[2]
-               for b in world.bodies if not b.static)
+    """Kinetic and potential energy (g = 9.81 along -z) of a world's moving bodies (J)."""
+    return sum(world.state(name).kinetic_energy(s.body)
+               + s.body.mass * 9.81 * world.state(name).position[2]
+               for name, s in world.steppers.items())

@@ -1,15 +1,19 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
 """Bodies that collide: moving bodies (rows of one BodyStore), static colliders and planes.
+The world is handed them (``CollisionWorld(steppers, colliders, contact)``):
 
-    world = CollisionWorld([BodySpec('ball', mass=1.0, inertia=(4e-3,) * 3,
-                                     initial_position=(0.0, 0.0, 1.0),
-                                     colliders=(Sphere(0.1),))],
-                           dt=1e-3, gravity=(0.0, 0.0, -9.81),
-                           planes=(Plane((0.0, 0.0, 1.0), 0.0),),
-                           contact=ContactSettings(restitution=0.5, friction=0.5))
+    store = BodyStore(1, 1e-3, multistep.EQ27)
+    ball = Stepper(RigidBody(1.0, np.full(3, 4e-3)), 1e-3, State((0.0, 0.0, 1.0)),
+                   gravity=(0.0, 0.0, -9.81), store=store)
+    world = CollisionWorld({'ball': ball},
+                           ColliderSet([Owner('ball', (Sphere(0.1),), row=ball.row)],
+                                       planes=(Plane((0.0, 0.0, 1.0), 0.0),)),
+                           ContactSettings(restitution=0.5, friction=0.5))
     world.step(1000)
     world.state('ball').position, world.last_stats.contacts
+
+(``sim.bodies.collision_world`` builds the same from ``BodySpec`` values.)
 
 Each step, in this order (all deterministic: stable sorts, contacts in pair order, no
 iteration over sets or dicts, no randomness), and ``step(n)`` takes n of them in one compiled
@@ -42,8 +46,8 @@ awake body's count of slow steps.
 
 The first step, and the first after ``CollisionWorld.set_state`` (use it, not the Stepper's,
 to teleport a body), runs 2-5 on the starting state before it integrates. A world without
-colliders on moving bodies skips 2-5 and costs what the Steppers cost. Wrenches are held as
-usual: ``world.steppers[name].set_wrench(...)``.
+colliders on moving bodies is not made (ValueError): its Steppers step alone. Wrenches are
+held as usual: ``world.steppers[name].set_wrench(...)``.
 
 The speculative margin of a body is the distance it can move in a step,
 (|v| + |omega| rho) dt + |g| dt^2 with rho its colliders' reach from its centre of mass: a
@@ -57,20 +61,18 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 import math
 import time
-from typing import Any, Sequence
+from typing import Mapping
 
 import numpy as np
 
 from rb_sim_ros.contact import broad_phase as bp, contact_solver, narrow_kernels as nk
-from rb_sim_ros.contact import shapes
-from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.contact import world_step as ws
-from rb_sim_ros.contact.bodies import BodySpec, ContactSettings, make_steppers
-from rb_sim_ros.contact.collision_shapes import Plane, Shape
+from rb_sim_ros.contact.colliders import ColliderSet
+from rb_sim_ros.contact.settings import ContactSettings
 from rb_sim_ros.core import jit, step_kernel as K
-from rb_sim_ros.core.rigid_body import finite_floats, State
+from rb_sim_ros.core.rigid_body import State
 from rb_sim_ros.core.step_count import check_steps, MAX_STEPS
-from rb_sim_ros.core.stepper import carry_over, IntegrationError, Stepping
+from rb_sim_ros.core.stepper import carry_over, IntegrationError, Stepper
 
 # Position corrections that turn a body by less than this (rad) are not applied: they are the
 # rounding noise of contacts whose lever arm is parallel to the normal (a sphere's), and
@@ -121,59 +123,59 @@ class WorldContact:
     normal_impulse: float
 
 
-def pairs_met(bodies: Sequence[BodySpec], planes: Sequence[Plane] = ()) -> int:
-    """The contact tests (a set of ``narrow_kernels.PAIR_BIT``) a world of ``bodies`` and
-    ``planes`` can call: those of the kinds of a moving body's collider and another body's."""
-    kinds = [[shapes.kind_of(sh) for sh in b.colliders] for b in bodies]
-    return nk.pair_set(kinds + [[nk.KIND_PLANE] * len(planes)],
-                       [not b.static for b in bodies] + [False])
-
-
-@dataclass
-class _Collider:
-    shape: Shape
-    owner: int          # index of the BodySpec (or -1 for ``planes``)
-    body: int           # index among the moving bodies with colliders, or -1 if static
-    position: np.ndarray
-    rotation: np.ndarray
-
-
 class CollisionWorld:
-    """Moving and static bodies with collision shapes, stepped with a fixed dt (s).
+    """Moving and static bodies with collision shapes, stepped with a fixed dt (s): the
+    world is handed its data (as Rapier's pipeline is) and builds nothing of it.
 
-    bodies: ``simulation.BodySpec`` values; ``colliders`` holds shapes of
-    ``collision_shapes`` in the body frame; a ``static`` body never moves (infinite mass).
-    planes: extra static ``Plane`` values in the world frame. gravity (m/s^2, world).
-    contact: how bodies respond when they touch, one ``bodies.ContactSettings`` (checked when
-    it is made): restitution and friction of every collider without a material of its own,
-    the solver's iterations and tolerances (``bounce_threshold`` (m/s) must stay above
-    |g| dt, or resting bodies bounce on the speed gravity gives them in one step), speculative
-    contacts, warm starts, and sleeping (``sleep_time``, ``sleep_speed``: see Sleeping above).
-    ``pair_tests``: contact tests (a set of ``narrow_kernels.PAIR_BIT``) the world's step is
-    compiled with besides those its bodies can meet (``pair_tests`` the attribute: the
-    union); None: ``world_step.tests_for`` chooses (a precompiled set that holds them, so that
-    it is loaded rather than compiled). The bits are the same with any set. Every argument
-    is validated (ValueError naming it) before anything is built.
+    steppers: the moving bodies by name, rows of one ``BodyStore`` (its dt and method are
+    the world's; gravity and damping are each row's): the world steps them all, those
+    without colliders too. colliders: a ``colliders.ColliderSet`` of their colliders (a
+    moving owner is the row of the stepper of its name; one at least), static bodies' and
+    the world's planes. contact: how bodies respond when they touch, one
+    ``settings.ContactSettings`` (checked when it was made): restitution and friction of
+    every collider without a material of its own, the solver's iterations and tolerances
+    (``bounce_threshold`` (m/s) must stay above |g| dt, or resting bodies bounce on the speed
+    gravity gives them in one step), speculative contacts, warm starts, and sleeping
+    (``sleep_time``, ``sleep_speed``: see Sleeping above). ``pair_tests``: contact tests (a
+    set of ``narrow_kernels.PAIR_BIT``) the world's step is compiled with besides those its
+    colliders can meet (``pair_tests`` the attribute: the union); None:
+    ``world_step.tests_for`` chooses (a precompiled set that holds them, so that it is
+    loaded rather than compiled). The bits are the same with any set. Every argument is
+    validated (ValueError naming it) before anything is built. ``sim.bodies.collision_world``
+    builds one from a scene's bodies.
     """
 
-    def __init__(self, bodies: Sequence[BodySpec], dt: float, gravity: Any = (0.0, 0.0, 0.0),
-                 planes: Sequence[Plane] = (), integrator: str = 'eq27',
+    def __init__(self, steppers: Mapping[str, Stepper], colliders: ColliderSet,
                  contact: ContactSettings = ContactSettings(),
                  pair_tests: int | None = None) -> None:
-        # What a world rebuilt around other bodies is made with (``rebuilt``).
-        self._arguments = dict(dt=dt, gravity=gravity, planes=planes, integrator=integrator,
-                               contact=contact)
-        bodies = tuple(bodies)
-        if not bodies or not all(isinstance(b, BodySpec) for b in bodies):
-            raise ValueError('bodies must be one or more BodySpec')
-        names = [b.name for b in bodies]
-        if len(set(names)) != len(names):
-            raise ValueError(f'body names must be unique, got {names}')
-        self._gravity = finite_floats('gravity', gravity, 3)
+        steppers = dict(steppers)
+        if not steppers or not all(isinstance(k, str) and isinstance(s, Stepper)
+                                   for k, s in steppers.items()):
+            raise ValueError('steppers must map one or more names to Steppers')
+        store = next(iter(steppers.values())).store
+        if any(s.store is not store for s in steppers.values()):
+            raise ValueError('steppers must be rows of one BodyStore')
+        if not isinstance(colliders, ColliderSet):
+            raise ValueError(f'colliders must be a ColliderSet, got {colliders!r}')
+        if not colliders.moving:
+            raise ValueError('colliders: no moving body has one (a run without colliders '
+                             'on moving bodies has no collision world)')
+        for o in colliders.owners:
+            s = steppers.get(o.name)
+            if o.moving and (s is None or s.row != o.row):
+                raise ValueError(f"colliders: owner '{o.name}' (row {o.row}) is not the row "
+                                 'of a stepper of that name')
+            if not o.moving and s is not None:
+                raise ValueError(f"colliders: static owner '{o.name}' has a stepper")
         if not isinstance(contact, ContactSettings):
             raise ValueError(f'contact must be a ContactSettings, got {contact!r}')
+        if pair_tests is not None:
+            nk.checked_tests(pair_tests, 'pair_tests')
         self.contact = contact  # checked when it was made (it is frozen)
-        self.settings = contact.solver_settings(dt)
+        self.colliders = colliders
+        self.store = store
+        self.dt = store.dt
+        self.settings = contact.solver_settings(self.dt)
         self.speculative, self.warm_start = contact.speculative, contact.warm_start
         sleep_time = contact.sleep_time
         # Steps a supported body must stay slow before it sleeps (0: never).
@@ -183,15 +185,9 @@ class CollisionWorld:
         self._sleep_steps = (min(math.ceil(steps), 2 ** 52) if steps < 2.0 ** 52 else 2 ** 52
                              ) if sleep_time else 0
         self._sleep_speed = float(contact.sleep_speed)
-        planes = tuple(planes)
-        for i, p in enumerate(planes):
-            if not isinstance(p, Plane):
-                raise ValueError(f'planes[{i}] must be a Plane, got {p!r}')
-        self.bodies = bodies
-        self.dt = self.settings.dt
-        self.steppers, self.static = make_steppers(bodies, dt, integrator, self._gravity)
-        self._all_steppers = tuple(self.steppers.values())
-        self._stepping = Stepping(self._all_steppers)
+        self.steppers = steppers
+        self.static = {o.name: o.pose for o in colliders.owners if o.pose is not None}
+        self._all_steppers = tuple(steppers.values())
         # What world_steps reads and leaves: the step count, whether the contacts of the
         # state are due, what happened (_step_count, _unchecked and _collided read it)
         self._status = np.zeros(ws.STATUS_WIDTH, dtype=np.int64)
@@ -208,163 +204,71 @@ class CollisionWorld:
         # (jit.swaps) stay those it was made with: (those four, the record, ws.entry_point)
         self._run: tuple = (None, None, -1, -1, None, None)
         self._unchecked = True
-        if pair_tests is not None:
-            nk.checked_tests(pair_tests, 'pair_tests')
-        self._build(planes)
-        # The contact tests its bodies can meet, and those its step is compiled with.
-        self.pairs_needed = needed = pairs_met(bodies, planes)
+        self._build()
+        # The contact tests its colliders can meet, and those its step is compiled with.
+        self.pairs_needed = needed = colliders.tests()
         self._entry = (-1, '')  # (tests, the name of world_steps' entry for them)
         if pair_tests is not None:
             self.pair_tests = pair_tests | needed
-        elif self.enabled:
-            self.pair_tests = ws.tests_for(K.family(self._store.coefficients), needed)
         else:
-            self.pair_tests = needed
-
-    @classmethod
-    def from_config(cls, config, **kwargs) -> 'CollisionWorld':
-        """The bodies, dt, gravity, integrator and contact settings of a
-        ``sim.simulation.Config`` (read by attribute: this layer does not import the one
-        above it)."""
-        return cls(config.bodies, config.dt, config.gravity, integrator=config.integrator,
-                   contact=config.contact, **kwargs)
+            self.pair_tests = ws.tests_for(K.family(store.coefficients), needed)
 
     # -- set-up --------------------------------------------------------------------------------
-    def _build(self, planes) -> None:
-        moving: list[int] = []         # BodySpec index of each moving body with colliders
-        colliders: list[_Collider] = []
-        plane_normals, plane_points, plane_owner, plane_shapes = [], [], [], []
-        # Each collider's and plane's (body name, index among its colliders): what a rebuilt
-        # world matches its warm starts by.
-        collider_ids, plane_ids = [], []
-        for owner, spec in enumerate(self.bodies):
-            if not spec.colliders:
-                continue
-            for k, shape in enumerate(spec.colliders):
-                (plane_ids if isinstance(shape, Plane) else collider_ids).append((spec.name, k))
-            if spec.static:
-                st = self.static[spec.name]
-                for shape in spec.colliders:
-                    centre, rot = (st.position + st.rotation @ np.array(shape.position),
-                                   st.rotation @ shape.rotation)
-                    if isinstance(shape, Plane):
-                        plane_normals.append(rot @ np.array(shape.normal))
-                        plane_points.append(centre)
-                        plane_owner.append(owner)
-                        plane_shapes.append(shape)
-                    else:
-                        colliders.append(_Collider(shape, owner, -1, centre, rot))
-            else:
-                index = len(moving)
-                moving.append(owner)
-                for shape in spec.colliders:
-                    colliders.append(_Collider(shape, owner, index,
-                                               np.array(shape.position, dtype=float),
-                                               np.array(shape.rotation)))
-        for k, p in enumerate(planes):
-            plane_ids.append(('', k))
-            plane_normals.append(np.array(p.normal))
-            plane_points.append(np.array(p.position))
-            plane_owner.append(-1)
-            plane_shapes.append(p)
-        self._moving_specs = moving
-        self._collider_ids = collider_ids + plane_ids
-        self._moving_steppers = [self.steppers[self.bodies[i].name] for i in moving]
-        self._colliders = colliders
-        self._plane_normals = np.array(plane_normals, dtype=float).reshape(-1, 3)
-        self._plane_points = np.array(plane_points, dtype=float).reshape(-1, 3)
-        self._plane_owner = plane_owner
-        self.enabled = bool(moving) and (len(colliders) + len(plane_normals) > 0)
-        if not self.enabled:
-            return
-        nb = len(moving)
-        self._inverse_mass = np.array([1.0 / self.bodies[i].mass for i in moving] + [0.0])
-        # Per-collider arrays.
-        self._cbody = np.array([c.body if c.body >= 0 else nb for c in colliders],
-                               dtype=np.int64)
-        self._cowner = np.array([c.owner for c in colliders], dtype=np.int64)
-        self._cstatic = self._cbody == nb
-        self._cdyn = np.flatnonzero(~self._cstatic)
-        self._local_pos = np.array([c.position for c in colliders]).reshape(-1, 3)
-        self._local_rot = np.array([c.rotation for c in colliders]).reshape(-1, 3, 3)
-        # Colliders then planes, as the kernels take them: kinds and rows (each kind's module
-        # packs its sizes; a plane's row is its world normal).
-        nc, npl = len(colliders), len(plane_normals)
-        self._kinds = np.array([shapes.kind_of(c.shape) for c in colliders]
-                               + [nk.KIND_PLANE] * npl, dtype=np.int64)
-        self._geoms = np.zeros((nc + npl, nk.GEOM_WIDTH))
-        for k, c in enumerate(colliders):
-            self._geoms[k] = shapes.packed(c.shape, c.rotation)
-        self._geoms[nc:, nk.NORMAL:nk.NORMAL + 3] = self._plane_normals
-        reach = np.zeros(nb)
-        for c in colliders:
-            if c.body >= 0:
-                r = float(np.linalg.norm(c.position)) + c.shape.bounding_radius
-                reach[c.body] = max(reach[c.body], r)
-        self._reach = reach
-        self._centres = np.array([c.position if c.body < 0 else np.zeros(3)
-                                  for c in colliders]).reshape(-1, 3)
-        # World rotations as 9 row-major values (the kernels' form) and as 3x3 views of them.
-        self._rotations9 = np.array([c.rotation if c.body < 0 else np.eye(3)
-                                     for c in colliders]).reshape(-1, 9)
+    def _build(self) -> None:
+        """The arrays world_steps reads and writes: the colliders' (copies of those it
+        moves), the moving bodies' and the settings'."""
+        cs = self.colliders
+        self._moving_steppers = [self.steppers[o.name] for o in cs.moving]
+        nb, nc = len(cs.moving), cs.count
+        self._inverse_mass = np.array([1.0 / s.body.mass for s in self._moving_steppers]
+                                      + [0.0])
+        self._cbody, self._cowner = cs.body, cs.owner
+        self._cstatic, self._cdyn = cs.static, cs.dynamic
+        self._local_pos, self._local_rot9 = cs.local_position, cs.local_rotation9
+        self._kinds, self._geoms, self._reach = cs.kinds, cs.geoms, cs.reach
+        self._plane_normals, self._plane_points = cs.plane_normals, cs.plane_points
+        # What the kernels write: the colliders' world placement and bounds (a static one's
+        # as the set placed it), the planes' after them.
+        self._all_centres, self._all_rotations = cs.centres.copy(), cs.rotations9.copy()
+        self._lower, self._upper = cs.lower.copy(), cs.upper.copy()
+        self._centres = self._all_centres[:nc]
+        self._rotations9 = self._all_rotations[:nc]
         self._rotations = self._rotations9.reshape(-1, 3, 3)
-        self._local_rot9 = np.ascontiguousarray(self._local_rot.reshape(-1, 9))
-        self._lower = np.zeros((len(colliders), 3))
-        self._upper = np.zeros((len(colliders), 3))
-        for c in np.flatnonzero(self._cstatic).tolist():
-            wk.extents(c, self._rotations9, self._kinds, self._geoms, 0.0, self._centres,
-                       self._lower, self._upper)
         # The moving bodies with colliders as rows of their steppers' store.
-        self._store = store = self._moving_steppers[0].store
-        self._rows = rows = np.array([s.row for s in self._moving_steppers], dtype=np.int64)
+        store = self.store
+        self._rows = rows = cs.rows
         self._q, self._has_q = store.frames[rows], store.has_frame[rows]
         self._x = np.zeros((nb + 1, 3))
         self._rot = np.zeros((nb, 9))
         self._v = np.zeros((nb + 1, 3))
         self._w = np.zeros((nb + 1, 3))
         self._margin = np.zeros(nb + 1)
+        st = self.settings
         # Materials of the colliders, then of the planes (the world's where a shape has none);
-        # None when no shape has one: the solver then uses the settings' as before.
-        every = [c.shape for c in colliders] + plane_shapes
-        self._materials = None
-        if any(sh.restitution is not None or sh.friction is not None for sh in every):
-            st = self.settings
-            self._materials = (
-                np.array([st.restitution if sh.restitution is None else sh.restitution
-                          for sh in every]),
-                np.array([st.friction if sh.friction is None else sh.friction
-                          for sh in every]))
+        # when no shape has one the solver uses the settings' as before.
+        self._restitution, self._friction, materials = cs.materials(st.restitution,
+                                                                    st.friction)
         self._asleep = np.zeros(nb + 1, dtype=bool)   # the last slot: static colliders
         self._slow_steps = np.zeros(nb, dtype=np.int64)
-        # Centres and rotations of the colliders then the planes (a plane's centre: a point).
-        self._all_centres = np.concatenate([self._centres, self._plane_points])
-        self._all_rotations = np.concatenate([self._rotations9,
-                                              np.tile(np.eye(3).reshape(9), (npl, 1))])
-        # Views of the colliders' rows: the kernels write centres and rotations there.
-        self._centres = self._all_centres[:nc]
-        self._rotations9 = self._all_rotations[:nc]
-        self._rotations = self._rotations9.reshape(-1, 3, 3)
         self._step_rows = np.array(sorted(s.row for s in self._all_steppers), dtype=np.int64)
-        self._body_of_row = np.full(len(self._store), -1, dtype=np.int64)
-        self._body_of_row[self._rows] = np.arange(nb)
-        st = self.settings
+        self._body_of_row = np.full(len(store), -1, dtype=np.int64)
+        self._body_of_row[rows] = np.arange(nb)
         self._settings_array = contact_solver.settings_array(st)
-        materials = self._materials or (np.full(nc + npl, st.restitution),
-                                        np.full(nc + npl, st.friction))
-        self._restitution, self._friction = (np.array(m, dtype=float) for m in materials)
-        g = math.sqrt(sum(c * c for c in self._gravity))
+        # |g| of the fastest-falling row (they share one in a scene): the speculative margin
+        g = max(math.sqrt(sum(c * c for c in store.params[r, K.GRAVITY:K.GRAVITY + 3].tolist()))
+                for r in self._step_rows.tolist())
         self._config = np.zeros(ws.CONFIG_WIDTH)
         self._config[[ws.C_DT, ws.C_G, ws.C_SPECULATIVE, ws.C_SLEEP_STEPS, ws.C_SLEEP_SPEED,
                       ws.C_WARM_START, ws.C_MIN_TURN, ws.C_GAIN_TOLERANCE, ws.C_MATERIALS]] = (
             self.dt, g, float(self.speculative), float(self._sleep_steps), self._sleep_speed,
-            float(self.warm_start), MIN_TURN, GAIN_TOLERANCE, float(self._materials is not None))
+            float(self.warm_start), MIN_TURN, GAIN_TOLERANCE, float(materials))
         self._stats = np.zeros(ws.STATS_WIDTH, dtype=np.int64)
         self._counted = np.zeros(ws.P_ITER + 1, dtype=np.int64)
         self._flagged = np.zeros(nb, dtype=np.int64)
         self._energy = np.zeros(ws.ENERGY_WIDTH)
         self._wrench_seen = [s.wrench for s in self._moving_steppers]
         self._wrench_changes_seen = -1  # (look at the first step)
-        self._index = {self.bodies[k].name: i for i, k in enumerate(self._moving_specs)}
+        self._index = {o.name: i for i, o in enumerate(cs.moving)}
         self._by_row = {s.row: s for s in self._all_steppers}
 
     # -- read ----------------------------------------------------------------------------------
@@ -417,7 +321,7 @@ class CollisionWorld:
         the next step."""
         if name not in self.steppers:
             raise ValueError(f"no moving body named '{name}'")
-        i = self._index.get(name) if self.enabled else None
+        i = self._index.get(name)
         if i is None:
             return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         if self._asleep[i]:
@@ -435,8 +339,8 @@ class CollisionWorld:
         if not self._collided:
             return []
         point, normal, depth, impulse, ca, cbb = self._current_outputs()[3:]
-        owners = self._cowner.tolist() + list(self._plane_owner)
-        names = [b.name for b in self.bodies] + ['']
+        owners = self.colliders.owner_of
+        names = [o.name for o in self.colliders.owners] + ['']
         return [WorldContact(names[owners[a]], names[owners[b]], point[k].copy(),
                              normal[k].copy(), float(depth[k]), float(impulse[k]))
                 for k, (a, b) in enumerate(zip(ca.tolist(), cbb.tolist()))]
@@ -447,19 +351,13 @@ class CollisionWorld:
         advance that step and its IntegrationError is raised after it."""
         if type(n) is not int or not 0 <= n <= MAX_STEPS:  # (the common case, quickly)
             check_steps(n)
-        if not self.enabled:
-            try:
-                self._stepping.run(n)
-            finally:
-                self._step_count += n
-            return
         if n == 0:
             return
-        if self._sleep_steps and self._store.wrench_changes != self._wrench_changes_seen:
+        if self._sleep_steps and self.store.wrench_changes != self._wrench_changes_seen:
             # A changed wrench starts a body's slow count again, and wakes a sleeper before
             # it would miss the step. (Wrenches change only between calls; the store counts
             # them, so a call with none looks at no body.)
-            self._wrench_changes_seen = self._store.wrench_changes
+            self._wrench_changes_seen = self.store.wrench_changes
             seen = self._wrench_seen
             changed = [i for i, s in enumerate(self._moving_steppers) if s.wrench is not seen[i]]
             if changed:
@@ -486,7 +384,7 @@ class CollisionWorld:
             raise self._error()
         if status[ws.S_TURNED]:  # a TurnWarning, as the bodies' own steps give (every body
             # the kernel steps: those without colliders too)
-            self._store.check_turns(self._step_rows)
+            self.store.check_turns(self._step_rows)
 
     @property
     def last_solve_energy(self) -> tuple[float, float]:
@@ -497,30 +395,27 @@ class CollisionWorld:
 
     def warm_up(self) -> None:
         """Compile (or load from the cache) every kernel a step of this world runs, without
-        taking a step: ``world_steps`` for 0 steps, or the bodies' own step kernel when the
-        world is disabled (it steps them with it then)."""
-        for s in self._all_steppers[:1]:
-            s.store.warm_up(stepping=not self.enabled)
-        if self.enabled:
-            self._call(0)
+        taking a step: ``world_steps`` for 0 steps, and what of its store's kernels it
+        calls."""
+        self.store.warm_up(stepping=False)
+        self._call(0)
 
     def compile_leaves(self, group: str) -> None:
         """Compile (or load) one group of the kernels ``world_steps`` calls
         (``world_step.compile_leaves``), for another process to compile the rest beside it."""
-        if self.enabled:
-            ws.compile_leaves(self._world(), K.family(self._store.coefficients),
-                              self.pair_tests, group)
+        ws.compile_leaves(self._world(), K.family(self.store.coefficients), self.pair_tests,
+                          group)
 
     def _call(self, n: int) -> int:
         """``world_steps`` for n steps from the world's clock and arrays as they are now: 1
         if Python must look at its status (``world_step.LOOK``), else 0."""
-        run, store, swaps = self._run, self._store, jit.swaps
+        run, store, swaps = self._run, self.store, jit.swaps
         if (run[0] is not store.state or run[1] is not store.spare
                 or run[2] != self.pair_tests or run[3] != swaps):
             # (what _record_now checks, and the tests: the record, or the entry, changed)
             if self._entry[0] != self.pair_tests:  # (a world's tests change in carry only)
                 self._entry = (self.pair_tests,
-                               ws.entry(K.family(self._store.coefficients), self.pair_tests))
+                               ws.entry(K.family(self.store.coefficients), self.pair_tests))
             record = self._record_now()
             run = self._run = (store.state, store.spare, self.pair_tests, swaps, record,
                                ws.entry_point(self._entry[1], record))
@@ -531,7 +426,7 @@ class CollisionWorld:
         state and spare arrays (which a Stepper's own step swaps) are those it was made with;
         else a new one, with the outputs of the last (a WorldHost interpreted, a WorldRecord
         compiled)."""
-        interpreted, store = jit.interpreted(), self._store
+        interpreted, store = jit.interpreted(), self.store
         made = self._record
         if (made is not None and made[0] == interpreted and made[1] is store.state
                 and made[2] is store.spare):
@@ -565,7 +460,7 @@ class CollisionWorld:
     def _world(self) -> tuple:
         """The world's arrays for the step kernel (the store's, as they are now), in the order
         of ``world_step.World``."""
-        st = self._store
+        st = self.store
         return (
             st.state, st.spare, st.params, st.coefficients, st.work, st.status, st.taken,
             st.bad, st.clock, st.warn_sq, self._rows, self._q, self._has_q, self._reach,
@@ -666,7 +561,7 @@ class CollisionWorld:
             raise ValueError(f"no moving body named '{name}'")
         self.steppers[name].set_state(state)
         self._unchecked = True
-        i = self._index.get(name) if self.enabled else None
+        i = self._index.get(name)
         if i is None:
             return
         # Its velocities before the last contact pass are now its new ones: a teleport is
@@ -682,32 +577,23 @@ class CollisionWorld:
                           (lower[None] <= self._upper[:, None, :]), axis=2).any(axis=1)
             self._wake(np.unique(np.append(self._cbody[near], i)), self._step_count)
 
-    def rebuilt(self, bodies: Sequence[BodySpec], recheck: bool) -> 'CollisionWorld':
-        """A world of ``bodies`` with this one's settings that goes on from here: the bodies
-        of both keep their motion bit for bit (``Stepper.take_over``), sleep state, the
-        velocities their accelerations are read against and their contacts' warm starts; a
-        new body starts at its initial state on this world's clock. ``recheck``: check
-        contacts before the next step integrates (as after a teleport: a new body may
-        touch). This world is left as it was; ValueError (nothing built) for bad bodies."""
-        new = CollisionWorld(bodies, **self._arguments)
-        new.carry(self, self.steppers, self._step_count, recheck)
-        return new
-
     def carry(self, old: 'CollisionWorld | None', steppers: dict, step_count: int,
               recheck: bool) -> None:
         """Take over the run of ``old`` (a world, or None for bodies stepped without one,
-        ``steppers`` by name) at ``step_count``: see ``rebuilt``."""
+        ``steppers`` by name) at ``step_count``: the bodies of both keep their motion bit for
+        bit (``Stepper.take_over``), sleep state, the velocities their accelerations are read
+        against and their contacts' warm starts; a new body goes on from its stepper's state
+        on this clock. ``recheck``: check contacts before the next step integrates (as after
+        a teleport: a new body may touch). ``sim.bodies.rebuilt`` builds and carries."""
         carry_over(self.steppers, steppers, step_count)
         self._step_count = step_count
-        if old is not None and old.enabled and self.enabled:
-            self.pair_tests = ws.tests_keeping(K.family(self._store.coefficients),
+        if old is not None:
+            self.pair_tests = ws.tests_keeping(K.family(self.store.coefficients),
                                                self.pairs_needed, old.pair_tests)
         self._unchecked = True if recheck or old is None else old._unchecked
         if old is not None:
             self.totals, self.last_stats = old.totals, old.last_stats
-        if not self.enabled:
-            return
-        was = old._index if old is not None and old.enabled else {}
+        was = old._index if old is not None else {}
         for name, i in self._index.items():
             j = was.get(name)
             s = self.steppers[name]
@@ -730,11 +616,11 @@ class CollisionWorld:
         # Warm starts keyed by (collider a, collider b, feature): renumbered, the pairs of a
         # deleted collider dropped, sorted again (in the same order: both numberings follow
         # the bodies' order, which a spawn or a delete keeps).
-        position = {cid: i for i, cid in enumerate(self._collider_ids)}
-        mapping = np.array([position.get(cid, -1) for cid in old._collider_ids],
+        position = {cid: i for i, cid in enumerate(self.colliders.ids)}
+        mapping = np.array([position.get(cid, -1) for cid in old.colliders.ids],
                            dtype=np.int64)
-        old_total = max(len(old._collider_ids), 1)
-        total = max(len(self._collider_ids), 1)
+        old_total = max(len(old.colliders.ids), 1)
+        total = max(len(self.colliders.ids), 1)
         keys = old_keys
         pair, feature = keys >> ws.FEATURE_BITS, keys & ((1 << ws.FEATURE_BITS) - 1)
         a, b = mapping[pair // old_total], mapping[pair % old_total]
@@ -757,10 +643,8 @@ class CollisionWorld:
     def sleeping(self) -> list[str]:
         """Names of the bodies asleep: at rest in contact, not integrated or solved until an
         awake body comes near, their wrench changes or they are teleported."""
-        if not self.enabled:
-            return []
-        return [self.bodies[self._moving_specs[i]].name
-                for i in np.flatnonzero(self._asleep[:-1]).tolist()]
+        moving = self.colliders.moving
+        return [moving[i].name for i in np.flatnonzero(self._asleep[:-1]).tolist()]
 
     def _wake(self, bodies: np.ndarray, clock: int) -> None:
         """Wake the sleepers among ``bodies`` (indices, the static slot allowed); their
@@ -780,4 +664,4 @@ class CollisionWorld:
 
     def _name(self, i: int) -> str:
         """The name of moving body ``i`` (an index among those with colliders)."""
-        return self.bodies[self._moving_specs[i]].name
+        return self.colliders.moving[i].name

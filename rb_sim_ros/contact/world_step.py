@@ -534,7 +534,7 @@ def entry(family, tests) -> str:
 
 # -- which contact tests a world's step is compiled with -------------------------------------
 # A world steps with the entry of its family and a set of contact tests that holds those its
-# bodies can meet (``collision_world.pairs_met``): a new set is a new compile of the whole
+# bodies can meet (``ColliderSet.tests``): a new set is a new compile of the whole
 # world step (about 30 s), so a world takes the smallest set whose kernels ``precompile`` put
 # in the cache (``colcon build``: every test), and its own set only when there is none.
 # RB_SIM_ROS_CONTACT_TESTS=all in the environment: every test, always (one compile for a

@@ -182,10 +182,12 @@ def wrench_steps(rec, name: str, t_end: float):
 
 def contact_counts(rec, progress=None, steps=None):
     """(times s, contacts) after the last step of every publish (``steps``, if already read:
-    recorded_odom's), from a re-simulation; None when no body of the run has colliders.
+    recorded_odom's), from a re-simulation; None when no moving body of the run has
+    colliders (no collision world steps it).
     Stops at the first non-finite step."""
     collides = rec.config.collides or any(
-        isinstance(e, Spawn) and e.spec.colliders for _, e, _ in rec.inputs)
+        isinstance(e, Spawn) and e.spec.colliders and not e.spec.static
+        for _, e, _ in rec.inputs)
     if not collides:
         return None
     sim = Simulation(rec.config)

@@ -471,7 +471,7 @@ class SimulatorNode(Node):
         self._update_tf()
         self._poses_msg.poses = [Pose() for _ in self.config.bodies]
         self._markers = None
-        if self.config.collides:
+        if self.config.has_colliders:
             self._markers = CollisionMarkers(self.config, self._v['world_frame'])
             if self._pub_markers is None:
                 self._pub_markers = self._own('collision_markers', 1,

@@ -64,8 +64,9 @@ import sys
 from typing import Any, NamedTuple, NoReturn
 
 from rb_sim_ros.contact import shapes
-from rb_sim_ros.contact.bodies import MAX_COLLIDERS, MAX_ITERATIONS
+from rb_sim_ros.contact.colliders import MAX_COLLIDERS
 from rb_sim_ros.contact.collision_shapes import Box, shape_from_dict, Sphere
+from rb_sim_ros.contact.settings import MAX_ITERATIONS
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import RigidBody
 from rb_sim_ros.sim import safe_yaml

@@ -15,12 +15,14 @@ from dataclasses import dataclass, fields, replace
 from typing import Any, Union
 
 from rb_sim_ros.contact import world_step
-from rb_sim_ros.contact.bodies import BodySpec, ContactSettings, make_steppers, MAX_COLLIDERS
 from rb_sim_ros.contact.collision_shapes import shape_from_dict, shape_to_dict, Sphere
-from rb_sim_ros.contact.collision_world import CollisionWorld, pairs_met
+from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.settings import ContactSettings
 from rb_sim_ros.core import multistep, step_kernel as K
 from rb_sim_ros.core.rigid_body import finite_floats, State, Wrench, ZERO_WRENCH
 from rb_sim_ros.core.stepper import carry_over, check_dt, Stepper, Stepping
+from rb_sim_ros.sim.bodies import (BodySpec, colliders_of, collides, make_steppers,
+                                   MAX_COLLIDERS, pairs_met)
 
 __all__ = ['BodySpec', 'body_from_dict', 'body_to_dict', 'Config', 'ContactSettings', 'Delete',
            'Event', 'make_steppers', 'Reset', 'SetPose', 'SetTwist', 'SetWrench', 'Simulation',
@@ -73,7 +75,14 @@ class Config:
 
     @property
     def collides(self) -> bool:
-        """Whether any body has a collider (else no collision code runs at all)."""
+        """Whether a collision world steps the run: some moving body has colliders (else no
+        collision code runs at all; colliders of static bodies alone touch nothing that
+        moves). The one switch (``bodies.collides``)."""
+        return collides(self.bodies)
+
+    @property
+    def has_colliders(self) -> bool:
+        """Whether any body, static or moving, has a collider (something to draw)."""
         return any(b.colliders for b in self.bodies)
 
     @property
@@ -236,7 +245,7 @@ class Simulation:
 
     def _rebuild(self, config: Config, recheck: bool) -> None:
         """Go on with the bodies of ``config``: those of the run keep their motion bit for
-        bit, a new one starts at its initial state (see CollisionWorld.rebuilt). Built in
+        bit, a new one starts at its initial state (see CollisionWorld.carry). Built in
         full before anything changes: a ValueError leaves the run as it was."""
         world, steppers, static = _build(config, None)
         if world is not None:
@@ -450,7 +459,7 @@ def contact_tests(config: Config, current=None) -> int:
     family = K.family_of(multistep.method_by_name(config.integrator).steps)
     return world_step.tests_keeping(family, pairs_met(config.bodies),
                                     current.pair_tests if current is not None
-                                    and current.enabled else None)  # as CollisionWorld.carry
+                                    else None)  # as CollisionWorld.carry
 
 
 def config_after(config: Config, event) -> Config:
@@ -471,7 +480,7 @@ def kernels_after(sim: 'Simulation', event) -> str | None:
     Delete taking the last one away (the step kernel then steps them), 'blocks' if it leaves
     ``step_kernel.BLOCK_MIN`` moving bodies or more, or for a Spawn making them that many
     without a collision world (``warm_up_bodies(blocks=True)``); else None."""
-    enabled = sim.world is not None and sim.world.enabled
+    enabled = sim.world is not None
     moving = sim.config.moving_bodies
     if isinstance(event, Spawn):
         if enabled:
@@ -526,7 +535,9 @@ def _build(config: Config, tests: int | None):
     """(collision world or None, steppers by name, static states by name) of ``config``'s
     bodies at their initial states; the world's step compiled with the contact tests
     ``tests`` (and those its bodies need; None: ``world_step.tests_for`` chooses)."""
-    if config.collides:
-        world = CollisionWorld.from_config(config, pair_tests=tests)
-        return world, world.steppers, world.static
-    return (None, *make_steppers(config.bodies, config.dt, config.integrator, config.gravity))
+    steppers, static = make_steppers(config.bodies, config.dt, config.integrator,
+                                     config.gravity)
+    if not config.collides:
+        return None, steppers, static
+    return (CollisionWorld(steppers, colliders_of(config.bodies, steppers), config.contact,
+                           tests), steppers, static)

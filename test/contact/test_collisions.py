@@ -16,12 +16,14 @@ from oracles.contact_cases import (apexes, ball, contact_slip, cube, effective_m
                                    impact, mechanical_energy, mixed_scene, momenta,
                                    normal_velocity, random_contact_set, thin_wall_run)
 from rb_sim_ros.contact import contact_solver as cs
-from rb_sim_ros.contact.bodies import ContactSettings
+from rb_sim_ros.contact.colliders import ColliderSet, Owner
 from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.settings import ContactSettings
 from rb_sim_ros.core import so3
 from rb_sim_ros.core.rigid_body import State
 from rb_sim_ros.core.stepper import step_all, Stepper
+from rb_sim_ros.sim.bodies import collision_world, make_steppers, rebuilt
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import BodySpec, Config, Simulation
 from support.solver_fingerprint import solver_fingerprints
@@ -156,8 +158,8 @@ def test_ball_bounces_to_e_squared_h(speculative):
     -(1 - e^2) slop (measured: -0.02 to 1.5 mm against bounds of 1.1 to 4.0 mm)."""
     r, e, dt = 0.1, 0.8, 1e-3
     for h in (1.0, 0.7313, 0.25):
-        world = CollisionWorld([ball(radius=r, position=(0.0, 0.0, r + h))], dt, G, planes=GROUND,
-                               contact=ContactSettings(restitution=e, speculative=speculative))
+        world = collision_world([ball(radius=r, position=(0.0, 0.0, r + h))], dt, G, planes=GROUND,
+                                contact=ContactSettings(restitution=e, speculative=speculative))
         tops = apexes(world, 'ball', int(4.2 * math.sqrt(2 * h / 9.81) / dt) + 50)
         assert len(tops) >= 2
         previous = h
@@ -175,8 +177,8 @@ def test_warm_starts_are_the_last_steps_impulses_only():
     flight between bounces keeps none, however it got there, so that no landing starts from
     the impulse of the last one. Checked at every step of two bounces, with sleeping off,
     against the contacts the step reports (one key for each, none in flight)."""
-    world = CollisionWorld([ball(radius=0.1, position=(0.0, 0.0, 0.4))], 1e-3, G, planes=GROUND,
-                           contact=ContactSettings(restitution=0.8, sleep_time=0.0))
+    world = collision_world([ball(radius=0.1, position=(0.0, 0.0, 0.4))], 1e-3, G, planes=GROUND,
+                            contact=ContactSettings(restitution=0.8, sleep_time=0.0))
     flights = landings = 0
     for _ in range(1200):
         world.step(1)
@@ -192,8 +194,8 @@ def test_a_step_in_flight_reports_no_contact_and_no_solve():
     """What a user reads of the last step is that step's: in flight after a bounce (a pass
     that finds no pair) no contact, no count of the solve and no solve energy, not the
     landing's."""
-    world = CollisionWorld([ball(radius=0.1, position=(0.0, 0.0, 0.4))], 1e-3, G, planes=GROUND,
-                           contact=ContactSettings(restitution=0.8, sleep_time=0.0))
+    world = collision_world([ball(radius=0.1, position=(0.0, 0.0, 0.4))], 1e-3, G, planes=GROUND,
+                            contact=ContactSettings(restitution=0.8, sleep_time=0.0))
     landed = flown = 0
     for _ in range(700):
         world.step(1)
@@ -222,7 +224,7 @@ def test_a_world_steps_on_from_what_its_steppers_were_stepped_to():
     world takes)."""
     bodies, _ = _falling_and_resting()
     bodies = bodies[:1] + [ball('high', radius=0.1, position=(-1.0, 0.0, 3.0))]
-    alone, split = (CollisionWorld(bodies, 1e-3, G, planes=GROUND) for _ in range(2))
+    alone, split = (collision_world(bodies, 1e-3, G, planes=GROUND) for _ in range(2))
     alone.step(10)
     split.step(2)
     step_all(list(split.steppers.values()), 3)
@@ -237,7 +239,7 @@ def test_what_a_compiled_entry_reads_keeps_the_types_it_was_made_for():
     array of a world's call and of its store is C-contiguous and writable, and keeps its
     type, layout and flags through steps and the store's swap of state and spare."""
     bodies, settings = _falling_and_resting()
-    world = CollisionWorld(bodies, **settings)
+    world = collision_world(bodies, **settings)
     store = next(iter(world.steppers.values()))._store
 
     def types():
@@ -258,10 +260,10 @@ def test_a_world_that_stepped_before_it_takes_over_another_goes_on_from_what_it_
     """``carry`` into a world that has stepped (its call made for its own arrays and warm
     starts) goes on from the taken-over states and warm starts, as a fresh world does."""
     bodies, settings = _falling_and_resting()
-    old = CollisionWorld(bodies, **settings)
+    old = collision_world(bodies, **settings)
     old.step(300)
-    fresh = old.rebuilt(bodies, recheck=False)
-    stepped = CollisionWorld(bodies, **settings)
+    fresh = rebuilt(old, bodies, False, G)
+    stepped = collision_world(bodies, **settings)
     stepped.step(5)
     stepped.carry(old, old.steppers, old.step_count, False)
     fresh.step(200)
@@ -273,9 +275,9 @@ def test_a_world_that_stepped_before_it_takes_over_another_goes_on_from_what_it_
 def test_resting_box_stays_still_for_10_s():
     """dt = 1 ms, 10 s: no sinking (penetration <= slop + g dt^2 / 2), no drift, no jitter.
     Without sleeping, which would freeze the box after 0.5 s: this is the solver's test."""
-    world = CollisionWorld([cube('box', (0.4, 0.3, 0.2), (0.0, 0.0, 0.1), mass=3.0)], 1e-3, G,
-                           planes=GROUND,
-                           contact=ContactSettings(restitution=0.5, friction=0.5, sleep_time=0.0))
+    world = collision_world([cube('box', (0.4, 0.3, 0.2), (0.0, 0.0, 0.1), mass=3.0)], 1e-3, G,
+                            planes=GROUND,
+                            contact=ContactSettings(restitution=0.5, friction=0.5, sleep_time=0.0))
     start = world.state('box').position
     depth, speed = 0.0, 0.0
     for _ in range(10000):
@@ -300,8 +302,8 @@ def test_a_box_whose_principal_axes_are_not_its_own_rests_flat():
     tensor = q @ np.diag([0.05, 0.08, 0.1]) @ q.T
     spec = BodySpec('box', 1.0, tuple(tensor.reshape(9)), initial_position=(0.0, 0.0, 0.1),
                     colliders=(Box((0.4, 0.3, 0.2)),))
-    world = CollisionWorld([spec], 1e-3, G, planes=GROUND,
-                           contact=ContactSettings(friction=0.5, sleep_time=0.0))
+    world = collision_world([spec], 1e-3, G, planes=GROUND,
+                            contact=ContactSettings(friction=0.5, sleep_time=0.0))
     store = world.steppers['box'].store
     row = world.steppers['box'].row
     assert store.has_frame[row] and not np.allclose(store.frames[row], np.eye(3).reshape(9))
@@ -313,9 +315,9 @@ def test_a_box_whose_principal_axes_are_not_its_own_rests_flat():
 
 def test_box_stack_of_three_stands_for_10_s():
     size = (0.2, 0.2, 0.2)
-    world = CollisionWorld([cube(f'box{i}', size, (0.0, 0.0, 0.1 + 0.2 * i)) for i in range(3)],
-                           1e-3, G, planes=GROUND,
-                           contact=ContactSettings(friction=0.5, sleep_time=0.0))  # the solver
+    world = collision_world([cube(f'box{i}', size, (0.0, 0.0, 0.1 + 0.2 * i)) for i in range(3)],
+                            1e-3, G, planes=GROUND,
+                            contact=ContactSettings(friction=0.5, sleep_time=0.0))  # the solver
     start = [world.state(f'box{i}').position for i in range(3)]
     depth, speed = 0.0, 0.0
     for k in range(10000):
@@ -338,8 +340,8 @@ def test_tumbling_box_comes_to_rest_face_down():
     spec = cube('box', size, (0.0, 0.0, 0.5), mass=2.0, initial_orientation_xyzw=tuple(
         so3.quaternion_xyzw_from_matrix(so3.exp((0.4, 0.7, 0.2)))),
         initial_linear_velocity=(1.0, 0.3, 0.0), initial_angular_velocity=(3.0, -5.0, 8.0))
-    world = CollisionWorld([spec], 1e-3, G, planes=GROUND,
-                           contact=ContactSettings(restitution=0.3, friction=0.6))
+    world = collision_world([spec], 1e-3, G, planes=GROUND,
+                            contact=ContactSettings(restitution=0.3, friction=0.6))
     body = spec.body()
     energies = []
     for _ in range(30):
@@ -359,9 +361,9 @@ def test_tumbling_box_comes_to_rest_face_down():
 def test_sliding_box_stops_where_coulomb_says():
     """v0^2 / (2 mu g) on 4 corner contacts: each friction impulse opposes its slip."""
     mu, v0 = 0.4, 2.0
-    world = CollisionWorld([cube('box', (0.2, 0.2, 0.2), (0.0, 0.0, 0.1 - 1e-4),
-                                 initial_linear_velocity=(v0, 0.0, 0.0))], 1e-3, G, planes=GROUND,
-                           contact=ContactSettings(friction=mu))
+    world = collision_world([cube('box', (0.2, 0.2, 0.2), (0.0, 0.0, 0.1 - 1e-4),
+                                  initial_linear_velocity=(v0, 0.0, 0.0))], 1e-3, G, planes=GROUND,
+                            contact=ContactSettings(friction=mu))
     world.step(700)
     st = world.state('box')
     assert st.position[0] == pytest.approx(v0 ** 2 / (2 * mu * 9.81), abs=v0 * 1e-3)
@@ -386,8 +388,8 @@ def test_touched_bodies_restart_their_history_untouched_ones_keep_it():
     spin = dict(initial_angular_velocity=(2.0, 5.0, -1.0))
     far = cube('far', (0.3, 0.2, 0.1), (10.0, 0.0, 3.0), **spin)
     falling = cube('falling', (0.3, 0.2, 0.1), (0.0, 0.0, 0.3), **spin)
-    world = CollisionWorld([far, falling], 1e-3, G, planes=GROUND,
-                           contact=ContactSettings(restitution=0.5))
+    world = collision_world([far, falling], 1e-3, G, planes=GROUND,
+                            contact=ContactSettings(restitution=0.5))
     alone = Stepper(far.body(), 1e-3, far.initial_state(), gravity=G)
     hit = None
     for k in range(400):
@@ -412,17 +414,28 @@ def test_touched_bodies_restart_their_history_untouched_ones_keep_it():
                                   alone.state.angular_velocity)
 
 
-def test_a_world_without_colliders_is_the_plain_simulation():
+def test_a_run_without_colliders_on_moving_bodies_has_no_world():
+    """One switch: a collision world exists only where a moving body has colliders. Bodies
+    without (planes, a static wall with colliders: nothing they could hit) are refused one,
+    and a Simulation of them has none; its bodies step as plain Steppers do."""
     specs = (BodySpec('a', 2.0, (0.1, 0.2, 0.3), initial_angular_velocity=(1.0, 2.0, 3.0)),
-             BodySpec('b', 1.0, (0.1, 0.1, 0.1), initial_linear_velocity=(1.0, 0.0, 0.0)))
-    world = CollisionWorld(specs, 1e-3, G, planes=GROUND)      # planes, but nothing to hit
+             BodySpec('b', 1.0, (0.1, 0.1, 0.1), initial_linear_velocity=(1.0, 0.0, 0.0)),
+             BodySpec('wall', static=True, colliders=(Box((1.0, 1.0, 1.0)),),
+                      initial_position=(0.0, 0.0, -5.0)))
+    with pytest.raises(ValueError, match='no moving body has colliders'):
+        collision_world(specs, 1e-3, G, planes=GROUND)
+    owners = ColliderSet([Owner('wall', specs[2].colliders, pose=State())], GROUND)
+    steppers, _ = make_steppers(specs, 1e-3, 'eq27', G)
+    with pytest.raises(ValueError, match='no moving body has one'):
+        CollisionWorld(steppers, owners)
     sim = Simulation(Config(dt=1e-3, gravity=G, bodies=specs))
-    assert not world.enabled
-    world.step(1000)
+    assert sim.world is None and not sim.config.collides and sim.config.has_colliders
     sim.run(1000)
     for name in ('a', 'b'):
-        assert world.steppers[name].pose_twist() == sim.steppers[name].pose_twist()
-    assert world.totals.pairs_tested == 0 and world.step_count == 1000
+        alone = Stepper(specs[0 if name == 'a' else 1].body(), 1e-3,
+                        specs[0 if name == 'a' else 1].initial_state(), gravity=G)
+        alone.step(1000)
+        assert sim.steppers[name].pose_twist() == alone.pose_twist()
 
 
 def test_mixed_scene_stays_inside_its_walls_loses_energy_and_is_deterministic():
@@ -439,7 +452,7 @@ def test_mixed_scene_stays_inside_its_walls_loses_energy_and_is_deterministic():
         energy.append(mechanical_energy(worlds[0]))
     assert all(e1 <= e0 + 1e-3 for e0, e1 in zip(energy, energy[1:]))
     assert energy[-1] < 0.7 * energy[0]
-    names = [b.name for b in worlds[0].bodies if not b.static]
+    names = list(worlds[0].steppers)
     for name in names:
         st = worlds[0].state(name)
         assert np.all(np.abs(st.position[:2]) < 1.0) and st.position[2] > 0.0
@@ -451,22 +464,22 @@ def test_mixed_scene_stays_inside_its_walls_loses_energy_and_is_deterministic():
 
 def test_world_refuses_bad_arguments_naming_them():
     with pytest.raises(ValueError, match='only a static body'):
-        CollisionWorld([BodySpec('a', colliders=(Plane(),))], 1e-3)
+        collision_world([BodySpec('a', colliders=(Plane(),))], 1e-3)
     with pytest.raises(ValueError, match=r'colliders\[0\]'):
-        CollisionWorld([BodySpec('a', colliders=('sphere',))], 1e-3)
+        collision_world([BodySpec('a', colliders=('sphere',))], 1e-3)
     with pytest.raises(ValueError, match='restitution'):
-        CollisionWorld([ball()], 1e-3, contact=ContactSettings(restitution=2.0))
+        collision_world([ball()], 1e-3, contact=ContactSettings(restitution=2.0))
     with pytest.raises(ValueError, match=r'planes\[0\]'):
-        CollisionWorld([ball()], 1e-3, planes=(Sphere(1.0),))
+        collision_world([ball()], 1e-3, planes=(Sphere(1.0),))
     with pytest.raises(ValueError, match='speculative'):
-        CollisionWorld([ball()], 1e-3, contact=ContactSettings(speculative='yes'))
+        collision_world([ball()], 1e-3, contact=ContactSettings(speculative='yes'))
     with pytest.raises(ValueError, match='contact must be a ContactSettings'):
-        CollisionWorld([ball()], 1e-3, contact={'restitution': 0.5})
+        collision_world([ball()], 1e-3, contact={'restitution': 0.5})
     with pytest.raises(ValueError, match='warm_start'):
         ContactSettings(warm_start=1)
     with pytest.raises(ValueError, match='gravity'):
-        CollisionWorld([ball()], 1e-3, gravity=(0, 0))
-    world = CollisionWorld([ball()], 1e-3, planes=GROUND)
+        collision_world([ball()], 1e-3, gravity=(0, 0))
+    world = collision_world([ball()], 1e-3, planes=GROUND)
     with pytest.raises(ValueError, match='n must be'):
         world.step(-1)
     with pytest.raises(ValueError, match=r'n must be an int from 0 to 2\^62, got an int of 1329'):
@@ -478,7 +491,8 @@ def test_world_refuses_bad_arguments_naming_them():
 def test_from_config_and_teleport_checks_before_integrating():
     config = Config(dt=1e-3, gravity=G, bodies=(ball(position=(0.0, 0.0, 0.5)),),
                     contact=ContactSettings(restitution=0.0, friction=0.2))
-    world = CollisionWorld.from_config(config, planes=GROUND)
+    world = collision_world(config.bodies, config.dt, config.gravity, GROUND,
+                            config.integrator, config.contact)
     assert world.contact == config.contact and world.settings.friction == 0.2
     world.step(10)
     # Teleport the ball to 1 cm above the ground, falling at 100 m/s: one step would bury it.

@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Box, Plane, shape_from_dict, shape_to_dict, Sphere
-from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.settings import ContactSettings
+from rb_sim_ros.sim.bodies import collision_world
 from rb_sim_ros.sim.simulation import BodySpec, Config
 
 G = (0.0, 0.0, -9.81)
@@ -46,8 +46,8 @@ def test_each_ball_bounces_with_its_own_restitution():
     tops = {}
     balls = (_ball('bouncy', 0.0, h, restitution=0.9), _ball('dull', 1.0, h, restitution=0.3))
     for ball in balls:
-        world = CollisionWorld([ball, ground], DT, G,
-                               contact=ContactSettings(restitution=0.0, friction=0.0))
+        world = collision_world([ball, ground], DT, G,
+                                contact=ContactSettings(restitution=0.0, friction=0.0))
         tops[ball.name] = _top_after_bounce(world, ball.name, 0.1)
     # (1 - e^2) v dt bounds the error of landing between steps (docs/collisions.md).
     v = (2 * 9.81 * h) ** 0.5
@@ -58,11 +58,11 @@ def test_each_ball_bounces_with_its_own_restitution():
 def test_each_box_slides_as_far_as_its_combined_friction_says():
     """mu = sqrt(mu_box mu_ground): a box sliding at v0 stops after v0^2 / (2 mu g)."""
     v0, ground_mu = 2.0, 0.5
-    world = CollisionWorld([_box('ice', 0.0, v0, friction=0.2),
+    world = collision_world([_box('ice', 0.0, v0, friction=0.2),
                             _box('rubber', 1.0, v0, friction=0.8), _box('plain', 2.0, v0),
                             BodySpec('ground', static=True,
                                      colliders=(Plane(friction=ground_mu),))],
-                           DT, G, contact=ContactSettings(friction=0.3))
+                            DT, G, contact=ContactSettings(friction=0.3))
     world.step(2000)
     for name, mu in (('ice', (0.2 * ground_mu) ** 0.5), ('rubber', (0.8 * ground_mu) ** 0.5),
                      ('plain', (0.3 * ground_mu) ** 0.5)):
@@ -78,7 +78,7 @@ def test_materials_equal_to_the_defaults_change_no_bit():
         bodies = [_ball(f'b{i}', 0.15 * i, 0.2 + 0.25 * i, **material) for i in range(4)]
         bodies += [_box('crate', 0.5, 1.0, **material),
                    BodySpec('ground', static=True, colliders=(Plane(**material),))]
-        w = CollisionWorld(bodies, DT, G, contact=ContactSettings(restitution=0.35, friction=0.6))
+        w = collision_world(bodies, DT, G, contact=ContactSettings(restitution=0.35, friction=0.6))
         w.step(800)
         return [w.steppers[b.name].pose_twist() for b in bodies[:-1]], w.totals.active
     plain, active = world({})
@@ -118,8 +118,8 @@ def test_colliders_planes_and_world_planes_each_have_their_material():
     on_platform = BodySpec('skater', 2.0, (0.01,) * 3, initial_position=(0.0, 5.0, 0.15),
                            initial_linear_velocity=(v0, 0.0, 0.0),
                            colliders=(Box((0.2, 0.2, 0.1)),))
-    world = CollisionWorld([platform, on_platform, _box('walker', 0.0, v0)], DT, G,
-                           planes=(Plane(friction=0.8),), contact=ContactSettings(friction=0.5))
+    world = collision_world([platform, on_platform, _box('walker', 0.0, v0)], DT, G,
+                            planes=(Plane(friction=0.8),), contact=ContactSettings(friction=0.5))
     world.step(1000)
     assert world.state('skater').linear_velocity[0] == pytest.approx(v0, rel=1e-6)
     mu = (0.5 * 0.8) ** 0.5
@@ -134,7 +134,7 @@ def test_huge_frictions_do_not_overflow_into_friction_through_a_gap():
     ball = BodySpec('ball', 1.0, (0.004,) * 3, initial_position=(0.0, 0.0, 0.1005),
                     initial_linear_velocity=(2.0, 0.0, 0.0),
                     colliders=(Sphere(0.1, friction=1e200),))
-    world = CollisionWorld([ball], DT, (0.0, 0.0, 0.0), planes=(Plane(friction=1e200),))
+    world = collision_world([ball], DT, (0.0, 0.0, 0.0), planes=(Plane(friction=1e200),))
     world.step(1)
     assert world.last_stats.contacts == 1 and world.last_stats.active == 0
     assert world.state('ball').linear_velocity[0] == 2.0

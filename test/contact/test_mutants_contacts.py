@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from oracles.contact_cases import ball, G, GROUND
-from rb_sim_ros.contact.bodies import ContactSettings
-from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.settings import ContactSettings
+from rb_sim_ros.sim.bodies import collision_world
 
 R, DT = 0.1, 1e-3
 
@@ -22,8 +22,8 @@ def test_a_ball_inside_the_ground_with_no_impulse_is_pushed_out():
     first step: the start is checked before integrating), the velocity stays 0, and the ball
     ends at the slop."""
     d0 = 0.02
-    world = CollisionWorld([ball(radius=R, position=(0.0, 0.0, R - d0))], DT, planes=GROUND,
-                           contact=ContactSettings(sleep_time=0.0))
+    world = collision_world([ball(radius=R, position=(0.0, 0.0, R - d0))], DT, planes=GROUND,
+                            contact=ContactSettings(sleep_time=0.0))
     slop, keep = world.settings.slop, 1.0 - world.settings.position_fraction
     excess = [d0 - slop]
     for _ in range(12):
@@ -48,9 +48,9 @@ def test_a_ball_skimming_the_ground_flies_until_it_reaches_it(height, vx, vz):
     bounce there (an impact on a speculative contact the body cannot close) would throw it up
     from mid-air."""
     z0 = R + height
-    world = CollisionWorld([ball(radius=R, position=(0.0, 0.0, z0), velocity=(vx, 0.0, vz))], DT,
-                           G, planes=GROUND,
-                           contact=ContactSettings(restitution=0.5, friction=0.5))
+    world = collision_world([ball(radius=R, position=(0.0, 0.0, z0), velocity=(vx, 0.0, vz))], DT,
+                            G, planes=GROUND,
+                            contact=ContactSettings(restitution=0.5, friction=0.5))
     g = -G[2]
     steps = speculative = 0
     while True:
@@ -81,9 +81,9 @@ def test_a_slow_ball_closes_its_gap_in_one_step_and_stops_on_the_ground(gap, spe
     impact. Oracle: the flight z = z0 - speed t, the geometry of the touch and the momentum
     m speed taken by the ground."""
     z0 = R + gap
-    world = CollisionWorld([ball(radius=R, position=(0.0, 0.0, z0),
-                                 velocity=(0.0, 0.0, -speed))], DT, planes=GROUND,
-                           contact=ContactSettings(sleep_time=0.0))
+    world = collision_world([ball(radius=R, position=(0.0, 0.0, z0),
+                                  velocity=(0.0, 0.0, -speed))], DT, planes=GROUND,
+                            contact=ContactSettings(sleep_time=0.0))
     assert speed < world.settings.bounce_threshold
     arrival = int(np.ceil(gap / (speed * DT)))      # the step in which it reaches the plane
     for k in range(1, arrival):
@@ -108,8 +108,8 @@ def test_a_fast_ball_without_restitution_stops_on_the_ground_not_short_of_it(spe
     in one step: the ball must end the step touching the plane and stay there (plastic
     impact), not stop dead where the speculative contact began (mutation-run finding)."""
     r = 0.1
-    world = CollisionWorld([ball(position=(0.0, 0.0, r + gap), velocity=(0.0, 0.0, -speed))],
-                           1e-3, planes=GROUND, contact=ContactSettings(restitution=0.0))
+    world = collision_world([ball(position=(0.0, 0.0, r + gap), velocity=(0.0, 0.0, -speed))],
+                            1e-3, planes=GROUND, contact=ContactSettings(restitution=0.0))
     for _ in range(5):
         world.step(1)
     z = world.state('ball').position[2]

@@ -11,8 +11,8 @@ import pytest
 from oracles.contact_cases import impact, momenta, random_contact_set
 from rb_sim_ros.contact import contact_solver as cs
 from rb_sim_ros.contact.collision_shapes import Plane, Sphere
-from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import so3
+from rb_sim_ros.sim.bodies import collision_world
 from rb_sim_ros.sim.simulation import BodySpec, ContactSettings
 from support.solver_fingerprint import solver_fingerprints
 
@@ -26,9 +26,9 @@ def test_a_rolling_ball_stops_where_the_resisting_moment_says(mu_r):
     ball = BodySpec('ball', m, (0.4 * m * r * r,) * 3, initial_position=(0.0, 0.0, r),
                     initial_linear_velocity=(v0, 0.0, 0.0),
                     initial_angular_velocity=(0.0, v0 / r, 0.0), colliders=(Sphere(r),))
-    world = CollisionWorld([ball], dt, (0.0, 0.0, -9.81), planes=(Plane(),),
-                           contact=ContactSettings(friction=0.5, sleep_time=0.0,
-                                                   rolling_resistance=mu_r))
+    world = collision_world([ball], dt, (0.0, 0.0, -9.81), planes=(Plane(),),
+                            contact=ContactSettings(friction=0.5, sleep_time=0.0,
+                                                    rolling_resistance=mu_r))
     world.step(4000)
     st = world.state('ball')
     expected = 1.4 * v0 * v0 * r / (2.0 * mu_r * 9.81)
@@ -42,8 +42,8 @@ def test_without_rolling_resistance_it_rolls_on():
     ball = BodySpec('ball', 1.0, (0.004,) * 3, initial_position=(0.0, 0.0, r),
                     initial_linear_velocity=(v0, 0.0, 0.0),
                     initial_angular_velocity=(0.0, v0 / r, 0.0), colliders=(Sphere(r),))
-    world = CollisionWorld([ball], 1e-3, (0.0, 0.0, -9.81), planes=(Plane(),),
-                           contact=ContactSettings(friction=0.5))
+    world = collision_world([ball], 1e-3, (0.0, 0.0, -9.81), planes=(Plane(),),
+                            contact=ContactSettings(friction=0.5))
     world.step(2000)
     # (The contact solve takes 0.015% of its speed in 2 s.)
     assert world.state('ball').linear_velocity[0] == pytest.approx(v0, rel=1e-3)
@@ -158,9 +158,9 @@ def test_a_spinning_ball_slows_as_the_torsional_moment_says():
     inertia = 0.4 * m * r * r
     ball = BodySpec('ball', m, (inertia,) * 3, initial_position=(0.0, 0.0, r),
                     initial_angular_velocity=(0.0, 0.0, w0), colliders=(Sphere(r),))
-    world = CollisionWorld([ball], dt, (0.0, 0.0, -9.81), planes=(Plane(),),
-                           contact=ContactSettings(friction=0.5, sleep_time=0.0,
-                                                   torsional_friction=mu_t))
+    world = collision_world([ball], dt, (0.0, 0.0, -9.81), planes=(Plane(),),
+                            contact=ContactSettings(friction=0.5, sleep_time=0.0,
+                                                    torsional_friction=mu_t))
     stop = inertia * w0 / (mu_t * m * 9.81)
     for fraction in (0.25, 0.5, 0.75):
         world.step(round(fraction * stop / dt) - world.step_count)
@@ -168,8 +168,8 @@ def test_a_spinning_ball_slows_as_the_torsional_moment_says():
             w0 * (1.0 - world.time / stop), abs=1e-9)
     world.step(round(0.5 * stop / dt))
     assert world.state('ball').angular_velocity[2] == 0.0
-    free = CollisionWorld([ball], dt, (0.0, 0.0, -9.81), planes=(Plane(),),
-                          contact=ContactSettings(friction=0.5))
+    free = collision_world([ball], dt, (0.0, 0.0, -9.81), planes=(Plane(),),
+                           contact=ContactSettings(friction=0.5))
     free.step(500)
     assert free.state('ball').angular_velocity[2] == pytest.approx(w0, rel=1e-12)
 

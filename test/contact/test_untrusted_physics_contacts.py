@@ -14,11 +14,11 @@ import numpy as np
 import pytest
 
 from rb_sim_ros.contact import contact_solver as cs
-from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
-from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.settings import ContactSettings
 from rb_sim_ros.core import so3
 from rb_sim_ros.core.stepper import IntegrationError
+from rb_sim_ros.sim.bodies import collision_world
 from rb_sim_ros.sim.simulation import (BodySpec, Config, Delete, Reset, SetPose, SetTwist,
                                        Simulation, Spawn)
 
@@ -151,8 +151,8 @@ def scenes(draw):
 @given(scenes(), st.floats(0.0, 1.0), st.sampled_from([0.0, 0.5, 1.0]))
 def test_random_scenes_never_gain_energy_beyond_the_work_of_gravity(scene, e, mu):
     specs, gravity, isotropic = scene
-    world = CollisionWorld(specs, 1e-3, gravity,
-                           contact=ContactSettings(restitution=e, friction=mu))
+    world = collision_world(specs, 1e-3, gravity,
+                            contact=ContactSettings(restitution=e, friction=mu))
     masses = {s.name: s.mass for s in specs if not s.static}
     g = float(np.linalg.norm(gravity))
     dt = world.dt
@@ -243,8 +243,8 @@ def test_a_fast_ball_into_coincident_overlapping_bodies_at_e_1_gains_no_energy()
                       initial_linear_velocity=(117.0, 0.0, 0.0), colliders=(Sphere(0.5),)),
              BodySpec('b3', mass=1.0, inertia=(1.0 / 6.0, 0.125 / 1.2, 0.125 / 1.2),
                       initial_position=(0.0, 0.0, 1.0), colliders=(Box((0.5, 1.0, 1.0)),)))
-    world = CollisionWorld(specs, 1e-3, (0.0, 0.0, 0.0),
-                           contact=ContactSettings(restitution=1.0, friction=0.0))
+    world = collision_world(specs, 1e-3, (0.0, 0.0, 0.0),
+                            contact=ContactSettings(restitution=1.0, friction=0.0))
     names = ['b0', 'b1', 'b2', 'b3']
     for _ in range(40):
         states = {n: world.state(n) for n in names}

@@ -202,7 +202,7 @@ def test_a_body_of_a_collision_world_warns_as_a_stepper_does():
     one turning within it (the other ball) does not; a body with no collider, which the same
     kernel steps, warns too."""
     from rb_sim_ros.contact.collision_shapes import Sphere
-    from rb_sim_ros.contact.collision_world import CollisionWorld
+    from rb_sim_ros.sim.bodies import collision_world
     from rb_sim_ros.sim.simulation import BodySpec
     dt, bound = 1e-3, TURN_BOUNDS['eq27']
     fast = BodySpec('fast', 1.0, (0.1, 0.2, 0.3), initial_angular_velocity=(
@@ -212,8 +212,7 @@ def test_a_body_of_a_collision_world_warns_as_a_stepper_does():
                     colliders=(Sphere(0.1),))
     free = BodySpec('free', 1.0, (0.1, 0.2, 0.3), initial_position=(0.0, 5.0, 0.0),
                     initial_angular_velocity=(0.0, 1.5 * bound / dt, 0.1))
-    world = CollisionWorld((fast, slow, free), dt, (0.0, 0.0, 0.0))
-    assert world.enabled
+    world = collision_world((fast, slow, free), dt, (0.0, 0.0, 0.0))
     with warnings.catch_warnings(record=True) as record:
         warnings.simplefilter('always')
         world.step(3)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
-from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core.rigid_body import State, Wrench
+from rb_sim_ros.sim.bodies import collision_world
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Reset, SetPose, SetTwist,
                                        SetWrench, Simulation)
@@ -70,7 +70,8 @@ def test_simulation_steps_the_collision_world_it_is_made_of():
     built by hand give the same states, bit for bit."""
     config = _crowd()
     sim = Simulation(config)
-    world = CollisionWorld.from_config(config)
+    world = collision_world(config.bodies, config.dt, config.gravity,
+                            integrator=config.integrator, contact=config.contact)
     pending = sim.run_until(600, list(EVENTS))
     assert not pending
     for step, event in EVENTS + [(600, None)]:
@@ -149,7 +150,9 @@ def test_scene_restitution_sets_the_bounce_height(tmp_path):
 def test_a_scene_without_colliders_runs_no_collision_code(monkeypatch):
     """No collision world is built and no contact function is called: every entry point of
     the contact pipeline raises if it is reached, and a scene of moving bodies without
-    colliders still runs (a scene with one collider reaches them, so the trap works)."""
+    colliders still runs, a static wall with colliders among them too (nothing that moves
+    can touch it: the one switch, ``Config.collides``); a scene with one collider on a
+    moving body reaches them, so the trap works."""
     from rb_sim_ros.contact import broad_phase, collision_world, contact_solver, narrow_phase
 
     def trap(*args, **kwargs):
@@ -161,7 +164,9 @@ def test_a_scene_without_colliders_runs_no_collision_code(monkeypatch):
                 monkeypatch.setattr(module, name, trap)
     monkeypatch.setattr(collision_world.CollisionWorld, '__init__', trap)
     bodies = (BodySpec('a', initial_linear_velocity=(1.0, 0.0, 0.0)),
-              BodySpec('b', initial_angular_velocity=(0.0, 2.0, 0.0)))
+              BodySpec('b', initial_angular_velocity=(0.0, 2.0, 0.0)),
+              BodySpec('wall', static=True, colliders=(Box((1.0, 1.0, 1.0)),),
+                       initial_position=(0.0, 0.0, -3.0)))
     sim = Simulation(Config(bodies=bodies, gravity=(0.0, 0.0, -9.81)))
     sim.run(10)
     assert sim.world is None and sim.pose_twist('a')[0][0] > 0.0

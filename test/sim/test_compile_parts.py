@@ -16,9 +16,9 @@ import pytest
 from rb_sim_ros import RigidBody, State, Stepper
 from rb_sim_ros.contact import narrow_kernels as nk, world_step as ws
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
-from rb_sim_ros.contact.collision_world import CollisionWorld, pairs_met
 from rb_sim_ros.core import jit, step_kernel as K
 from rb_sim_ros.sim import precompile
+from rb_sim_ros.sim.bodies import collision_world, pairs_met, rebuilt
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import (BodySpec, Config, contact_tests, Delete, kernels_after,
                                        Simulation, Spawn)
@@ -157,11 +157,14 @@ def test_a_scene_names_the_parts_it_steps_with(tmp_path, monkeypatch):
     jit.mark_precompiled('contact-splitting')  # every test: colcon build's
     assert precompile.parts_of(demo) == ['contact-splitting']
     assert precompile.parts_of(Config(bodies=BALLS)) == [BALLS_PART]
-    # Colliders on static bodies only: no collision world runs (collision_world's enabled).
+    # Colliders on static bodies only: no collision world runs (Config.collides, the one
+    # switch), and none can be made.
     walls = Config(bodies=(BodySpec('ball'), BodySpec('wall', static=True,
                                                       colliders=(Sphere(0.1),))))
     assert precompile.parts_of(walls) == ['bodies-two-step']
-    assert CollisionWorld.from_config(walls).enabled is False
+    assert not walls.collides and walls.has_colliders and Simulation(walls).world is None
+    with pytest.raises(ValueError, match='no moving body has colliders'):
+        collision_world(walls.bodies, walls.dt)
     assert sorted(precompile.parts()) == sorted(precompile.PARTS) and len(precompile.PARTS) == 7
     assert precompile.parts(['eq27', 'taylor1', 'lie4'], False) == [
         'bodies-two-step', 'bodies-k-step', 'blocks-two-step']
@@ -291,7 +294,7 @@ def test_a_spawn_of_shapes_whose_tests_the_world_lacks_names_the_collision_kerne
     monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path))  # no part precompiled
     monkeypatch.delenv(ws.ALL_TESTS_VARIABLE, raising=False)
     balls = nk.pairs_named(['sphere-sphere', 'sphere-plane'])
-    world = CollisionWorld(BALLS, dt=1e-3)
+    world = collision_world(BALLS, dt=1e-3)
     assert world.pair_tests == world.pairs_needed == balls
     sim = type('Run', (), {'world': world, 'config': Config(bodies=BALLS)})()
     ball3 = replace(BALLS[1], name='ball3', initial_position=(3.0, 0.0, 1.0))
@@ -303,8 +306,8 @@ def test_a_spawn_of_shapes_whose_tests_the_world_lacks_names_the_collision_kerne
         ['sphere-box', 'box-plane'])
     assert kernels_after(sim, Delete('ball2')) is None  # sphere-plane alone: the same step
     # A world rebuilt around the crate has those tests; one around a ball keeps its own.
-    assert world.rebuilt(BALLS + (crate,), True).pair_tests == contact_tests(with_crate, world)
-    assert world.rebuilt(BALLS[:2], False).pair_tests == balls
+    assert rebuilt(world, BALLS + (crate,), True).pair_tests == contact_tests(with_crate, world)
+    assert rebuilt(world, BALLS[:2], False).pair_tests == balls
 
 
 def test_a_spawn_or_delete_names_the_kernels_the_run_then_steps_with():
@@ -374,8 +377,8 @@ def test_a_later_call_compiles_nothing(method):
                       state=State(angular_velocity=[0.0, 0.1, 3.0]))
         spheres = [BodySpec(f'b{i}', 1.0, (0.004,) * 3, initial_position=(3.0 * i, 0.0, 0.2),
                             colliders=(Sphere(0.1),)) for i in range(5)]
-        world = CollisionWorld(spheres, 1e-3, (0.0, 0.0, -9.81), planes=(Plane(),),
-                               integrator=method)
+        world = collision_world(spheres, 1e-3, (0.0, 0.0, -9.81), planes=(Plane(),),
+                                integrator=method)
         return one.step, world.step
 
     for run in steppers():

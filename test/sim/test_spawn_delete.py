@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
-from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.sim import simulation
+from rb_sim_ros.sim.bodies import collision_world, rebuilt
 from rb_sim_ros.sim.simulation import (BodySpec, Config, ContactSettings, Delete, Reset,
                                        SetWrench, Simulation, Spawn)
 
@@ -122,11 +122,11 @@ def test_deleting_the_ground_drops_what_rested_on_it():
 def test_without_warm_starts_a_delete_wakes_every_sleeper():
     """No warm start records what rested on what: every sleeper wakes (and falls)."""
     box, ground = _box_on_ground()
-    world = CollisionWorld((box, ground), 1e-3, G,
-                           contact=ContactSettings(warm_start=False, sleep_time=0.2))
+    world = collision_world((box, ground), 1e-3, G,
+                            contact=ContactSettings(warm_start=False, sleep_time=0.2))
     world.step(1000)
     assert world.sleeping == ['box']
-    world = world.rebuilt((box,), recheck=False)
+    world = rebuilt(world, (box,), False, G)
     assert world.sleeping == []
     world.step(100)
     assert world.state('box').linear_velocity[2] == pytest.approx(-9.81 * 0.1, rel=1e-9)
@@ -220,11 +220,11 @@ def test_a_run_keeps_at_most_max_bodies(monkeypatch):
 
 def test_without_warm_starts_a_spawn_leaves_sleepers_asleep():
     box, ground = _box_on_ground()
-    world = CollisionWorld((box, ground), 1e-3, G,
-                           contact=ContactSettings(warm_start=False, sleep_time=0.2))
+    world = collision_world((box, ground), 1e-3, G,
+                            contact=ContactSettings(warm_start=False, sleep_time=0.2))
     world.step(1000)
     far = _with(FAR, colliders=(Sphere(0.1),))
-    world = world.rebuilt((box, ground, far), recheck=True)
+    world = rebuilt(world, (box, ground, far), True, G)
     assert world.sleeping == ['box']
 
 

@@ -22,7 +22,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from rb_sim_ros.contact import bodies, broad_phase, collision_shapes, solver_kernels
+from rb_sim_ros.contact import broad_phase, collision_shapes, settings, solver_kernels
+from rb_sim_ros.contact.colliders import MAX_COLLIDERS
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, shape_from_dict, Sphere
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.sim import scene
@@ -47,7 +48,7 @@ def _one_line(e, *words):
 # -- N01 / N02: colliders per body -------------------------------------------------------------
 
 def test_a_spawned_body_with_too_many_colliders_is_refused_naming_it_and_the_bound():
-    limit = bodies.MAX_COLLIDERS
+    limit = MAX_COLLIDERS
     assert 8 <= limit <= 256  # a documented constant, a compound shape's handful and more
     scene.body_entry(_entry([SPHERE] * limit))  # at the bound: accepted
     with pytest.raises(scene.SceneError) as e:
@@ -58,10 +59,10 @@ def test_a_spawned_body_with_too_many_colliders_is_refused_naming_it_and_the_bou
 def test_a_scene_body_with_too_many_colliders_is_refused_naming_it_and_the_bound():
     data = {'bodies': [{'name': 'ground', 'static': True,
                         'colliders': [{'type': 'plane'}]},
-                       json.loads(_entry([SPHERE] * (bodies.MAX_COLLIDERS + 1), name='pile'))]}
+                       json.loads(_entry([SPHERE] * (MAX_COLLIDERS + 1), name='pile'))]}
     with pytest.raises(scene.SceneError) as e:
         scene.scene_from_data(data, 'heap.yaml')
-    _one_line(e, 'heap.yaml', 'pile', 'colliders', f'MAX_COLLIDERS = {bodies.MAX_COLLIDERS}')
+    _one_line(e, 'heap.yaml', 'pile', 'colliders', f'MAX_COLLIDERS = {MAX_COLLIDERS}')
     with pytest.raises(ValueError, match='MAX_COLLIDERS'):  # the API's own, as a recording's
         BodySpec('pile', colliders=(Sphere(0.1),) * 400)
 
@@ -93,7 +94,7 @@ def test_a_recording_whose_config_has_too_many_colliders_is_refused_by_load(tmp_
 
     with pytest.raises(ReaderError) as e:
         _load_edited_recording(tmp_path, pile)
-    _one_line(e, 'one', 'colliders', '400', f'MAX_COLLIDERS = {bodies.MAX_COLLIDERS}')
+    _one_line(e, 'one', 'colliders', '400', f'MAX_COLLIDERS = {MAX_COLLIDERS}')
 
 
 def test_a_recording_whose_config_asks_for_endless_iterations_is_refused_by_load(tmp_path):
@@ -104,7 +105,7 @@ def test_a_recording_whose_config_asks_for_endless_iterations_is_refused_by_load
 
     with pytest.raises(ReaderError) as e:
         _load_edited_recording(tmp_path, endless)
-    _one_line(e, 'velocity_iterations', f'{bodies.MAX_ITERATIONS}', 'MAX_ITERATIONS')
+    _one_line(e, 'velocity_iterations', f'{settings.MAX_ITERATIONS}', 'MAX_ITERATIONS')
 
 
 # -- N01: the colouring of the contact solver is linear in a body's contacts ------------------
@@ -184,7 +185,7 @@ def test_colouring_is_proper_and_greedy_while_bodies_have_few_contacts(seed):
 
 def test_more_pairs_than_the_broad_phase_bound_stop_the_step_with_the_reason():
     # 12 bodies of MAX_COLLIDERS balls at one place: 270,336 pairs of colliders that touch.
-    per = bodies.MAX_COLLIDERS
+    per = MAX_COLLIDERS
     count = 12
     assert count * per * (count * per - 1) // 2 - count * per * (per - 1) // 2 \
         > broad_phase.MAX_PAIRS
@@ -266,8 +267,8 @@ def test_a_body_the_contact_solve_cannot_take_is_refused_naming_it(mass, inertia
             'colliders': [{'type': 'sphere', 'radius': 0.1}]}
     with pytest.raises(scene.SceneError) as e:
         scene.scene_from_data(_stack_and(tiny), 'stack.yaml')
-    _one_line(e, 'stack.yaml', 'tiny', word, f'{bodies.MIN_CONTACT_MASS:g}',
-              f'{bodies.MAX_CONTACT_MASS:g}')
+    _one_line(e, 'stack.yaml', 'tiny', word, f'{settings.MIN_CONTACT_MASS:g}',
+              f'{settings.MAX_CONTACT_MASS:g}')
     # Without colliders it never enters the solve: the attitude simulator keeps its range.
     del tiny['colliders']
     scene.scene_from_data(_stack_and(tiny), 'stack.yaml')
@@ -276,7 +277,7 @@ def test_a_body_the_contact_solve_cannot_take_is_refused_naming_it(mass, inertia
 def test_within_the_bounds_every_product_the_solve_forms_is_a_normal_float():
     # The guard inverts R diag(1/I) R^T through its determinant (1/I)^3 and cofactors (1/I)^2;
     # K = 1/m_a + 1/m_b; the ratio of two masses in contact.
-    low, high = bodies.MIN_CONTACT_MASS, bodies.MAX_CONTACT_MASS
+    low, high = settings.MIN_CONTACT_MASS, settings.MAX_CONTACT_MASS
     for inverse in (1.0 / low, 1.0 / high):
         for power in (1, 2, 3):
             value = inverse ** power
@@ -285,8 +286,8 @@ def test_within_the_bounds_every_product_the_solve_forms_is_a_normal_float():
 
 
 def test_a_stack_runs_on_beside_a_body_at_the_bounds():
-    tiny = BodySpec('tiny', mass=bodies.MIN_CONTACT_MASS,
-                    inertia=(bodies.MIN_CONTACT_MASS,) * 3, initial_position=(30.0, 0.0, 0.1),
+    tiny = BodySpec('tiny', mass=settings.MIN_CONTACT_MASS,
+                    inertia=(settings.MIN_CONTACT_MASS,) * 3, initial_position=(30.0, 0.0, 0.1),
                     colliders=(Sphere(0.1),))
     stack = tuple(BodySpec(f'stack_{i}', mass=1.0, inertia=(1 / 6,) * 3,
                            initial_position=(0.0, 0.0, 0.5 + i), colliders=(Box((1, 1, 1)),))

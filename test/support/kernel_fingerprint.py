@@ -11,12 +11,12 @@ import types
 
 import numpy as np
 
-from rb_sim_ros.contact.bodies import ContactSettings
 from rb_sim_ros.contact.collision_shapes import Plane, Sphere
-from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.settings import ContactSettings
 from rb_sim_ros.core import so3, step_kernel
 from rb_sim_ros.core.batch import BatchStepper
 from rb_sim_ros.core.rigid_body import Wrench
+from rb_sim_ros.sim.bodies import collision_world
 from rb_sim_ros.sim.scene import load_scene
 from rb_sim_ros.sim.simulation import BodySpec, Config, SetWrench, Simulation
 
@@ -110,8 +110,8 @@ def heap() -> str:
     planes = (Plane((0.0, 0.0, 1.0), 0.0), Plane((1.0, 0.0, 0.0), -half),
               Plane((-1.0, 0.0, 0.0), -half), Plane((0.0, 1.0, 0.0), -half),
               Plane((0.0, -1.0, 0.0), -half))
-    world = CollisionWorld(specs, 1e-3, (0.0, 0.0, -9.81),
-                           planes=planes, contact=ContactSettings(restitution=0.2, friction=0.5))
+    world = collision_world(specs, 1e-3, (0.0, 0.0, -9.81),
+                            planes=planes, contact=ContactSettings(restitution=0.2, friction=0.5))
     world.step(3)
     states = [world.state(s.name) for s in specs]
     return _digest(*(np.concatenate([st.position, st.rotation.reshape(9), st.linear_velocity,

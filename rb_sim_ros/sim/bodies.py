@@ -1,43 +1,33 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""What a body of a run is (``BodySpec``: mass, inertia, initial state, damping, colliders)
-and how bodies that touch respond (``ContactSettings``); ``make_steppers`` builds the core's
-Steppers for them. The collision world and a simulation's configuration both use these."""
+"""What a body of a run is (``BodySpec``: mass, inertia, initial state, damping, colliders,
+application points), and what the layers below are handed for bodies: the core's Steppers,
+rows of one ``BodyStore`` (``make_steppers``), and, when a moving body has colliders, the
+collision world of them (``collision_world``: its ``ColliderSet`` built from their shapes and
+rows). A run whose moving bodies have no colliders has no world (``collides``)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 import re
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
-from rb_sim_ros.contact import contact_solver
 from rb_sim_ros.contact import shapes
-from rb_sim_ros.contact.collision_shapes import is_shape
+from rb_sim_ros.contact.colliders import ColliderSet, MAX_COLLIDERS, Owner, tests_met
+from rb_sim_ros.contact.collision_shapes import is_shape, Plane
+from rb_sim_ros.contact.collision_world import CollisionWorld
+from rb_sim_ros.contact.settings import ContactSettings, MAX_CONTACT_MASS, MIN_CONTACT_MASS
 from rb_sim_ros.core import multistep
-from rb_sim_ros.core.rigid_body import finite_floats, non_negative, rate, RigidBody, State
+from rb_sim_ros.core.rigid_body import finite_floats, rate, RigidBody, State
 from rb_sim_ros.core.stepper import BodyStore, check_dt, Stepper
 
+__all__ = ['BodySpec', 'collides', 'collision_world', 'colliders_of', 'make_steppers',
+           'MAX_COLLIDERS', 'pairs_met', 'rebuilt']
 
 # What a body's name may be: it becomes a topic namespace and a frame id (scene.NAME too).
 _NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]{0,63}\Z')
-# The most colliders of one body. Two bodies' colliders make up to MAX_COLLIDERS^2 = 4096
-# candidate pairs where they overlap (350 each made 122,500 contacts and an 18 s step); a
-# compound shape needs a handful (a dumbbell 3, a table 5, a robot link a dozen).
-MAX_COLLIDERS = 64
-# The masses (kg) and principal moments (kg m^2) of a moving body with colliders: the contact
-# solve forms 1 / m, the world inverse inertia R diag(1 / I) R^T and, for its energy guard,
-# the inertia back from it through its determinant, a product of three inverse moments. At
-# 1e-200 kg that product overflowed, the guard read nan for every body in contact and let
-# the others gain energy. Within these bounds every such product (at most 1e180, at least
-# 1e-180) and every ratio of two masses in contact (1e120) is a normal float; a dust grain
-# (1e-15 kg) and a planet (6e24 kg) are both inside.
-MIN_CONTACT_MASS, MAX_CONTACT_MASS = 1e-60, 1e60
-# The most Gauss-Seidel iterations of either pass a run may ask for (each is a pass over all
-# contacts): a scene file's bound, and a recording's config's too (which reached the solver's
-# 2^31 - 1 before).
-MAX_ITERATIONS = 1000
 
 
 @dataclass(frozen=True)
@@ -90,7 +80,7 @@ class BodySpec:
             if shapes.module_of(c).STATIC_ONLY and not self.static:
                 raise ValueError(f'colliders[{i}] is a {c.kind}, which only a static body may '
                                  'have')
-        points = []
+        points: list[tuple[str, tuple[float, ...]]] = []
         for i, pair in enumerate(self.points):
             if not isinstance(pair, (tuple, list)) or len(pair) != 2:
                 raise ValueError(f'points[{i}] must be a (name, [x, y, z]) pair, got {pair!r}')
@@ -144,75 +134,6 @@ class BodySpec:
                                           self.initial_angular_velocity)
 
 
-@dataclass(frozen=True)
-class ContactSettings:
-    """How bodies with colliders respond when they touch (docs/collisions.md): restitution e
-    in [0, 1], Coulomb friction mu >= 0, of every collider without a material of its own;
-    Gauss-Seidel iterations of the velocity and the position pass; slop (m) of penetration
-    left uncorrected; position_fraction of the rest corrected per step; rolling_resistance
-    (m): the lever arm of the moment that resists rolling (0: balls roll for ever);
-    torsional_friction (m): that of the moment resisting spin about the contact normal;
-    approaches slower than bounce_threshold (m/s) do not bounce (keep it above |g| dt);
-    tolerance (m/s): a Gauss-Seidel pass stops after an iteration that changed no contact's
-    velocity by more (the position pass: by more than tolerance dt, in m); speculative
-    contacts keep fast bodies from tunnelling; warm_start: each solve starts from the
-    impulses of the same contacts at the step before. A body pressed by a contact whose
-    points all move slower than sleep_speed (m/s) for sleep_time (s) sleeps, at rest and at
-    no cost, until an awake body comes near, its wrench changes or it is teleported
-    (sleep_time 0: never). Unused by a scene without colliders.
-
-    The one place a world's contact settings are given and checked (a scene's ``contact:``,
-    ``Config.contact``, ``CollisionWorld(contact=...)``); the solver's view of them, with
-    the step, is ``solver_settings(dt)``."""
-
-    restitution: float = 0.0
-    friction: float = 0.5
-    velocity_iterations: int = 10
-    position_iterations: int = 4
-    slop: float = 1e-4
-    position_fraction: float = 0.8
-    bounce_threshold: float = 0.1
-    tolerance: float = 1e-6
-    speculative: bool = True
-    warm_start: bool = True
-    sleep_time: float = 0.5
-    sleep_speed: float = 1e-3
-    rolling_resistance: float = 0.0
-    torsional_friction: float = 0.0
-
-    def __post_init__(self) -> None:
-        for name in ('speculative', 'warm_start'):
-            flag = getattr(self, name)
-            if not isinstance(flag, bool):
-                raise ValueError(f'{name} must be true or false, got {flag!r}')
-        for name in ('sleep_time', 'sleep_speed'):
-            non_negative(name, getattr(self, name))
-        for name in ('velocity_iterations', 'position_iterations'):
-            value = getattr(self, name)
-            if (not isinstance(value, int) or isinstance(value, bool)
-                    or not 0 <= value <= MAX_ITERATIONS):
-                raise ValueError(f'{name} must be an integer in [0, {MAX_ITERATIONS}] '
-                                 f'(MAX_ITERATIONS), got {value!r}')
-        self.solver_settings(contact_solver.SolverSettings.dt)  # validates the rest
-
-    def solver_settings(self, dt: float) -> contact_solver.SolverSettings:
-        """What the solver reads of these, with the step ``dt`` (s): its settings array is
-        made from it (``contact_solver.settings_array``)."""
-        return contact_solver.SolverSettings(dt=dt, **{
-            f.name: getattr(self, f.name) for f in fields(self)
-            if f.name in contact_solver.SolverSettings.__dataclass_fields__})
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> 'ContactSettings':
-        if not isinstance(data, dict):
-            raise ValueError(f'contact must be a mapping, got {data!r}')
-        unknown = sorted(set(data) - set(cls.__dataclass_fields__))
-        if unknown:
-            raise ValueError(f'unknown contact keys {unknown} (known: '
-                             f'{sorted(cls.__dataclass_fields__)})')
-        return cls(**data)
-
-
 def make_steppers(bodies, dt: float, integrator: str,
                   gravity) -> tuple[dict[str, Stepper], dict[str, State]]:
     """A Stepper (at its initial state, with its damping) for each moving body of ``bodies``,
@@ -231,3 +152,75 @@ def make_steppers(bodies, dt: float, integrator: str,
                 linear_damping=spec.linear_damping, angular_damping=spec.angular_damping,
                 store=store)
     return steppers, static
+
+
+def collides(bodies: Sequence[BodySpec]) -> bool:
+    """Whether a run of ``bodies`` has a collision world: some moving body has colliders (the
+    one switch; colliders of static bodies alone touch nothing that moves)."""
+    return any(b.colliders and not b.static for b in bodies)
+
+
+def colliders_of(bodies: Sequence[BodySpec], steppers: dict[str, Stepper],
+                 planes: Sequence[Plane] = ()) -> ColliderSet:
+    """The colliders of ``bodies`` (a moving one as the row of its Stepper in ``steppers``,
+    a static one at its initial pose) and the world's ``planes``."""
+    return ColliderSet([Owner(b.name, b.colliders, pose=b.initial_state()) if b.static else
+                        Owner(b.name, b.colliders, row=steppers[b.name].row)
+                        for b in bodies if b.colliders], planes)
+
+
+def pairs_met(bodies: Sequence[BodySpec], planes: Sequence[Plane] = ()) -> int:
+    """The contact tests (a set of ``narrow_kernels.PAIR_BIT``) a world of ``bodies`` and
+    ``planes`` can call (``ColliderSet.tests`` of their colliders, without building them)."""
+    return tests_met([b.colliders for b in bodies], [not b.static for b in bodies],
+                     len(planes))
+
+
+def collision_world(bodies: Sequence[BodySpec], dt: float, gravity: Any = (0.0, 0.0, 0.0),
+                    planes: Sequence[Plane] = (), integrator: str = 'eq27',
+                    contact: ContactSettings = ContactSettings(),
+                    pair_tests: int | None = None) -> CollisionWorld:
+    """The collision world of ``bodies`` (``BodySpec``, names unique, a moving one with
+    colliders among them) at their initial states, with ``planes`` of the world frame,
+    ``gravity`` (m/s^2), the ``integrator`` of multistep.METHODS and the ``contact``
+    settings; ``pair_tests`` as ``CollisionWorld`` takes it. ValueError naming what is wrong,
+    before anything is built."""
+    bodies = _checked(bodies)
+    gravity = finite_floats('gravity', gravity, 3)
+    planes = tuple(planes)
+    for i, p in enumerate(planes):
+        if not isinstance(p, Plane):
+            raise ValueError(f'planes[{i}] must be a Plane, got {p!r}')
+    if not collides(bodies):
+        raise ValueError('no moving body has colliders: a run of these bodies has no '
+                         'collision world (step their Steppers: make_steppers)')
+    if not isinstance(contact, ContactSettings):
+        raise ValueError(f'contact must be a ContactSettings, got {contact!r}')
+    steppers, _ = make_steppers(bodies, dt, integrator, gravity)
+    return CollisionWorld(steppers, colliders_of(bodies, steppers, planes), contact,
+                          pair_tests)
+
+
+def rebuilt(world: CollisionWorld, bodies: Sequence[BodySpec], recheck: bool,
+            gravity: Any = (0.0, 0.0, 0.0)) -> CollisionWorld:
+    """A world of ``bodies`` with ``world``'s dt, method, planes and contact settings that
+    goes on from it: the bodies of both keep their motion bit for bit (``Stepper.take_over``),
+    sleep state, the velocities their accelerations are read against and their contacts'
+    warm starts; a new body starts at its initial state (under ``gravity``) on the world's
+    clock. ``recheck``: check contacts before the next step integrates (as after a
+    teleport: a new body may touch). ``world`` is left as it was; ValueError (nothing
+    built) for bad bodies."""
+    new = collision_world(bodies, world.dt, gravity, world.colliders.planes,
+                          world.store.method.name, world.contact)
+    new.carry(world, world.steppers, world.step_count, recheck)
+    return new
+
+
+def _checked(bodies: Sequence[BodySpec]) -> tuple[BodySpec, ...]:
+    bodies = tuple(bodies)
+    if not bodies or not all(isinstance(b, BodySpec) for b in bodies):
+        raise ValueError('bodies must be one or more BodySpec')
+    names = [b.name for b in bodies]
+    if len(set(names)) != len(names):
+        raise ValueError(f'body names must be unique, got {names}')
+    return bodies
