@@ -447,7 +447,7 @@ class CollisionWorld:
         if made is None:
             return self._outputs
         if made[0]:
-            return tuple(getattr(made[3], name) for name in ws.OUTPUTS)
+            return tuple(getattr(made[3].outputs, name) for name in ws.OUTPUTS)
         # the compiled reader, in either tier (compiled when the record was made)
         return jit.compiled(ws.record_outputs)(made[3])
 
@@ -459,18 +459,19 @@ class CollisionWorld:
 
     def _world(self) -> tuple:
         """The world's arrays for the step kernel (the store's, as they are now), in the order
-        of ``world_step.World``."""
+        of ``world_step.World``: its groups STORE, COLLIDERS, MOVED and CONTROL."""
         st = self.store
         return (
             st.state, st.spare, st.params, st.coefficients, st.work, st.status, st.taken,
-            st.bad, st.clock, st.warn_sq, self._rows, self._q, self._has_q, self._reach,
-            self._inverse_mass, self._step_rows, self._body_of_row, self._kinds, self._geoms,
-            self._all_centres, self._all_rotations, self._restitution, self._friction,
+            st.bad, st.clock, st.warn_sq,
+            self._rows, self._q, self._has_q, self._reach, self._inverse_mass, self._step_rows,
+            self._body_of_row, self._kinds, self._geoms, self._restitution, self._friction,
             self._cbody, self._cowner, self._cstatic, self._cdyn, self._local_pos,
-            self._local_rot9, self._lower, self._upper, self._plane_normals,
-            self._plane_points, self._x, self._rot, self._v, self._w, self._margin,
-            self._asleep, self._slow_steps, self._settings_array, self._config, self._status,
-            self._stats, self._flagged, self._energy)
+            self._local_rot9, self._plane_normals, self._plane_points,
+            self._all_centres, self._all_rotations, self._lower, self._upper,
+            self._x, self._rot, self._v, self._w, self._margin, self._asleep, self._slow_steps,
+            self._settings_array, self._config, self._status, self._stats, self._flagged,
+            self._energy)
 
     @property
     def last_stats(self) -> StepStats:

@@ -94,25 +94,35 @@ CANDIDATE_PAIRS, PLANE_PAIRS, CONTACTS, ACTIVE, TOUCHED, V_ITER, P_ITER, COLOURS
 SLEEPING = 16
 STATS_WIDTH = 17
 
-World = namedtuple('World', [
-    # the store of the moving bodies (step_kernel rows) and their clocks
-    'state', 'spare', 'params', 'coefficients', 'work', 'kstatus', 'taken', 'bad', 'clock',
-    'warn_sq',
-    # moving bodies with colliders: their rows, Q of a non-principal body frame, reach (m)
-    'rows', 'q', 'has_q', 'reach', 'inverse_mass',
-    # the store rows of every moving body, ascending, and of each row its index among the
-    # moving bodies with colliders (-1 without: it never sleeps)
-    'step_rows', 'body_of_row',
-    # colliders (C) then planes (P): kinds, geoms, centres, rotations, materials
-    'kinds', 'geoms', 'centres', 'rotations', 'restitution', 'friction',
-    # colliders only
-    'cbody', 'cowner', 'cstatic', 'dyn', 'local_pos', 'local_rot', 'lower', 'upper',
+# The typed containers a world's step is handed, each a group of arrays that live and change
+# together: the moving bodies' store (``core.stepper.BodyStore``: the step kernel's rows and
+# each row's clock), what is fixed for the world's life (its ``ColliderSet`` and the rows of
+# its bodies), what the step moves (the colliders placed in the world and a buffer per body,
+# the last slot the static world's) and its control (solver settings, world constants,
+# status, statistics, flagged bodies, energies).
+STORE = ('state', 'spare', 'params', 'coefficients', 'work', 'kstatus', 'taken', 'bad', 'clock',
+         'warn_sq')
+COLLIDERS = (
+    # moving bodies with colliders: their store rows, Q of a non-principal body frame, reach
+    # (m), 1 / m; the store rows of every moving body, ascending, and of each row its index
+    # among the moving bodies with colliders (-1 without: it never sleeps)
+    'rows', 'q', 'has_q', 'reach', 'inverse_mass', 'step_rows', 'body_of_row',
+    # colliders (C) then planes (P): kinds, geoms, materials
+    'kinds', 'geoms', 'restitution', 'friction',
+    # colliders only: moving body (or nb: static), owner, static, the moving ones, offsets
+    'cbody', 'cowner', 'cstatic', 'dyn', 'local_pos', 'local_rot',
     # planes
-    'plane_normals', 'plane_points',
+    'plane_normals', 'plane_points')
+MOVED = (
+    # colliders then planes placed in the world, the colliders' bounds
+    'centres', 'rotations', 'lower', 'upper',
     # per body buffers (the last slot: the static world)
-    'x', 'rot', 'v', 'w', 'margin', 'asleep', 'slow_steps',
-    # solver settings, world constants, status, statistics, flagged bodies, energies
-    'settings', 'config', 'status', 'stats', 'flagged', 'energy'])
+    'x', 'rot', 'v', 'w', 'margin', 'asleep', 'slow_steps')
+CONTROL = ('settings', 'config', 'status', 'stats', 'flagged', 'energy')
+GROUPS = (('store', STORE), ('colliders', COLLIDERS), ('moved', MOVED), ('control', CONTROL))
+
+# What the kernels read: every array of the groups, by name (made once, on entry).
+World = namedtuple('World', STORE + COLLIDERS + MOVED + CONTROL)
 
 
 # What a call leaves for Python, in the record (never returned: numba makes a Python object of
@@ -130,43 +140,113 @@ def empty_outputs() -> tuple:
     return i1, f1, f3.copy(), f3.copy(), f3.copy(), f1.copy(), f1.copy(), i1.copy(), i1.copy()
 
 
-# The record a compiled world_steps takes, one argument of FIELDS (a numba StructRef: crossing
-# from Python costs one pointer, where a tuple of 45 arrays cost 4 us), made by ``make_record``;
-# the interpreted tier takes a ``WorldHost`` of the same fields (``host``). Kernels read either
-# by attribute, the same arithmetic on the same arrays.
-@structref.register
-class WorldRecordType(types.StructRef):
+# The record a compiled world_steps takes, one argument (crossing from Python costs one
+# pointer, where a tuple of 45 arrays cost 4 us): a WorldRecord of the four groups and the
+# outputs, each a numba StructRef typed by its arrays, made by ``make_record``; the
+# interpreted tier takes a ``WorldHost`` of the same groups (plain objects). Kernels read
+# either by attribute, the same arithmetic on the same arrays.
+class _Arrays(types.StructRef):
     def preprocess_fields(self, fields):
         return tuple((name, types.unliteral(t)) for name, t in fields)
 
 
+@structref.register
+class StoreRecordType(_Arrays):
+    pass
+
+
+@structref.register
+class CollidersRecordType(_Arrays):
+    pass
+
+
+@structref.register
+class MovedRecordType(_Arrays):
+    pass
+
+
+@structref.register
+class ControlRecordType(_Arrays):
+    pass
+
+
+@structref.register
+class OutputsRecordType(_Arrays):
+    pass
+
+
+@structref.register
+class WorldRecordType(_Arrays):
+    pass
+
+
+class StoreRecord(structref.StructRefProxy):
+    """The STORE group, compiled."""
+
+
+class CollidersRecord(structref.StructRefProxy):
+    """The COLLIDERS group, compiled."""
+
+
+class MovedRecord(structref.StructRefProxy):
+    """The MOVED group, compiled."""
+
+
+class ControlRecord(structref.StructRefProxy):
+    """The CONTROL group, compiled."""
+
+
+class OutputsRecord(structref.StructRefProxy):
+    """The OUTPUTS, compiled."""
+
+
 class WorldRecord(structref.StructRefProxy):
-    """A world's arrays as one compiled record (read them in kernels, not from Python)."""
+    """A world's groups and outputs as one compiled record (read them in kernels, not from
+    Python)."""
 
 
-structref.define_proxy(WorldRecord, WorldRecordType, list(FIELDS))
+structref.define_proxy(StoreRecord, StoreRecordType, list(STORE))
+structref.define_proxy(CollidersRecord, CollidersRecordType, list(COLLIDERS))
+structref.define_proxy(MovedRecord, MovedRecordType, list(MOVED))
+structref.define_proxy(ControlRecord, ControlRecordType, list(CONTROL))
+structref.define_proxy(OutputsRecord, OutputsRecordType, list(OUTPUTS))
+structref.define_proxy(WorldRecord, WorldRecordType,
+                       [name for name, _ in GROUPS] + ['outputs'])
+
+
+class _Group:
+    """One group of arrays as a plain object (the interpreted tier's record)."""
+
+    def __init__(self, names, values) -> None:
+        for name, value in zip(names, values, strict=True):
+            setattr(self, name, value)
 
 
 class WorldHost:
-    """A world's arrays as a plain object, for the interpreted tier (and the source of a
-    record: ``make_record(*host.values())``)."""
+    """A world's groups and outputs as plain objects, for the interpreted tier: made from the
+    same values as ``make_record`` (FIELDS, in order)."""
 
-    __slots__ = FIELDS
+    __slots__ = tuple(name for name, _ in GROUPS) + ('outputs',)
 
     def __init__(self, *values) -> None:
-        for name, value in zip(FIELDS, values, strict=True):
-            setattr(self, name, value)
-
-    def values(self) -> tuple:
-        return tuple(getattr(self, name) for name in FIELDS)
+        values = list(values)
+        if len(values) != len(FIELDS):
+            raise ValueError(f'a world has {len(FIELDS)} arrays, got {len(values)}')
+        at = 0
+        for name, names in GROUPS + (('outputs', OUTPUTS),):
+            setattr(self, name, _Group(names, values[at:at + len(names)]))
+            at += len(names)
 
 
 def _record_sources() -> tuple[str, str]:
     args = ', '.join(FIELDS)
+    groups = ', '.join(f'{cls}({", ".join(names)})' for cls, names in (
+        ('StoreRecord', STORE), ('CollidersRecord', COLLIDERS), ('MovedRecord', MOVED),
+        ('ControlRecord', CONTROL), ('OutputsRecord', OUTPUTS)))
     make = (f'def make_record({args}):\n'
-            '    """A WorldRecord of these arrays (FIELDS, in order)."""\n'
-            f'    return WorldRecord({args})\n')
-    outputs = ', '.join(f'w.{name}' for name in OUTPUTS)
+            '    """A WorldRecord of these arrays (FIELDS, in order), in its groups."""\n'
+            f'    return WorldRecord({groups})\n')
+    outputs = ', '.join(f'w.outputs.{name}' for name in OUTPUTS)
     read = ('def record_outputs(w):\n'
             '    """OUTPUTS of a record (or host), in order."""\n'
             f'    return ({outputs})\n')
@@ -179,7 +259,7 @@ record_outputs = generated_kernel(globals(), 'record_outputs', _READ_SOURCE, inl
 
 
 def _world_source() -> str:
-    fields = ', '.join(f'w.{name}' for name in World._fields)
+    fields = ', '.join(f'w.{group}.{name}' for group, names in GROUPS for name in names)
     return ('def world_of(w):\n'
             '    """The World (a named tuple) of a record\'s arrays: read once, on entry."""\n'
             f'    return World({fields})\n')
@@ -201,11 +281,11 @@ def _world_steps_of(family, tests, name):
         step's contacts (point, normal, depth, normal_impulse, collider_a, collider_b)."""
         f = family
         w = world_of(record)
-        warm_keys, warm_normal, warm_tangent = (record.warm_keys, record.warm_normal,
-                                                record.warm_tangent)
+        out = record.outputs
+        warm_keys, warm_normal, warm_tangent = out.warm_keys, out.warm_normal, out.warm_tangent
         # the last contacts, as they are until a contact pass runs (kept only if one does)
-        point, normal, depth = record.point, record.normal, record.depth
-        impulse, ca, cbb = record.impulse, record.collider_a, record.collider_b
+        point, normal, depth = out.point, out.normal, out.depth
+        impulse, ca, cbb = out.impulse, out.collider_a, out.collider_b
         w.status[S_KIND] = OK
         w.status[S_STEPS_DONE] = 0
         collided = False  # a contact pass ran in this call
@@ -456,12 +536,12 @@ def _world_steps_of(family, tests, name):
                 break
             w.status[S_UNCHECKED] = 0
         w.status[S_TURNED] = _turned(w.step_rows, w.state, w.warn_sq)
-        record.warm_keys = warm_keys
-        record.warm_normal, record.warm_tangent = warm_normal, warm_tangent
+        out.warm_keys = warm_keys
+        out.warm_normal, out.warm_tangent = warm_normal, warm_tangent
         if collided:
             w.status[S_COLLIDED] = 1
-            record.point, record.normal, record.depth = point, normal, depth
-            record.impulse, record.collider_a, record.collider_b = impulse, ca, cbb
+            out.point, out.normal, out.depth = point, normal, depth
+            out.impulse, out.collider_a, out.collider_b = impulse, ca, cbb
         return LOOK if w.status[S_KIND] != OK or w.status[S_TURNED] != 0 else 0
 
     world_steps.__name__ = world_steps.__qualname__ = name
