@@ -205,7 +205,7 @@ def mixed(quick: bool) -> dict:
         for _ in range(100):
             worlds[1].step(1)
         energy.append(tc.mechanical_energy(worlds[0]))
-    names = [b.name for b in worlds[0].bodies if not b.static]
+    names = list(worlds[0].steppers)
     same = all(other.steppers[n].pose_twist() == worlds[0].steppers[n].pose_twist()
                for other in worlds[1:] for n in names)
     return {'largest_rise_J': max(b - a for a, b in zip(energy, energy[1:])),

@@ -94,7 +94,7 @@ def run_ours(side: int, sleep_time: float, settle: int, steps: int) -> dict:
                               (0.0, 0.0, -1.0)))
     drop = timed(lambda: w.step(1), 400)
     return {'seconds_per_step': rest, 'asleep': asleep, 'drift': drift,
-            'drop_seconds_per_step': drop, 'awake_after_drop': len(w.bodies) - len(
+            'drop_seconds_per_step': drop, 'awake_after_drop': len(w.steppers) - len(
                 w.sleeping), 'contacts': contacts}
 
 
