@@ -69,7 +69,7 @@ from rb_sim_ros.contact.collision_shapes import Box, shape_from_dict, Sphere
 from rb_sim_ros.contact.settings import MAX_ITERATIONS
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import RigidBody
-from rb_sim_ros.sim import safe_yaml
+from rb_sim_ros.sim import mjcf, safe_yaml
 from rb_sim_ros.sim.simulation import BodySpec, ContactSettings, MAX_BODIES
 
 TOP_KEYS = {'gravity', 'contact', 'bodies', 'integrator', 'templates'}
@@ -447,8 +447,19 @@ def _yaml_refusal(where: str, keys: list, e: safe_yaml.YamlError) -> SceneError:
     return SceneError(f'{where}: {field + ": " if field else ""}{e.reason}{line}')
 
 
+# What a scene file whose name ends so is read as: MJCF (``mjcf.load_mjcf``); else YAML.
+MJCF_SUFFIXES = ('.xml', '.mjcf')
+
+
 def load_scene(path: str) -> Scene:
-    """The scene of the file ``path``; SceneError says what and where."""
+    """The scene of the file ``path`` (YAML, or MJCF for a name ending in ``.xml`` or
+    ``.mjcf``); SceneError says what and where."""
+    if str(path).lower().endswith(MJCF_SUFFIXES):
+        try:
+            gravity, bodies = mjcf.load_mjcf(str(path), MAX_BYTES, MAX_BODIES)
+        except mjcf.ModelError as e:
+            raise SceneError(str(e)) from None
+        return Scene(gravity, bodies, ContactSettings())
     return scene_from_data(read_scene_data(path), path)
 
 

@@ -242,7 +242,7 @@ def test_the_launch_file_passes_scene_file_and_record_only_when_given(monkeypatc
 ROSDEP_KEY = {'numpy': 'python3-numpy', 'yaml': 'python3-yaml', 'numba': 'python3-numba',
               'regex': 'python3-regex', 'matplotlib': 'python3-matplotlib', 'PIL': 'python3-pil',
               'imageio': 'python3-imageio', 'tqdm': 'python3-tqdm'}
-PYPI_ONLY = {'mcap', 'ray', 'imageio_ffmpeg'}
+PYPI_ONLY = {'mcap', 'ray', 'imageio_ffmpeg', 'mujoco'}
 
 
 def test_every_module_the_package_imports_has_a_rosdep_key_in_package_xml():
