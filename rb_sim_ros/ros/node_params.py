@@ -296,9 +296,10 @@ PARAMS = (
     Param('publish_clock', True, 'Publish /clock (rosgraph_msgs/Clock, best-effort) with sim '
           'time.', True, _bool),
     Param('scene_file', '', 'A YAML scene (several bodies, gravity, damping; see '
-          'rb_sim_ros/sim/scene.py), or an MJCF model (a name ending in .xml or .mjcf: its free '
-          'bodies; docs/scenes.md). Empty: one body from the parameters above. Each scene body '
-          'has its own topics <name>/wrench, <name>/pose, ...', True, _string),
+          'rb_sim_ros/sim/scene.py), an MJCF model (a name ending in .xml or .mjcf: its free '
+          'bodies) or a URDF (.urdf: its fixed-jointed links, one body; docs/scenes.md). '
+          'Empty: one body from the parameters above. Each scene body has its own topics '
+          '<name>/wrench, <name>/pose, ...', True, _string),
     Param('max_body_topics', 100, 'How many bodies of a scene (in file order) get their own '
           'topics <name>/wrench, <name>/pose, ... (0 to 100000). Each topic is a DDS endpoint, '
           'and endpoints cost time and memory to create: the rest are simulated, recorded '

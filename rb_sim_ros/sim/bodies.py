@@ -23,7 +23,7 @@ from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import finite_floats, rate, RigidBody, State
 from rb_sim_ros.core.stepper import BodyStore, check_dt, Stepper
 
-__all__ = ['BodySpec', 'collides', 'collision_world', 'colliders_of', 'make_steppers',
+__all__ = ['BodySpec', 'collides', 'collision_world', 'colliders_of', 'combined', 'make_steppers',
            'MAX_COLLIDERS', 'pairs_met', 'rebuilt']
 
 # What a body's name may be: it becomes a topic namespace and a frame id (scene.NAME too).
@@ -152,6 +152,24 @@ def make_steppers(bodies, dt: float, integrator: str,
                 linear_damping=spec.linear_damping, angular_damping=spec.angular_damping,
                 store=store)
     return steppers, static
+
+
+def combined(parts) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass kg, centre of mass m, inertia kg m^2 about it) of rigid parts welded together,
+    each (mass, centre, inertia tensor about its own centre), all in one frame: the masses
+    summed, the inertias moved to the common centre by the parallel-axis theorem,
+    I + m (|d|^2 E - d d^T). A massless whole has its centre at the origin."""
+    mass, first = 0.0, np.zeros(3)
+    for m, c, _ in parts:
+        mass += float(m)
+        first += float(m) * np.asarray(c, dtype=float)
+    centre = first / mass if mass > 0.0 else np.zeros(3)
+    inertia = np.zeros((3, 3))
+    for m, c, i in parts:
+        d = np.asarray(c, dtype=float) - centre
+        inertia += np.asarray(i, dtype=float) + float(m) * (float(d @ d) * np.eye(3)
+                                                            - np.outer(d, d))
+    return mass, centre, inertia
 
 
 def collides(bodies: Sequence[BodySpec]) -> bool:

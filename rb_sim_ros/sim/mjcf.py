@@ -45,7 +45,7 @@ import numpy as np
 
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
 from rb_sim_ros.core import so3
-from rb_sim_ros.sim.bodies import BodySpec
+from rb_sim_ros.sim.bodies import BodySpec, combined
 
 # Include files followed (each checked in turn) before the model is refused as too deep.
 MAX_INCLUDE_DEPTH = 8
@@ -218,7 +218,7 @@ def _pose_in(model, mujoco, top: int, body: int):
     return rot, pos
 
 
-def _unique(name: str, taken: set) -> str:
+def unique_name(name: str, taken: set) -> str:
     """``name``, or ``name_2``, ``name_3``... (within 64 characters): the first not taken."""
     count, unique = 1, name
     while unique in taken:
@@ -233,23 +233,16 @@ def _body(path, model, mujoco, top, bodies, moving, names, taken) -> BodySpec | 
     where = f"{path}: body '{names[top] or top}'"
     # Mass, centre of mass and inertia in the top body's axes (the parallel-axis theorem).
     poses = {b: _pose_in(model, mujoco, top, b) for b in bodies}
-    mass, first = 0.0, np.zeros(3)
+    parts = []
     for b in bodies:
         rot, pos = poses[b]
-        mass += float(model.body_mass[b])
-        first += float(model.body_mass[b]) * (pos + rot @ model.body_ipos[b])
+        axes = rot @ _rotation(mujoco, model.body_iquat[b])
+        parts.append((float(model.body_mass[b]), pos + rot @ model.body_ipos[b],
+                      axes @ np.diag(model.body_inertia[b]) @ axes.T))
+    mass, centre, inertia = combined(parts)
     if moving and not mass > 0.0:
         raise ModelError(f'{where}: has no mass (give its geoms a density or mass, or the '
                          'body an inertial)')
-    centre = first / mass if mass > 0.0 else np.zeros(3)
-    inertia = np.zeros((3, 3))
-    for b in bodies:
-        rot, pos = poses[b]
-        m = float(model.body_mass[b])
-        axes = rot @ _rotation(mujoco, model.body_iquat[b])
-        inertia += axes @ np.diag(model.body_inertia[b]) @ axes.T
-        d = pos + rot @ model.body_ipos[b] - centre
-        inertia += m * (float(d @ d) * np.eye(3) - np.outer(d, d))
     colliders = []
     for g in range(model.ngeom):
         b = int(model.geom_bodyid[g])
@@ -261,7 +254,7 @@ def _body(path, model, mujoco, top, bodies, moving, names, taken) -> BodySpec | 
         colliders.append(_collider(path, model, mujoco, g, geom_rot, geom_pos, moving))
     if not moving and not colliders:
         return None  # a static body that touches nothing: nothing to simulate
-    name = _unique(WORLD_BODY if top == 0 else ros_name(names[top], top), taken)
+    name = unique_name(WORLD_BODY if top == 0 else ros_name(names[top], top), taken)
     rot0, pos0 = (np.eye(3), np.zeros(3)) if top == 0 else (
         _rotation(mujoco, model.body_quat[top]), np.array(model.body_pos[top], dtype=float))
     try:

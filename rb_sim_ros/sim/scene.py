@@ -69,7 +69,7 @@ from rb_sim_ros.contact.collision_shapes import Box, shape_from_dict, Sphere
 from rb_sim_ros.contact.settings import MAX_ITERATIONS
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import RigidBody
-from rb_sim_ros.sim import mjcf, safe_yaml
+from rb_sim_ros.sim import mjcf, safe_yaml, urdf
 from rb_sim_ros.sim.simulation import BodySpec, ContactSettings, MAX_BODIES
 
 TOP_KEYS = {'gravity', 'contact', 'bodies', 'integrator', 'templates'}
@@ -447,16 +447,20 @@ def _yaml_refusal(where: str, keys: list, e: safe_yaml.YamlError) -> SceneError:
     return SceneError(f'{where}: {field + ": " if field else ""}{e.reason}{line}')
 
 
-# What a scene file whose name ends so is read as: MJCF (``mjcf.load_mjcf``); else YAML.
+# What a scene file whose name ends so is read as: MJCF (``mjcf.load_mjcf``), URDF
+# (``urdf.load_urdf``); else YAML.
 MJCF_SUFFIXES = ('.xml', '.mjcf')
+URDF_SUFFIXES = ('.urdf',)
 
 
 def load_scene(path: str) -> Scene:
-    """The scene of the file ``path`` (YAML, or MJCF for a name ending in ``.xml`` or
-    ``.mjcf``); SceneError says what and where."""
-    if str(path).lower().endswith(MJCF_SUFFIXES):
+    """The scene of the file ``path`` (YAML; MJCF for a name ending in ``.xml`` or
+    ``.mjcf``, URDF for ``.urdf``); SceneError says what and where."""
+    lower = str(path).lower()
+    if lower.endswith(MJCF_SUFFIXES + URDF_SUFFIXES):
+        load = mjcf.load_mjcf if lower.endswith(MJCF_SUFFIXES) else urdf.load_urdf
         try:
-            gravity, bodies = mjcf.load_mjcf(str(path), MAX_BYTES, MAX_BODIES)
+            gravity, bodies = load(str(path), MAX_BYTES, MAX_BODIES)
         except mjcf.ModelError as e:
             raise SceneError(str(e)) from None
         return Scene(gravity, bodies, ContactSettings())
