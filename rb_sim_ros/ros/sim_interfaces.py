@@ -84,7 +84,8 @@ FEATURES = (SimulatorFeatures.ENTITY_CATEGORIES, SimulatorFeatures.ENTITY_STATE_
     ((SimulatorFeatures.SPAWNING_ENTITIES,) if SpawnEntities is not None else ())
 # The most bodies one spawn_entities may ask for.
 MAX_SPAWN_REQUESTS = 1000
-SPAWN_FORMAT = 'yaml'  # a scene-file body entry
+# What a spawn's resource_string may be: a scene-file body entry, or a model of one body.
+SPAWN_FORMATS = ('yaml', 'urdf', 'mjcf')
 # The services and the action: (name, type, the method serving it, what). Created from this
 # table, and ``simulator --help`` lists them from it.
 SERVICES = (
@@ -294,10 +295,11 @@ class SimulationInterfaces:
     def _features(self, request, response):
         f = response.features
         f.features = list(FEATURES)
-        f.spawn_formats = [SPAWN_FORMAT]
+        f.spawn_formats = list(SPAWN_FORMATS)
         f.custom_info = ('rb_sim_ros: entities are the bodies; reset keeps sim time '
                          '(SCOPE_STATE, SCOPE_SPAWNED); states in world_frame; spawn a scene-file '
-                         'body entry (resource_string, YAML) or a scene template (uri)')
+                         'body entry (resource_string, YAML), a URDF or MJCF model of one body '
+                         '(resource_string, XML) or a scene template (uri)')
         return response
 
     def _filtered(self, filters):

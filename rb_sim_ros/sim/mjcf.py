@@ -81,6 +81,34 @@ def load_mjcf(path: str, max_bytes: int, max_bodies: int
     return (gx, gy, gz), bodies
 
 
+def bodies_from_text(text: str, where: str, max_bodies: int
+                     ) -> tuple[tuple[float, float, float], tuple[BodySpec, ...]]:
+    """(gravity, bodies) of an MJCF model given as text (a spawn request's), which may name
+    no file (no include, asset file or directory: nothing is read); ModelError naming
+    ``where`` says why not."""
+    try:
+        tree = ElementTree.fromstring(text)
+    except ElementTree.ParseError as e:
+        raise ModelError(f'{where}: not XML: {e}') from None
+    for element in tree.iter():
+        for name in _FILE_ATTRIBUTES:
+            if element.get(name) is not None:
+                raise ModelError(f'{where}: <{element.tag} {name}=...>: a model sent as text '
+                                 'may name no file')
+    try:
+        import mujoco
+    except ImportError:
+        raise ModelError(f'{where}: reading MJCF needs the mujoco package (pip install '
+                         'mujoco)') from None
+    try:
+        model = mujoco.MjModel.from_xml_string(text)
+    except Exception as e:  # its compiler's refusal (ValueError), one line
+        reason = ' '.join(str(e).split())
+        raise ModelError(f'{where}: MuJoCo cannot compile it: {reason}') from None
+    gx, gy, gz = (float(g) for g in model.opt.gravity)
+    return (gx, gy, gz), _bodies(where, model, mujoco, max_bodies)
+
+
 def _inside(root: str, file: str) -> bool:
     return os.path.commonpath([root, os.path.realpath(file)]) == root
 

@@ -57,11 +57,13 @@ an ASCII letter, then ASCII letters, digits and underscores, at most ``MAX_NAME`
 
 from __future__ import annotations
 
+from dataclasses import replace
 import math
 import re
 import reprlib
 import sys
 from typing import Any, NamedTuple, NoReturn
+import xml.etree.ElementTree as ElementTree
 
 from rb_sim_ros.contact import shapes
 from rb_sim_ros.contact.colliders import MAX_COLLIDERS
@@ -529,6 +531,30 @@ def _templates(path: str, data: Any) -> tuple[BodySpec, ...]:
     return tuple(out)
 
 
+def model_body(text: str, name: str = '', where: str = 'resource_string') -> BodySpec:
+    """The one body of a URDF (``<robot>``) or MJCF (``<mujoco>``) model given as text, e.g.
+    a spawn request's resource string (``body_entry`` sends XML here): read as the files are
+    (``urdf``, ``mjcf``), but naming no other file; a non-empty ``name`` replaces the
+    model's. SceneError naming ``where`` unless the model makes exactly one body."""
+    try:
+        tag = ElementTree.fromstring(text).tag
+    except ElementTree.ParseError as e:
+        raise SceneError(f'{where}: not XML: {e}') from None
+    if tag not in ('robot', 'mujoco'):
+        raise SceneError(f'{where}: XML that is neither a URDF (<robot>) nor an MJCF '
+                         f'(<mujoco>) model: <{_show(tag)}>')
+    load = urdf.bodies_from_text if tag == 'robot' else mjcf.bodies_from_text
+    try:
+        _, bodies = load(text, where, MAX_BODIES)
+    except mjcf.ModelError as e:
+        raise SceneError(str(e)) from None
+    if len(bodies) != 1:
+        raise SceneError(f'{where}: a spawn makes one body; this model makes {len(bodies)} '
+                         f'({", ".join(b.name for b in bodies[:5])})')
+    body, = bodies
+    return replace(body, name=name) if name else body
+
+
 def body_entry(text: Any, name: str = '', where: str = 'resource_string',
                default: str = '') -> BodySpec:
     """The body of a scene-file body entry given as YAML (or JSON) text, e.g. a spawn
@@ -540,6 +566,8 @@ def body_entry(text: Any, name: str = '', where: str = 'resource_string',
         raise SceneError(f'{where}: must be text, got {type(text).__name__}')
     if len(text.encode('utf-8', 'surrogatepass')) > MAX_ENTRY_BYTES:
         raise SceneError(f'{where}: longer than {MAX_ENTRY_BYTES} bytes: not a body entry')
+    if text.lstrip().startswith('<'):
+        return model_body(text, name, where)
     try:
         data = safe_yaml.load(text, max_depth=MAX_DEPTH - 2, max_nodes=MAX_ENTRY_BYTES)
     except safe_yaml.YamlError as e:

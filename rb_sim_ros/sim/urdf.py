@@ -49,7 +49,17 @@ def load_urdf(path: str, max_bytes: int, max_bodies: int
               ) -> tuple[tuple[float, float, float], tuple[BodySpec, ...]]:
     """(gravity, bodies) of the URDF file ``path``, of at most ``max_bytes`` and
     ``max_bodies`` bodies; ModelError says why not."""
-    robot = _parse(path, max_bytes)
+    return _bodies(path, _parse(path, max_bytes), max_bodies)
+
+
+def bodies_from_text(text: str, where: str, max_bodies: int
+                     ) -> tuple[tuple[float, float, float], tuple[BodySpec, ...]]:
+    """(gravity, bodies) of a URDF given as text (a spawn request's); ModelError naming
+    ``where`` says why not."""
+    return _bodies(where, _robot(text.encode('utf-8', 'surrogatepass'), where), max_bodies)
+
+
+def _bodies(path: str, robot, max_bodies: int):
     links, joints = _links(path, robot), _joints(path, robot)
     parent_of: dict[str, tuple] = {}
     for joint in joints:
@@ -110,6 +120,10 @@ def _parse(path: str, max_bytes: int):
         raise ModelError(f'{path}: cannot read: {e.strerror or e}') from None
     if len(raw) > max_bytes:
         raise ModelError(f'{path}: larger than {max_bytes} bytes (scene.MAX_BYTES)')
+    return _robot(raw, path)
+
+
+def _robot(raw: bytes, path: str):
     try:
         robot = ElementTree.fromstring(raw)
     except ElementTree.ParseError as e:

@@ -37,3 +37,22 @@ def test_an_articulated_model_exits_2_with_one_line_naming_the_file(start_sim, t
     assert 'Traceback' not in out, out
     lines = [line for line in out.splitlines() if str(model) in line]
     assert len(lines) == 1 and "joint 'elbow' is a hinge joint" in lines[0], out
+
+
+def test_spawn_entity_takes_a_urdf_and_refuses_an_articulated_mjcf(start_sim, probe):
+    from simulation_interfaces.msg import Result
+    from simulation_interfaces.srv import GetEntities, SpawnEntity
+    start_sim('-p', 'start_paused:=true')
+    urdf = ('<robot name="r"><link name="hull"><inertial><mass value="2"/><inertia ixx="0.1" '
+            'iyy="0.1" izz="0.1"/></inertial><collision><geometry><box size="1 1 1"/>'
+            '</geometry></collision></link></robot>')
+    reply = probe.call(SpawnEntity, 'spawn_entity', SpawnEntity.Request(resource_string=urdf))
+    assert (reply.result.result, reply.entity_name) == (Result.RESULT_OK, 'hull')
+    names = probe.call(GetEntities, 'get_entities', GetEntities.Request()).entities
+    assert 'hull' in list(names)
+    arm = ('<mujoco><worldbody><body name="arm"><joint name="elbow" type="hinge"/>'
+           '<geom size="0.1"/></body></worldbody></mujoco>')
+    reply = probe.call(SpawnEntity, 'spawn_entity',
+                       SpawnEntity.Request(name='arm', resource_string=arm))
+    assert reply.result.result == SpawnEntity.Response.RESOURCE_PARSE_ERROR
+    assert "joint 'elbow' is a hinge joint" in reply.result.error_message

@@ -115,7 +115,7 @@ def test_the_standard_api_drives_the_simulator(start_sim, probe, tmp_path, insta
             SimulatorFeatures.SIMULATION_RESET_STATE, SimulatorFeatures.SPAWNING,
             SimulatorFeatures.DELETING, SimulatorFeatures.SPAWNABLES} <= set(features.features)
     assert SimulatorFeatures.SIMULATION_RESET_TIME not in features.features
-    assert list(features.spawn_formats) == ['yaml']
+    assert list(features.spawn_formats) == ['yaml', 'urdf', 'mjcf']
 
     # Entities, by name pattern and category.
     def entities(pattern='', *categories):

@@ -172,3 +172,25 @@ def test_load_scene_reads_a_urdf_and_it_runs(tmp_path):
     # F = m a: 1 m/s^2 for 1 s from rest moves the centre of mass 0.5 m
     position = sim.pose_twist('base')[0]
     assert position[0] - scene.bodies[0].initial_position[0] == pytest.approx(0.5, rel=1e-9)
+
+
+def test_a_model_sent_as_text_is_one_body_named_by_the_request():
+    """What a spawn's resource_string may hold besides a YAML entry (scene.body_entry)."""
+    body = scenes.body_entry(ROBOT.replace('EXTRA', ''), 'rover2')
+    assert body.name == 'rover2' and body.mass == pytest.approx(3.7)
+    assert scenes.body_entry(ROBOT.replace('EXTRA', '')).name == 'base'
+    ball = ('<mujoco><worldbody><body name="b" pos="0 0 1"><freejoint/>'
+            '<geom size="0.1" mass="2"/></body></worldbody></mujoco>')
+    assert scenes.body_entry(ball).mass == pytest.approx(2.0)
+    two = ball.replace('</worldbody>', '<geom type="plane" size="1 1 1"/></worldbody>')
+    with pytest.raises(SceneError, match=r'a spawn makes one body; this model makes 2 '
+                                         r'\(mjcf_world, b\)'):
+        scenes.body_entry(two)
+    for text, match in (
+            ('<mujoco><include file="x.xml"/></mujoco>', 'may name no file'),
+            ('<mujoco><compiler meshdir="/"/></mujoco>', 'may name no file'),
+            ('<sdf version="1.9"/>', 'neither a URDF'),
+            ('<robot', 'not XML')):
+        with pytest.raises(SceneError, match=match) as e:
+            scenes.body_entry(text, where='resource_string')
+        assert str(e.value).startswith('resource_string: ')
