@@ -140,14 +140,16 @@ class CollisionWorld:
     set of ``narrow_kernels.PAIR_BIT``) the world's step is compiled with besides those its
     colliders can meet (``pair_tests`` the attribute: the union); None:
     ``world_step.tests_for`` chooses (a precompiled set that holds them, so that it is
-    loaded rather than compiled). The bits are the same with any set. Every argument is
-    validated (ValueError naming it) before anything is built. ``sim.bodies.collision_world``
-    builds one from a scene's bodies.
+    loaded rather than compiled). The bits are the same with any set. ``clock``: the run's
+    step count, a one-element int64 array its owner keeps (a ``Simulation``'s, so that a run
+    has one clock, whether a world steps it or not): the world moves it as it steps; None: a
+    clock of its own, from 0. Every argument is validated (ValueError naming it) before
+    anything is built. ``sim.bodies.collision_world`` builds one from a scene's bodies.
     """
 
     def __init__(self, steppers: Mapping[str, Stepper], colliders: ColliderSet,
                  contact: ContactSettings = ContactSettings(),
-                 pair_tests: int | None = None) -> None:
+                 pair_tests: int | None = None, clock: np.ndarray | None = None) -> None:
         steppers = dict(steppers)
         if not steppers or not all(isinstance(k, str) and isinstance(s, Stepper)
                                    for k, s in steppers.items()):
@@ -171,6 +173,15 @@ class CollisionWorld:
             raise ValueError(f'contact must be a ContactSettings, got {contact!r}')
         if pair_tests is not None:
             nk.checked_tests(pair_tests, 'pair_tests')
+        if clock is None:
+            clock = np.zeros(1, dtype=np.int64)
+        elif not (isinstance(clock, np.ndarray) and clock.dtype == np.int64
+                  and clock.shape == (1,) and clock.flags.c_contiguous
+                  and clock.flags.writeable):
+            raise ValueError(f'clock must be a writable int64 array of one element, got '
+                             f'{clock!r}')
+        # The run's step count: its owner's (a Simulation's), moved by this world's steps.
+        self.clock = clock
         self.contact = contact  # checked when it was made (it is frozen)
         self.colliders = colliders
         self.store = store
@@ -188,10 +199,9 @@ class CollisionWorld:
         self.steppers = steppers
         self.static = {o.name: o.pose for o in colliders.owners if o.pose is not None}
         self._all_steppers = tuple(steppers.values())
-        # What world_steps reads and leaves: the step count, whether the contacts of the
-        # state are due, what happened (_step_count, _unchecked and _collided read it)
+        # What world_steps reads and leaves: whether the contacts of the state are due, what
+        # happened (_unchecked and _collided read it)
         self._status = np.zeros(ws.STATUS_WIDTH, dtype=np.int64)
-        self._step_count = 0
         self._unsynced, self._unsynced_seconds, self._call_seconds = False, 0.0, 0.0
         self._last_stats = StepStats()
         self._totals = StepStats()
@@ -274,17 +284,18 @@ class CollisionWorld:
     # -- read ----------------------------------------------------------------------------------
     @property
     def step_count(self) -> int:
+        """Steps taken: the run's clock (``clock``), which this world moves as it steps."""
         return self._step_count
 
-    # The world's clock and its contacts' state live in the status the kernel keeps (it
-    # reads them there and moves them on), so that a call neither writes nor reads them.
+    # The run's clock and the contacts' state live in arrays the kernel keeps (it reads
+    # them there and moves them on), so that a call neither writes nor reads them.
     @property
     def _step_count(self) -> int:
-        return int(self._status[ws.S_STEP])
+        return int(self.clock[0])
 
     @_step_count.setter
     def _step_count(self, value: int) -> None:
-        self._status[ws.S_STEP] = value
+        self.clock[0] = value
 
     @property
     def _unchecked(self) -> bool:
@@ -471,7 +482,7 @@ class CollisionWorld:
             self._all_centres, self._all_rotations, self._lower, self._upper,
             self._x, self._rot, self._v, self._w, self._margin, self._asleep, self._slow_steps,
             self._settings_array, self._config, self._status, self._stats, self._flagged,
-            self._energy)
+            self._energy, self.clock)
 
     @property
     def last_stats(self) -> StepStats:

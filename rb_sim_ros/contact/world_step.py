@@ -57,18 +57,19 @@ C_MIN_TURN, C_GAIN_TOLERANCE, C_MATERIALS = 6, 7, 8
 CONFIG_WIDTH = 9
 
 # -- w.status (int64): what happened, set by world_steps ---------------------------------------
-S_STEP, S_UNCHECKED, S_KIND, S_ERROR_STEP, S_ROW, S_FLAGGED, S_STEPS_DONE = 0, 1, 2, 3, 4, 5, 6
+# (The step count is not here: it is the run's clock, ``run_clock`` of CONTROL.)
+S_UNCHECKED, S_KIND, S_ERROR_STEP, S_ROW, S_FLAGGED, S_STEPS_DONE = 0, 1, 2, 3, 4, 5
 # 1 once a contact pass has run (it stays): the record holds the last step's contacts
-S_COLLIDED = 7
+S_COLLIDED = 6
 # 1 if a moving body may now turn faster than its method's energy bound (warn_sq):
 # Python then looks (``BodyStore.check_turns``), else it need not
-S_TURNED = 8
+S_TURNED = 7
 # 1 after a step whose contact pass found every body with colliders asleep (so no pair): its
 # colliders are placed where the bodies still are, and the next such step leaves what it left
 # without running (a sleeping world costs nothing). Any other step clears it; a new world
 # starts at 0, so its first step places its colliders.
-S_QUIET = 9
-STATUS_WIDTH = 10
+S_QUIET = 8
+STATUS_WIDTH = 9
 # What world_steps returns when Python must look at the status (a failure, a turn to check);
 # 0 when all n steps were taken and there is nothing to say
 LOOK = 1
@@ -99,7 +100,8 @@ STATS_WIDTH = 17
 # each row's clock), what is fixed for the world's life (its ``ColliderSet`` and the rows of
 # its bodies), what the step moves (the colliders placed in the world and a buffer per body,
 # the last slot the static world's) and its control (solver settings, world constants,
-# status, statistics, flagged bodies, energies).
+# status, statistics, flagged bodies, energies, and the run's clock: its step count, one
+# int64 that the run owns and hands to its world, which moves it as it steps).
 STORE = ('state', 'spare', 'params', 'coefficients', 'work', 'kstatus', 'taken', 'bad', 'clock',
          'warn_sq')
 COLLIDERS = (
@@ -118,7 +120,7 @@ MOVED = (
     'centres', 'rotations', 'lower', 'upper',
     # per body buffers (the last slot: the static world)
     'x', 'rot', 'v', 'w', 'margin', 'asleep', 'slow_steps')
-CONTROL = ('settings', 'config', 'status', 'stats', 'flagged', 'energy')
+CONTROL = ('settings', 'config', 'status', 'stats', 'flagged', 'energy', 'run_clock')
 GROUPS = (('store', STORE), ('colliders', COLLIDERS), ('moved', MOVED), ('control', CONTROL))
 
 # What the kernels read: every array of the groups, by name (made once, on entry).
@@ -299,17 +301,17 @@ def _world_steps_of(family, tests, name):
                 row = _integrate(f, w.step_rows, w.body_of_row, w.asleep, w.state, w.spare,
                                  w.params, w.coefficients, w.kstatus, w.taken, w.bad, w.work,
                                  w.clock)
-                w.status[S_STEP] += 1
+                w.run_clock[0] += 1
                 w.status[S_STEPS_DONE] += 1
                 if row >= 0:
                     w.status[S_KIND], w.status[S_ROW] = INTEGRATION, row
-                    w.status[S_ERROR_STEP] = w.status[S_STEP] - 1
+                    w.status[S_ERROR_STEP] = w.run_clock[0] - 1
                     break
             # 2. - 5. on the bodies' current states (``integrated``: the awake bodies have taken
             # this step's integration).
             nb = w.rows.shape[0]
             nc = w.cbody.shape[0]
-            step = w.status[S_STEP] - 1 if integrated else w.status[S_STEP]
+            step = w.run_clock[0] - 1 if integrated else w.run_clock[0]
             if integrated and w.status[S_QUIET] != 0 and _all_asleep(w.asleep, nb):
                 # The step before ran a pass with every body asleep (S_QUIET), and they still
                 # are: no body has moved since, so that pass would find what it found (no pair:
@@ -351,7 +353,7 @@ def _world_steps_of(family, tests, name):
                         woken[b], found = True, True
                 if not found:
                     break
-                clock = w.status[S_STEP] - (1 if integrated else 0)
+                clock = w.run_clock[0] - (1 if integrated else 0)
                 for k in range(nb):
                     if woken[k]:
                         w.asleep[k] = False

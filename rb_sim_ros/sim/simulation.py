@@ -14,6 +14,8 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 from typing import Any, Union
 
+import numpy as np
+
 from rb_sim_ros.contact import world_step
 from rb_sim_ros.contact.collision_shapes import shape_from_dict, shape_to_dict, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
@@ -234,8 +236,10 @@ class Simulation:
     """
 
     def __init__(self, config: Config, tests: int | None = None) -> None:
-        self._step_count = 0
-        self._use(config, *_build(config, tests))
+        # The run's one clock (its step count): a collision world that steps the run is
+        # handed it and moves it; without one, run() does.
+        self._clock = np.zeros(1, dtype=np.int64)
+        self._use(config, *_build(config, tests, self._clock))
         self.spawned: list[str] = []  # bodies spawned and not deleted since, in order
 
     def _use(self, config: Config, world, steppers, static) -> None:
@@ -247,13 +251,13 @@ class Simulation:
         """Go on with the bodies of ``config``: those of the run keep their motion bit for
         bit, a new one starts at its initial state (see CollisionWorld.carry). Built in
         full before anything changes: a ValueError leaves the run as it was."""
-        world, steppers, static = _build(config, None)
+        world, steppers, static = _build(config, None, self._clock)
         if world is not None:
-            world.carry(self.world, self.steppers, self._step_count, recheck)
+            world.carry(self.world, self.steppers, self.step_count, recheck)
             if self.world is None:
                 world.warm_up()  # the first world of this run: compiled (or loaded) now
         else:
-            carry_over(steppers, self.steppers, self._step_count)
+            carry_over(steppers, self.steppers, self.step_count)
         self._use(config, world, steppers, static)
 
     @property
@@ -262,12 +266,13 @@ class Simulation:
 
     @property
     def step_count(self) -> int:
-        return self._step_count
+        """Steps taken: the run's clock."""
+        return int(self._clock[0])
 
     @property
     def time_ns(self) -> int:
         """Simulated time in integer nanoseconds: step_count * dt, rounded."""
-        return round(self._step_count * self.config.dt * 1e9)
+        return round(self.step_count * self.config.dt * 1e9)
 
     # -- the read API (what the node publishes; it does not reach into steppers or world) --
     def is_moving(self, name: str) -> bool:
@@ -410,15 +415,12 @@ class Simulation:
         and its IntegrationError is raised after (it stays at its last finite state). With
         collisions, the run stops after the step that raised."""
         if self.world is not None:
-            try:
-                self.world.step(n)
-            finally:
-                self._step_count = self.world.step_count
+            self.world.step(n)  # (it moves the clock, as far as it stepped)
             return
         try:
             self._stepping.run(n)
         finally:
-            self._step_count += n
+            self._clock[0] += n
 
     def run_until(self, step: int, events: list[tuple[int, Event]]) -> list[tuple[int, Event]]:
         """Advance to ``step``, applying each (step, event) of ``events`` (sorted by step) when
@@ -531,13 +533,14 @@ def _probe_run(config: Config, *probes: BodySpec, tests: int | None = None) -> '
                              integrator=config.integrator, bodies=probes), tests)
 
 
-def _build(config: Config, tests: int | None):
+def _build(config: Config, tests: int | None, clock=None):
     """(collision world or None, steppers by name, static states by name) of ``config``'s
     bodies at their initial states; the world's step compiled with the contact tests
-    ``tests`` (and those its bodies need; None: ``world_step.tests_for`` chooses)."""
+    ``tests`` (and those its bodies need; None: ``world_step.tests_for`` chooses), moving the
+    run's ``clock`` (None: a clock of its own)."""
     steppers, static = make_steppers(config.bodies, config.dt, config.integrator,
                                      config.gravity)
     if not config.collides:
         return None, steppers, static
     return (CollisionWorld(steppers, colliders_of(config.bodies, steppers), config.contact,
-                           tests), steppers, static)
+                           tests, clock), steppers, static)

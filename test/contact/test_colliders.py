@@ -146,3 +146,15 @@ def test_bad_parts_of_a_world_are_refused_by_name():
         CollisionWorld(steppers, colliders, {'restitution': 0.2})
     with pytest.raises(ValueError, match='steppers must map'):
         CollisionWorld({}, colliders)
+    for clock in (np.zeros(1), np.zeros(2, dtype=np.int64), [0]):
+        with pytest.raises(ValueError, match='clock must be a writable int64 array'):
+            CollisionWorld(steppers, colliders, clock=clock)
+
+
+def test_a_world_moves_the_clock_it_is_handed():
+    steppers, colliders = _by_hand()
+    clock = np.array([7], dtype=np.int64)
+    world = CollisionWorld(steppers, colliders, CONTACT, clock=clock)
+    assert world.step_count == 7
+    world.step(5)
+    assert clock[0] == 12 and world.time == pytest.approx(12 * DT)

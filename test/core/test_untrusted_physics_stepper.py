@@ -174,8 +174,10 @@ def test_free_rotation_never_gains_energy_unnoticed(moments, axis, turn):
         try:
             s.step(100)
         except IntegrationError:
-            assert np.linalg.norm(s.state.angular_velocity) * dt <= Stepper.MAX_TURN or \
-                s.step_count == 0
+            # (the kernel compares its own sum of squares with the bound's square: numpy's
+            # norm of the same state may round an ulp above the bound, as hypothesis found)
+            assert np.linalg.norm(s.state.angular_velocity) * dt <= \
+                Stepper.MAX_TURN * (1.0 + 1e-12) or s.step_count == 0
             break
         assert s.state.kinetic_energy(body) <= cap
     if turn <= 0.5:  # well inside the limit: no error and no gain at all

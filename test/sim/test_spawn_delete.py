@@ -254,3 +254,24 @@ def test_a_spawn_whose_frame_would_be_world_frame_is_refused(start_sim, probe):
         return {name for name, _ in probe.node.get_topic_names_and_types()}
     probe.wait_for(lambda: '/world/pose' in topics(), what="the spawned body's topics")
     assert not any(t.startswith('/ld/') for t in topics())
+
+
+def test_a_run_has_one_clock_which_its_world_moves():
+    """The run's step count is one clock: a world that comes with a spawn starts on it and
+    moves it as it steps (stepped directly too), and it goes on after the world goes; every
+    body's own clock agrees with it."""
+    sim = Simulation(Config(dt=1e-3, bodies=(BodySpec('a'),)))
+    sim.run(5)
+    assert sim.world is None and sim.step_count == 5
+    ball = BodySpec('ball', initial_position=(3.0, 0.0, 0.0), colliders=(Sphere(0.1),))
+    sim.apply(Spawn(ball))
+    assert sim.world is not None and sim.world.step_count == 5
+    sim.world.step(3)
+    assert sim.step_count == 8 and sim.time_ns == 8_000_000
+    sim.run(4)
+    assert sim.world.step_count == sim.step_count == 12
+    sim.apply(Delete('ball'))
+    assert sim.world is None
+    sim.run(2)
+    assert sim.step_count == 14
+    assert [s.step_count for s in sim.steppers.values()] == [14]
