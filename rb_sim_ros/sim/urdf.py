@@ -12,6 +12,9 @@ What a file becomes:
   colliders every ``<collision>`` of its links (box and sphere geometry);
 * a ``floating`` joint splits the tree: the child's links are a body of their own, placed
   where the joint's origin puts them;
+* a root link called ``world`` is the world (URDF's idiom): what is fixed to it is a static
+  body called ``urdf_world`` (its collisions where they are), and a ``floating`` joint from it
+  places a free body;
 * the root link's frame is the world's at the start (REP-103: x forward, z up); the body's
   frame has its origin at the centre of mass and the root link's axes;
 * a URDF says nothing of gravity or contact: none, and the default contact settings (a
@@ -43,6 +46,9 @@ from rb_sim_ros.sim.mjcf import ModelError, ros_name, unique_name
 MAX_LINKS = 10_000
 # What joins links into one body, and what splits them into bodies.
 _WELDED, _SPLIT = 'fixed', 'floating'
+# The link that is the world (URDF's idiom for a robot fixed in place: a ``fixed`` joint from
+# it), and the name of the static body its tree becomes (``world`` names the world frame).
+WORLD_LINK, STATIC_BODY = 'world', 'urdf_world'
 
 
 def load_urdf(path: str, max_bytes: int, max_bodies: int
@@ -101,12 +107,16 @@ def _bodies(path: str, robot, max_bodies: int):
                     stack.append((child, rot @ r, pos + rot @ p))
                 else:  # a body of its own, where the joint's origin puts it at the start
                     starts.append((child, rot0 @ rot @ r, pos0 + rot0 @ (pos + rot @ p)))
-        specs.append(_body(path, links, root, members, rot0, pos0, taken))
+        spec = _body(path, links, root, members, rot0, pos0, taken)
+        if spec is not None:
+            specs.append(spec)
         if len(specs) > max_bodies:
             raise ModelError(f'{path}: more than MAX_BODIES = {max_bodies} bodies')
     if len(reached) != len(links):
         loop = sorted(set(links) - reached)[0]
         raise ModelError(f"{path}: the joints make a loop through link '{loop}'")
+    if not specs:
+        raise ModelError(f"{path}: no body: only a link '{WORLD_LINK}' without collisions")
     return (0.0, 0.0, 0.0), tuple(specs)
 
 
@@ -237,7 +247,12 @@ def _body(path: str, links: dict, root: str, members: list, rot0, pos0, taken: s
         parts.append((mass, pos + rot @ centre, rot @ inertia @ rot.T))
         for (r, p), geometry in colliders:
             shapes.append((link, rot @ r, pos + rot @ p, geometry))
+    static = root == WORLD_LINK
     mass, centre, inertia = combined(parts)
+    if static:  # what is fixed to the world: where its links are, mass left out
+        mass, centre, inertia = 1.0, np.zeros(3), np.eye(3)
+        if not shapes:
+            return None
     where = f"{path}: link '{root}'"
     if not mass > 0.0:
         raise ModelError(f'{where}: its body has no mass (give its links an <inertial>)')
@@ -248,8 +263,8 @@ def _body(path: str, links: dict, root: str, members: list, rot0, pos0, taken: s
             quat = tuple(so3.quaternion_xyzw_from_matrix(r).tolist())
             colliders.append(Box(size, position=at, orientation_xyzw=quat) if kind == 'box'
                              else Sphere(size, position=at, orientation_xyzw=quat))
-        name = unique_name(ros_name(root, len(taken)), taken)
-        return BodySpec(name, mass, tuple(inertia.reshape(9).tolist()),
+        name = unique_name(STATIC_BODY if static else ros_name(root, len(taken)), taken)
+        return BodySpec(name, mass, tuple(inertia.reshape(9).tolist()), static=static,
                         initial_position=tuple((pos0 + rot0 @ centre).tolist()),
                         initial_orientation_xyzw=tuple(
                             so3.quaternion_xyzw_from_matrix(rot0).tolist()),

@@ -194,3 +194,24 @@ def test_a_model_sent_as_text_is_one_body_named_by_the_request():
         with pytest.raises(SceneError, match=match) as e:
             scenes.body_entry(text, where='resource_string')
         assert str(e.value).startswith('resource_string: ')
+
+
+def test_a_link_called_world_is_the_world(tmp_path):
+    """URDF's idiom: a robot fixed to a link 'world' stays put (a static body, named so as
+    not to take the world frame's name); a floating joint from 'world' places a free body."""
+    text = ('<robot name="cell"><link name="world"/>'
+            '<link name="table"><collision><origin xyz="0 0 0.4"/><geometry>'
+            '<box size="1 1 0.1"/></geometry></collision></link>'
+            '<joint name="bolted" type="fixed"><parent link="world"/><child link="table"/>'
+            '<origin xyz="2 0 0"/></joint>'
+            '<link name="puck"><inertial><mass value="0.2"/><inertia ixx="1e-4" iyy="1e-4" '
+            'izz="2e-4"/></inertial><collision><geometry><sphere radius="0.05"/></geometry>'
+            '</collision></link>'
+            '<joint name="free" type="floating"><parent link="world"/><child link="puck"/>'
+            '<origin xyz="2 0 1"/></joint></robot>')
+    _, (table, puck) = _load(_write(tmp_path, text))
+    assert (table.name, table.static) == ('urdf_world', True)
+    np.testing.assert_allclose(np.array(table.initial_position) + table.colliders[0].position,
+                               (2.0, 0.0, 0.4), atol=1e-15)
+    assert (puck.name, puck.static, puck.mass) == ('puck', False, 0.2)
+    assert puck.initial_position == (2.0, 0.0, 1.0)
