@@ -45,6 +45,9 @@ class Owner:
     pose: State | None = None
 
     def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f'owner name must be a non-empty string (planes of the world '
+                             f"are owned by ''), got {self.name!r}")
         object.__setattr__(self, 'shapes', tuple(self.shapes))
         if not self.shapes or len(self.shapes) > MAX_COLLIDERS:
             raise ValueError(f"owner '{self.name}': 1 to MAX_COLLIDERS = {MAX_COLLIDERS} "

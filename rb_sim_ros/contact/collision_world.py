@@ -68,7 +68,7 @@ import numpy as np
 from rb_sim_ros.contact import broad_phase as bp, contact_solver, narrow_kernels as nk
 from rb_sim_ros.contact import world_step as ws
 from rb_sim_ros.contact.colliders import ColliderSet
-from rb_sim_ros.contact.settings import ContactSettings
+from rb_sim_ros.contact.settings import ContactSettings, MAX_CONTACT_MASS, MIN_CONTACT_MASS
 from rb_sim_ros.core import jit, step_kernel as K
 from rb_sim_ros.core.rigid_body import State
 from rb_sim_ros.core.step_count import check_steps, MAX_STEPS
@@ -157,6 +157,9 @@ class CollisionWorld:
         store = next(iter(steppers.values())).store
         if any(s.store is not store for s in steppers.values()):
             raise ValueError('steppers must be rows of one BodyStore')
+        if len({s.row for s in steppers.values()}) != len(steppers):
+            raise ValueError('steppers must be distinct rows (one stepper named twice would '
+                             'step twice)')
         if not isinstance(colliders, ColliderSet):
             raise ValueError(f'colliders must be a ColliderSet, got {colliders!r}')
         if not colliders.moving:
@@ -169,6 +172,13 @@ class CollisionWorld:
                                  'of a stepper of that name')
             if not o.moving and s is not None:
                 raise ValueError(f"colliders: static owner '{o.name}' has a stepper")
+            if o.moving:  # what the contact solve can take (settings: MIN/MAX_CONTACT_MASS)
+                values = [s.body.mass] + s.body.principal_moments.tolist()
+                if not all(MIN_CONTACT_MASS <= v <= MAX_CONTACT_MASS for v in values):
+                    raise ValueError(
+                        f"colliders: owner '{o.name}': mass and principal moments must lie in "
+                        f'[{MIN_CONTACT_MASS:g}, {MAX_CONTACT_MASS:g}] for the contact solve, '
+                        f'got {values}')
         if not isinstance(contact, ContactSettings):
             raise ValueError(f'contact must be a ContactSettings, got {contact!r}')
         if pair_tests is not None:
@@ -599,6 +609,9 @@ class CollisionWorld:
         a teleport: a new body may touch). ``sim.bodies.rebuilt`` builds and carries."""
         carry_over(self.steppers, steppers, step_count)
         self._step_count = step_count
+        # Its colliders are placed where its own bodies were, not where these are: no pass
+        # may be skipped until one has placed them (world_step.S_QUIET; a new world's is 0).
+        self._status[ws.S_QUIET] = 0
         if old is not None:
             self.pair_tests = ws.tests_keeping(K.family(self.store.coefficients),
                                                self.pairs_needed, old.pair_tests)

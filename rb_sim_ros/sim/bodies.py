@@ -220,7 +220,7 @@ def collision_world(bodies: Sequence[BodySpec], dt: float, gravity: Any = (0.0, 
 
 
 def rebuilt(world: CollisionWorld, bodies: Sequence[BodySpec], recheck: bool,
-            gravity: Any = (0.0, 0.0, 0.0)) -> CollisionWorld:
+            gravity: Any) -> CollisionWorld:
     """A world of ``bodies`` with ``world``'s dt, method, planes and contact settings that
     goes on from it: the bodies of both keep their motion bit for bit (``Stepper.take_over``),
     sleep state, the velocities their accelerations are read against and their contacts'

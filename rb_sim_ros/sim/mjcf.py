@@ -27,11 +27,13 @@ and a repeated one gets ``_2``, ``_3``.
 
 Refused, each with one line naming the file, the body or geom and the reason: other joints
 (hinge, slide, ball: an articulated model is not one rigid body), other geom types
-(cylinder, ellipsoid, mesh, height field, SDF), a moving body without mass, a file or an
-``include`` or asset path outside the model's folder (absolute, climbing with ``..``, or
-through a link), one that is not a regular file, more than ``scene.MAX_BYTES`` of model
-files in all, and whatever MuJoCo's compiler refuses. Nothing is read but the model and the
-files it names in its folder.
+(cylinder, ellipsoid, mesh, height field, SDF), a moving body without mass, any file but an
+``include`` (no asset file is read), an include outside the model's folder (absolute,
+climbing with ``..``, or through a link; MuJoCo reads includes from the model's folder, and
+they are checked there), one that is not a regular file, more than ``scene.MAX_BYTES`` of
+model files in all, the elements of ``REFUSED_ELEMENTS`` and textures past
+``MAX_TEXTURE_PIXELS``, and whatever MuJoCo's compiler refuses. Nothing is read but the model
+and its includes.
 """
 
 from __future__ import annotations
@@ -52,7 +54,13 @@ MAX_INCLUDE_DEPTH = 8
 # The name of the static body of the world body's own geoms.
 WORLD_BODY = 'mjcf_world'
 # Attributes that name files (MJCF: include, mesh, hfield, texture, skin; compiler dirs).
-_FILE_ATTRIBUTES = ('file', 'meshdir', 'texturedir', 'assetdir')
+# Elements a model may not hold: each can make any number of bodies or a large array from a
+# few bytes (MuJoCo's replicate, composite and flexcomp; height fields and skins, which have no
+# use here).
+REFUSED_ELEMENTS = frozenset(('replicate', 'composite', 'flexcomp', 'hfield', 'skin'))
+# The most texture pixels a model may ask for, in all (a cube's six faces count): MuJoCo makes
+# each texture's pixels when it compiles (8000 x 8000 took 500 MB).
+MAX_TEXTURE_PIXELS = 1 << 22
 
 
 class ModelError(ValueError):
@@ -64,15 +72,12 @@ def load_mjcf(path: str, max_bytes: int, max_bodies: int
     """(gravity, bodies) of the MJCF file ``path``, of at most ``max_bytes`` of XML and
     ``max_bodies`` bodies (``scene.load_scene`` gives its own bounds and makes the Scene);
     ModelError says why not."""
-    root = os.path.dirname(os.path.realpath(path))
+    real = os.path.realpath(path)
+    root = os.path.dirname(real)
     _check_files(path, root, max_bytes)
+    mujoco = _mujoco(path)
     try:
-        import mujoco
-    except ImportError:
-        raise ModelError(f'{path}: reading MJCF needs the mujoco package (pip install '
-                         'mujoco)') from None
-    try:
-        model = mujoco.MjModel.from_xml_path(path)
+        model = mujoco.MjModel.from_xml_path(real)  # (its includes: from root, as checked)
     except Exception as e:  # its compiler's refusal (ValueError), one line
         reason = ' '.join(str(e).split())
         raise ModelError(f'{path}: MuJoCo cannot compile it: {reason}') from None
@@ -84,22 +89,14 @@ def load_mjcf(path: str, max_bytes: int, max_bodies: int
 def bodies_from_text(text: str, where: str, max_bodies: int
                      ) -> tuple[tuple[float, float, float], tuple[BodySpec, ...]]:
     """(gravity, bodies) of an MJCF model given as text (a spawn request's), which may name
-    no file (no include, asset file or directory: nothing is read); ModelError naming
-    ``where`` says why not."""
+    no file at all (not even an include: nothing is read); ModelError naming ``where`` says
+    why not."""
     try:
         tree = ElementTree.fromstring(text)
     except ElementTree.ParseError as e:
         raise ModelError(f'{where}: not XML: {e}') from None
-    for element in tree.iter():
-        for name in _FILE_ATTRIBUTES:
-            if element.get(name) is not None:
-                raise ModelError(f'{where}: <{element.tag} {name}=...>: a model sent as text '
-                                 'may name no file')
-    try:
-        import mujoco
-    except ImportError:
-        raise ModelError(f'{where}: reading MJCF needs the mujoco package (pip install '
-                         'mujoco)') from None
+    _check_tree(tree, where, None)
+    mujoco = _mujoco(where)
     try:
         model = mujoco.MjModel.from_xml_string(text)
     except Exception as e:  # its compiler's refusal (ValueError), one line
@@ -109,35 +106,64 @@ def bodies_from_text(text: str, where: str, max_bodies: int
     return (gx, gy, gz), _bodies(where, model, mujoco, max_bodies)
 
 
+def _mujoco(where: str):
+    try:
+        import mujoco
+    except ImportError:
+        raise ModelError(f'{where}: reading MJCF needs the mujoco package (pip install '
+                         'mujoco)') from None
+    return mujoco
+
+
 def _inside(root: str, file: str) -> bool:
     return os.path.commonpath([root, os.path.realpath(file)]) == root
 
 
-def _check_files(path: str, root: str, max_bytes: int) -> None:
-    """ModelError unless ``path`` and every file its XML names (includes, followed; assets;
-    compiler directories) lie in ``root``, are regular files (a pipe would never end) and
-    hold at most ``max_bytes`` in all. A name must be relative without ``..``, and lie in
-    ``root`` from every folder MuJoCo may resolve it from (the including file's, the model's,
-    the compiler's directories), links followed."""
-    seen = [0]
-    folders = [root]
+def _check_tree(tree, where: str, include) -> None:
+    """ModelError for what a model may not hold (REFUSED_ELEMENTS, a file named by any
+    attribute but an include's, textures past MAX_TEXTURE_PIXELS); ``include(value)`` is
+    called for each ``<include file>`` (None: an include is refused too)."""
+    pixels = 0
+    for element in tree.iter():
+        tag = element.tag
+        if tag in REFUSED_ELEMENTS:
+            raise ModelError(f'{where}: <{tag}> is not read here (it may make any number of '
+                             'bodies, or large arrays, from a few bytes)')
+        if tag == 'texture':
+            try:
+                size = int(element.get('width', '0')) * int(element.get('height', '0'))
+            except ValueError:
+                size = 0  # MuJoCo refuses it
+            pixels += size * (6 if element.get('type') in ('cube', 'skybox') else 1)
+            if pixels > MAX_TEXTURE_PIXELS:
+                raise ModelError(f'{where}: textures of more than {MAX_TEXTURE_PIXELS} pixels '
+                                 'in all (MAX_TEXTURE_PIXELS)')
+        if tag == 'include' and include is None:
+            raise ModelError(f'{where}: <include>: a model sent as text may name no file')
+        for name, value in element.attrib.items():
+            if not name.startswith('file') or (tag == 'include' and name == 'file'):
+                continue
+            raise ModelError(f'{where}: <{tag} {name}="{value[:80]}">: no file but an '
+                             'include is read (meshes, textures, height fields and skins have '
+                             'no use here: no such colliders)')
+        if tag == 'include':
+            include(element.get('file') or '')
 
-    def readable(file: str, what: str) -> None:
-        if not _inside(root, file):
-            raise ModelError(f'{path}: {what} is outside the folder of the model ({root})')
-        if not os.path.isfile(file):
-            raise ModelError(f'{path}: cannot read {what}: not a regular file')
-        seen[0] += os.path.getsize(file)
-        if seen[0] > max_bytes:
-            raise ModelError(f'{path}: more than {max_bytes} bytes of model files '
-                             '(scene.MAX_BYTES)')
+
+def _check_files(path: str, root: str, max_bytes: int) -> None:
+    """ModelError unless ``path`` and the files it includes (MuJoCo reads an include from
+    the folder of the model, ``root``, wherever it is written) are regular files in ``root``
+    (named relative, without ``..``; links followed), of at most ``max_bytes`` in all, and
+    what they hold passes ``_check_tree``."""
+    seen = [0]
 
     def visit(file: str, depth: int) -> None:
         real = os.path.realpath(file)
         if not _inside(root, real):
             raise ModelError(f'{path}: {file} is outside the folder of the model ({root})')
-        if os.path.exists(real) and not os.path.isfile(real):
-            raise ModelError(f'{path}: cannot read {file}: not a regular file')
+        if not os.path.isfile(real):
+            raise ModelError(f'{path}: cannot read {file}: '
+                             f'{"not a regular file" if os.path.exists(real) else "no file"}')
         try:
             with open(real, 'rb') as f:
                 raw = f.read(max_bytes - seen[0] + 1)
@@ -145,40 +171,23 @@ def _check_files(path: str, root: str, max_bytes: int) -> None:
             raise ModelError(f'{path}: cannot read {file}: {e.strerror or e}') from None
         seen[0] += len(raw)
         if seen[0] > max_bytes:
-            raise ModelError(f'{path}: more than {max_bytes} bytes of XML (scene.MAX_BYTES)')
+            raise ModelError(f'{path}: more than {max_bytes} bytes of model files '
+                             '(scene.MAX_BYTES)')
         try:
             tree = ElementTree.fromstring(raw)
         except ElementTree.ParseError as e:
             raise ModelError(f'{path}: {file} is not XML: {e}') from None
-        here = os.path.dirname(real)
-        for element in tree.iter():
-            for name in _FILE_ATTRIBUTES:
-                value = element.get(name)
-                if value is None:
-                    continue
-                what = f'<{element.tag} {name}="{value}">'
-                if os.path.isabs(value) or '..' in value.replace('\\', '/').split('/'):
-                    raise ModelError(f'{path}: {what} is outside the folder of the model '
-                                     f'({root}): names must be relative, without ..')
-                if name != 'file':  # a compiler directory: assets may be found from it
-                    if not _inside(root, os.path.join(here, value)):
-                        raise ModelError(f'{path}: {what} is outside the folder of the '
-                                         f'model ({root})')
-                    folders.append(os.path.join(here, value))
-                    continue
-                if element.tag == 'include':
-                    if depth >= MAX_INCLUDE_DEPTH:
-                        raise ModelError(f'{path}: includes nested deeper than '
-                                         f'{MAX_INCLUDE_DEPTH} (MAX_INCLUDE_DEPTH)')
-                    visit(os.path.join(here, value), depth + 1)
-                    continue
-                for folder in [here] + folders:
-                    candidate = os.path.join(folder, value)
-                    if not _inside(root, candidate):
-                        raise ModelError(f'{path}: {what} is outside the folder of the '
-                                         f'model ({root})')
-                    if os.path.lexists(candidate):
-                        readable(candidate, what)
+
+        def include(value: str) -> None:
+            if os.path.isabs(value) or '..' in value.replace('\\', '/').split('/'):
+                raise ModelError(f'{path}: <include file="{value[:80]}"> is outside the folder '
+                                 f'of the model ({root}): names must be relative, without ..')
+            if depth >= MAX_INCLUDE_DEPTH:
+                raise ModelError(f'{path}: includes nested deeper than {MAX_INCLUDE_DEPTH} '
+                                 '(MAX_INCLUDE_DEPTH)')
+            visit(os.path.join(root, value), depth + 1)
+
+        _check_tree(tree, path, include)
 
     visit(path, 0)
 

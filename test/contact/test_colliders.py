@@ -122,6 +122,7 @@ def test_the_set_numbers_and_places_what_it_is_given():
      'owner rows must be unique'),
     (lambda: ColliderSet([('a', (BALL,), 0)]), r'owners\[0\] must be an Owner'),
     (lambda: ColliderSet([], (BALL,)), r'planes\[0\] must be a Plane'),
+    (lambda: Owner('', (GROUND[0],), pose=State()), 'owner name must be a non-empty string'),
 ])
 def test_bad_parts_of_a_set_are_refused_by_name(make, match):
     with pytest.raises(ValueError, match=match):
@@ -138,14 +139,23 @@ def test_bad_parts_of_a_world_are_refused_by_name():
     swapped = {'ball': steppers['crate'], 'crate': steppers['ball'], 'free': steppers['free']}
     with pytest.raises(ValueError, match="owner 'ball' .row 0. is not the row"):
         CollisionWorld(swapped, colliders)
+    roomy, roomy_colliders = _by_hand(store_rows=4)
+    table = Stepper(RigidBody(1.0, np.full(3, 0.1)), DT, store=roomy['ball'].store)
     with pytest.raises(ValueError, match="static owner 'table' has a stepper"):
-        CollisionWorld({**steppers, 'table': steppers['free']}, colliders)
+        CollisionWorld({**roomy, 'table': table}, roomy_colliders)
     with pytest.raises(ValueError, match='colliders must be a ColliderSet'):
         CollisionWorld(steppers, [Owner('ball', (BALL,), row=0)])
     with pytest.raises(ValueError, match='contact must be a ContactSettings'):
         CollisionWorld(steppers, colliders, {'restitution': 0.2})
     with pytest.raises(ValueError, match='steppers must map'):
         CollisionWorld({}, colliders)
+    twice = {'ball': steppers['ball'], 'again': steppers['ball'], 'crate': steppers['crate']}
+    with pytest.raises(ValueError, match='steppers must be distinct rows'):
+        CollisionWorld(twice, colliders)
+    store = BodyStore(1, DT, multistep.EQ27)
+    dust = Stepper(RigidBody(1e-70, np.full(3, 1e-72)), DT, store=store)
+    with pytest.raises(ValueError, match=r"owner 'dust': mass and principal moments must lie"):
+        CollisionWorld({'dust': dust}, ColliderSet([Owner('dust', (BALL,), row=dust.row)]))
     for clock in (np.zeros(1), np.zeros(2, dtype=np.int64), [0]):
         with pytest.raises(ValueError, match='clock must be a writable int64 array'):
             CollisionWorld(steppers, colliders, clock=clock)

@@ -402,3 +402,37 @@ def test_a_world_asleep_skips_its_pass_and_leaves_what_the_pass_would(monkeypatc
     assert moments['asleep again, 3 steps on'][0] == ['a', 'b', 'c']
     assert moments['a teleported where it was'][0] == ['c']
     assert moments['c deleted, b teleported'][0] == []
+
+
+def test_a_world_that_slept_takes_over_a_sleeping_run_and_places_its_colliders_anew():
+    """A world that stepped until all its bodies slept (its pass skipped from then on)
+    takes over a sleeping stack: its colliders are where its own bodies were, so its next
+    pass must run, not be skipped. Then a teleport of the bottom box wakes what rested on it:
+    the top box falls onto the ground, as it does in a world built afresh for the stack."""
+    def boxes(where):
+        moment = 0.2 * 0.2 / 6
+        return [BodySpec(n, 1.0, (moment,) * 3, initial_position=where[n],
+                         colliders=(Box((0.2,) * 3),)) for n in ('bottom', 'top')]
+
+    def sleep(world):
+        for _ in range(3000):
+            if len(world.sleeping) == 2:
+                world.step(2)  # a pass that finds all asleep, then one skipped
+                return
+            world.step(1)
+        raise AssertionError('never slept')
+
+    stack = {'bottom': (0.0, 0.0, 0.1), 'top': (0.0, 0.0, 0.3)}
+    apart = {'bottom': (0.0, 0.0, 0.1), 'top': (5.0, 0.0, 0.1)}
+    settings = dict(dt=1e-3, gravity=G, planes=GROUND, contact=ContactSettings())
+    old = collision_world(boxes(stack), **settings)
+    sleep(old)
+    fresh = rebuilt(old, boxes(stack), False, G)
+    stepped = collision_world(boxes(apart), **settings)
+    sleep(stepped)
+    stepped.carry(old, old.steppers, old.step_count, False)
+    for world in (fresh, stepped):
+        world.step(3)
+        world.set_state('bottom', State((3.0, 0.0, 0.1)))
+        world.step(1000)
+        assert world.state('top').position[2] == pytest.approx(0.1, abs=1e-3)

@@ -68,7 +68,11 @@ def test_the_controller_settles_the_body_on_its_target(start_sim, probe, ros_env
                        what='6 s of closed loop')
     finally:
         controller.terminate()
-        controller.wait(30)
+        try:  # (a loaded machine may take long to end it: never leave it on the graph)
+            controller.wait(120)
+        except subprocess.TimeoutExpired:
+            controller.kill()
+            controller.wait(60)
         log.close()
         sim.stop()
     rec = replay.load(str(f))

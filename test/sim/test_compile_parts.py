@@ -306,8 +306,10 @@ def test_a_spawn_of_shapes_whose_tests_the_world_lacks_names_the_collision_kerne
         ['sphere-box', 'box-plane'])
     assert kernels_after(sim, Delete('ball2')) is None  # sphere-plane alone: the same step
     # A world rebuilt around the crate has those tests; one around a ball keeps its own.
-    assert rebuilt(world, BALLS + (crate,), True).pair_tests == contact_tests(with_crate, world)
-    assert rebuilt(world, BALLS[:2], False).pair_tests == balls
+    none = (0.0, 0.0, 0.0)  # (their gravity)
+    assert rebuilt(world, BALLS + (crate,), True, none).pair_tests == \
+        contact_tests(with_crate, world)
+    assert rebuilt(world, BALLS[:2], False, none).pair_tests == balls
 
 
 def test_a_spawn_or_delete_names_the_kernels_the_run_then_steps_with():

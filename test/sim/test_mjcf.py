@@ -167,33 +167,71 @@ def test_what_cannot_be_one_rigid_body_is_refused_in_one_line(tmp_path, world, m
 
 def test_files_outside_the_models_folder_are_never_read(tmp_path):
     inside = tmp_path / 'model'
-    inside.mkdir()
-    (tmp_path / 'secret.xml').write_text('<mujoco/>')
-    (inside / 'part.xml').write_text('<mujoco><worldbody><body name="b"><freejoint/>'
-                                     '<geom size="0.1"/></body></worldbody></mujoco>')
+    (inside / 'sub').mkdir(parents=True)
+    (tmp_path / 'secret.xml').write_text(
+        '<mujoco><worldbody><body name="evil"><freejoint/><geom size="0.1"/></body>'
+        '</worldbody></mujoco>')
+    part = ('<mujoco><worldbody><body name="NAME"><freejoint/><geom size="0.1"/></body>'
+            '</worldbody></mujoco>')
+    (inside / 'part.xml').write_text(part.replace('NAME', 'b'))
     # an include in the folder is followed and loaded
     ok = _write(inside, '<mujoco><include file="part.xml"/></mujoco>')
     assert [b.name for b in load_mjcf(ok).bodies] == ['b']
-    for text in ('<mujoco><include file="../secret.xml"/></mujoco>',
-                 '<mujoco><compiler meshdir="/etc"/></mujoco>',
-                 '<mujoco><asset><mesh name="m" file="/etc/passwd"/></asset></mujoco>'):
-        with pytest.raises(ModelError, match='outside the folder of the model'):
+    # MuJoCo reads an include in an included file from the model's folder, not the
+    # including file's: so is it checked (a link there to the outside is refused), and a
+    # model written that way loads
+    (inside / 'sub' / 'inc.xml').write_text('<mujoco><include file="x.xml"/></mujoco>')
+    (inside / 'sub' / 'x.xml').write_text(part.replace('NAME', 'harmless'))
+    os.symlink(tmp_path / 'secret.xml', inside / 'x.xml')
+    with pytest.raises(ModelError, match='outside the folder of the model'):
+        load_mjcf(_write(inside, '<mujoco><include file="sub/inc.xml"/></mujoco>', 'bad.xml'))
+    (inside / 'sub' / 'inc2.xml').write_text('<mujoco><include file="sub/y.xml"/></mujoco>')
+    (inside / 'sub' / 'y.xml').write_text(part.replace('NAME', 'y'))
+    both = _write(inside, '<mujoco><include file="part.xml"/><include file="sub/inc2.xml"/>'
+                          '</mujoco>', 'both.xml')
+    assert [b.name for b in load_mjcf(both).bodies] == ['b', 'y']
+    for text, why in (
+            ('<mujoco><include file="../secret.xml"/></mujoco>', 'outside the folder'),
+            ('<mujoco><include file="link.xml"/></mujoco>', 'outside the folder'),
+            ('<mujoco><asset><mesh name="m" file="/etc/passwd"/></asset></mujoco>',
+             'no file but an include is read'),
+            ('<mujoco><asset><texture name="t" type="2d" file="part.xml"/></asset>'
+             '<compiler texturedir="sub"/></mujoco>', 'no file but an include is read'),
+            ('<mujoco><asset><texture name="t" type="cube" fileright="/etc/passwd"/>'
+             '</asset></mujoco>', 'no file but an include is read'),
+            ('<mujoco><asset><texture name="t" type="2d" builtin="checker" width="8000" '
+             'height="8000"/></asset></mujoco>', 'MAX_TEXTURE_PIXELS'),
+            ('<mujoco><worldbody><replicate count="1000"><body><freejoint/><geom size="1"/>'
+             '</body></replicate></worldbody></mujoco>', '<replicate> is not read here')):
+        if not (inside / 'link.xml').exists():
+            os.symlink(tmp_path / 'secret.xml', inside / 'link.xml')
+        with pytest.raises(ModelError, match=why):
             load_mjcf(_write(inside, text, 'bad.xml'))
-    # a link out of the folder is outside too, an include or an asset
-    os.symlink(tmp_path / 'secret.xml', inside / 'link.xml')
-    with pytest.raises(ModelError, match='outside the folder of the model'):
-        load_mjcf(_write(inside, '<mujoco><include file="link.xml"/></mujoco>', 'bad.xml'))
-    with pytest.raises(ModelError, match='outside the folder of the model'):
-        load_mjcf(_write(inside, '<mujoco><asset><mesh name="m" file="link.xml"/></asset>'
-                                 '</mujoco>', 'bad.xml'))
-    # an asset of an include is looked for from the model's folder too (as MuJoCo does): a
-    # name that climbs out of it from there is refused, whatever the include's folder
-    deep = inside / 'a' / 'b'
-    deep.mkdir(parents=True)
-    (deep / 'inc.xml').write_text('<mujoco><asset><mesh name="m" file="../../x.stl"/>'
-                                  '</asset></mujoco>')
-    with pytest.raises(ModelError, match='names must be relative, without'):
-        load_mjcf(_write(inside, '<mujoco><include file="a/b/inc.xml"/></mujoco>', 'bad.xml'))
+    # a model reached through a link is read from its own folder, with its includes there
+    real = tmp_path / 'real'
+    real.mkdir()
+    (real / 'inc.xml').write_text(part.replace('NAME', 'own'))
+    (real / 'model.xml').write_text('<mujoco><include file="inc.xml"/></mujoco>')
+    share = tmp_path / 'share'
+    share.mkdir()
+    os.symlink(real / 'model.xml', share / 'model.xml')
+    os.symlink(tmp_path / 'secret.xml', share / 'inc.xml')
+    assert [b.name for b in load_mjcf(str(share / 'model.xml')).bodies] == ['own']
+
+
+def test_a_model_sent_as_text_names_no_file_and_cannot_blow_up():
+    from rb_sim_ros.sim import mjcf
+    for text, why in (
+            ('<mujoco><include file="x.xml"/></mujoco>', 'may name no file'),
+            ('<mujoco><asset><texture name="t" type="cube" fileright="/dev/zero"/></asset>'
+             '</mujoco>', 'no file but an include is read'),
+            ('<mujoco><asset><texture name="t" type="cube" builtin="flat" width="1000" '
+             'height="1000"/></asset></mujoco>', 'MAX_TEXTURE_PIXELS'),
+            ('<mujoco><worldbody><replicate count="99"><replicate count="99"><body><freejoint/>'
+             '<geom size="1"/></body></replicate></replicate></worldbody></mujoco>',
+             '<replicate> is not read here')):
+        with pytest.raises(ModelError, match=why):
+            mjcf.bodies_from_text(text, 'resource_string', 10)
 
 
 def test_a_pipe_is_never_opened(tmp_path):
@@ -201,9 +239,8 @@ def test_a_pipe_is_never_opened(tmp_path):
     os.mkfifo(tmp_path / 'pipe.xml')
     with pytest.raises(ModelError, match='not a regular file'):
         load_mjcf(_write(tmp_path, '<mujoco><include file="pipe.xml"/></mujoco>'))
-    with pytest.raises(ModelError, match='not a regular file'):
-        load_mjcf(_write(tmp_path, '<mujoco><asset><mesh name="m" file="pipe.xml"/>'
-                                   '</asset></mujoco>'))
+    with pytest.raises(SceneError, match='not a regular file'):
+        load_scene(str(tmp_path / 'pipe.xml'))
 
 
 def test_missing_huge_and_malformed_files_are_refused(tmp_path):
