@@ -15,7 +15,7 @@ import pytest
 from oracles.contact_cases import (apexes, ball, contact_slip, cube, effective_mass, G, GROUND,
                                    impact, mechanical_energy, mixed_scene, momenta,
                                    normal_velocity, random_contact_set, thin_wall_run)
-from rb_sim_ros.contact import contact_solver as cs
+from rb_sim_ros.contact import contact_solver as cs, solver_kernels as sk
 from rb_sim_ros.contact.colliders import ColliderSet, Owner
 from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
 from rb_sim_ros.contact.collision_world import CollisionWorld
@@ -521,6 +521,7 @@ def test_a_scenes_contact_settings_reach_the_world_that_steps_it(tmp_path):
                                 contact=contact))
         sim.run(100)
         assert sim.world.contact == contact and sim.world.settings.tolerance == 2.0e-5
+        assert sim.world._settings_array[sk.TOLERANCE] == 2.0e-5  # what the kernel reads
         assert sim.world.warm_start is warm
         kept[warm] = len(sim.world._current_outputs()[0])  # the keys the next step reads
     assert kept[True] >= 4 and kept[False] == 0

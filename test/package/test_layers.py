@@ -193,3 +193,7 @@ def test_the_tests_mirror_the_layers():
     assert not list(test_dir.glob('test_*.py'))
     assert {p.name for p in test_dir.iterdir() if p.is_dir()} <= (
         layers | {'package', 'support', 'fixtures', '__pycache__'})
+    # The layer folders are no packages: pytest imports each test by its base name, and two
+    # of one name would fail collection.
+    names = [p.name for p in test_dir.rglob('test_*.py')]
+    assert len(names) == len(set(names)), sorted({n for n in names if names.count(n) > 1})
