@@ -239,7 +239,7 @@ class CollisionWorld:
         moves), the moving bodies' and the settings'."""
         cs = self.colliders
         self._moving_steppers = [self.steppers[o.name] for o in cs.moving]
-        nb, nc = len(cs.moving), cs.count
+        nb = len(cs.moving)
         self._inverse_mass = np.array([1.0 / s.body.mass for s in self._moving_steppers]
                                       + [0.0])
         self._cbody, self._cowner = cs.body, cs.owner
@@ -251,9 +251,6 @@ class CollisionWorld:
         # as the set placed it), the planes' after them.
         self._all_centres, self._all_rotations = cs.centres.copy(), cs.rotations9.copy()
         self._lower, self._upper = cs.lower.copy(), cs.upper.copy()
-        self._centres = self._all_centres[:nc]
-        self._rotations9 = self._all_rotations[:nc]
-        self._rotations = self._rotations9.reshape(-1, 3, 3)
         # The moving bodies with colliders as rows of their steppers' store.
         store = self.store
         self._rows = rows = cs.rows
