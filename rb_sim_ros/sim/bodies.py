@@ -19,12 +19,12 @@ from rb_sim_ros.contact.colliders import ColliderSet, MAX_COLLIDERS, Owner, test
 from rb_sim_ros.contact.collision_shapes import is_shape, Plane
 from rb_sim_ros.contact.collision_world import CollisionWorld
 from rb_sim_ros.contact.settings import ContactSettings, MAX_CONTACT_MASS, MIN_CONTACT_MASS
-from rb_sim_ros.core import multistep
+from rb_sim_ros.core import multistep, so3
 from rb_sim_ros.core.rigid_body import finite_floats, rate, RigidBody, State
 from rb_sim_ros.core.stepper import BodyStore, check_dt, Stepper
 
-__all__ = ['BodySpec', 'collides', 'collision_world', 'colliders_of', 'combined', 'make_steppers',
-           'MAX_COLLIDERS', 'pairs_met', 'rebuilt']
+__all__ = ['body_at', 'BodySpec', 'collides', 'collision_world', 'colliders_of', 'combined',
+           'make_steppers', 'MAX_COLLIDERS', 'pairs_met', 'rebuilt']
 
 # What a body's name may be: it becomes a topic namespace and a frame id (scene.NAME too).
 _NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]{0,63}\Z')
@@ -170,6 +170,20 @@ def combined(parts) -> tuple[float, np.ndarray, np.ndarray]:
         inertia += np.asarray(i, dtype=float) + float(m) * (float(d @ d) * np.eye(3)
                                                             - np.outer(d, d))
     return mass, centre, inertia
+
+
+def body_at(name: str, mass: float, inertia: Sequence[float], rotation: np.ndarray,
+            origin: np.ndarray, centre: np.ndarray, colliders: Sequence,
+            static: bool = False) -> BodySpec:
+    """The body of a model file's frame at ``origin`` (m) turned by ``rotation`` (world),
+    whose centre of mass is at ``centre`` in that frame: a body frame with its origin there
+    and the model's axes (``mass``, ``inertia`` and ``colliders`` given in it). ValueError
+    as BodySpec's."""
+    return BodySpec(name, mass, tuple(inertia), static=static,
+                    initial_position=tuple((origin + rotation @ centre).tolist()),
+                    initial_orientation_xyzw=tuple(
+                        so3.quaternion_xyzw_from_matrix(rotation).tolist()),
+                    colliders=tuple(colliders))
 
 
 def collides(bodies: Sequence[BodySpec]) -> bool:

@@ -47,7 +47,7 @@ import numpy as np
 
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
 from rb_sim_ros.core import so3
-from rb_sim_ros.sim.bodies import BodySpec, combined
+from rb_sim_ros.sim.bodies import body_at, BodySpec, combined
 
 # Include files followed (each checked in turn) before the model is refused as too deep.
 MAX_INCLUDE_DEPTH = 8
@@ -295,16 +295,10 @@ def _body(path, model, mujoco, top, bodies, moving, names, taken) -> BodySpec | 
     rot0, pos0 = (np.eye(3), np.zeros(3)) if top == 0 else (
         _rotation(mujoco, model.body_quat[top]), np.array(model.body_pos[top], dtype=float))
     try:
-        if not moving:
-            return BodySpec(name, static=True, initial_position=tuple(pos0 + rot0 @ centre),
-                            initial_orientation_xyzw=tuple(
-                                so3.quaternion_xyzw_from_matrix(rot0).tolist()),
-                            colliders=tuple(colliders))
-        return BodySpec(name, mass, tuple(inertia.reshape(9).tolist()),
-                        initial_position=tuple((pos0 + rot0 @ centre).tolist()),
-                        initial_orientation_xyzw=tuple(
-                            so3.quaternion_xyzw_from_matrix(rot0).tolist()),
-                        colliders=tuple(colliders))
+        if not moving:  # (a static body's mass is never read: BodySpec's defaults)
+            return body_at(name, BodySpec.mass, BodySpec.inertia, rot0, pos0, centre,
+                           colliders, static=True)
+        return body_at(name, mass, inertia.reshape(9).tolist(), rot0, pos0, centre, colliders)
     except ValueError as e:
         raise ModelError(f'{where}: {e}') from None
 

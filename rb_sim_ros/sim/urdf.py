@@ -39,7 +39,7 @@ import numpy as np
 
 from rb_sim_ros.contact.collision_shapes import Box, Sphere
 from rb_sim_ros.core import so3
-from rb_sim_ros.sim.bodies import BodySpec, combined
+from rb_sim_ros.sim.bodies import body_at, BodySpec, combined
 from rb_sim_ros.sim.mjcf import ModelError, ros_name, unique_name
 
 # The most links a file may have (each a dict and a few arrays here).
@@ -264,10 +264,7 @@ def _body(path: str, links: dict, root: str, members: list, rot0, pos0, taken: s
             colliders.append(Box(size, position=at, orientation_xyzw=quat) if kind == 'box'
                              else Sphere(size, position=at, orientation_xyzw=quat))
         name = unique_name(STATIC_BODY if static else ros_name(root, len(taken)), taken)
-        return BodySpec(name, mass, tuple(inertia.reshape(9).tolist()), static=static,
-                        initial_position=tuple((pos0 + rot0 @ centre).tolist()),
-                        initial_orientation_xyzw=tuple(
-                            so3.quaternion_xyzw_from_matrix(rot0).tolist()),
-                        colliders=tuple(colliders))
+        return body_at(name, mass, inertia.reshape(9).tolist(), rot0, pos0, centre,
+                       colliders, static)
     except ValueError as e:
         raise ModelError(f'{where}: {" ".join(str(e).split())}') from None
