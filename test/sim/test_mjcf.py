@@ -15,6 +15,7 @@ from rb_sim_ros.sim import scene as scenes
 from rb_sim_ros.sim.mjcf import ModelError, ros_name, WORLD_BODY
 from rb_sim_ros.sim.scene import load_scene, SceneError
 from rb_sim_ros.sim.simulation import Config, Simulation
+from support import entity_bomb
 
 mujoco = pytest.importorskip('mujoco')  # (PyPI only: package.xml names no key for it)
 
@@ -251,12 +252,8 @@ def test_missing_huge_and_malformed_files_are_refused(tmp_path):
     with pytest.raises(SceneError, match='is not XML'):
         load_scene(_write(tmp_path, '<mujoco><worldbody>'))
     # entities are not expanded into a billion laughs (expat refuses the amplification)
-    bomb = ('<?xml version="1.0"?><!DOCTYPE m [<!ENTITY a "aaaaaaaaaa">'
-            + ''.join(f'<!ENTITY {c} "{("&" + p + ";") * 10}">'
-                      for p, c in zip('abcdefgh', 'bcdefghi'))
-            + ']><mujoco model="&i;"/>')
     with pytest.raises(SceneError, match='is not XML'):
-        load_scene(_write(tmp_path, bomb))
+        load_scene(_write(tmp_path, entity_bomb('mujoco')))
 
 
 def test_names_become_ros_names():

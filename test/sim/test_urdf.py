@@ -14,6 +14,7 @@ from rb_sim_ros.sim import scene as scenes
 from rb_sim_ros.sim.mjcf import ModelError
 from rb_sim_ros.sim.scene import load_scene, SceneError
 from rb_sim_ros.sim.urdf import load_urdf
+from support import entity_bomb
 
 mujoco = pytest.importorskip('mujoco')  # (PyPI only: the oracle)
 
@@ -154,12 +155,8 @@ def test_loops_bad_files_and_bombs_are_refused(tmp_path):
         _load(_write(tmp_path, ROBOT.replace('EXTRA', '')), max_bytes=100)
     with pytest.raises(ModelError, match='not a URDF'):
         _load(_write(tmp_path, '<mujoco/>'))
-    bomb = ('<?xml version="1.0"?><!DOCTYPE r [<!ENTITY a "aaaaaaaaaa">'
-            + ''.join(f'<!ENTITY {c} "{("&" + p + ";") * 10}">'
-                      for p, c in zip('abcdefgh', 'bcdefghi'))
-            + ']><robot name="&i;"/>')
     with pytest.raises(ModelError, match='not XML'):
-        _load(_write(tmp_path, bomb))
+        _load(_write(tmp_path, entity_bomb('robot')))
 
 
 def test_load_scene_reads_a_urdf_and_it_runs(tmp_path):
