@@ -33,6 +33,7 @@ from rb_sim_ros.offline.progress import Progress
 from rb_sim_ros.pictures import plots, render
 from rb_sim_ros.recording import (message_class, ReaderError, RecordingReader, recover,
                                   WriterError)
+from rb_sim_ros.recording.errors import interrupt_in
 from rb_sim_ros.recording.qos import POLICIES
 from rb_sim_ros.recording.schemas import type_name_of
 from rb_sim_ros.ros import node_params, node_recorder, output_kinds, ros_arguments
@@ -889,6 +890,11 @@ class _Sender:
             try:
                 pub.publish(msg)
                 return
+            except TypeError as e:  # Ctrl-C while rclpy converted the message
+                stop = interrupt_in(e)
+                if stop is None:
+                    raise
+                raise stop from None
             except self._full as e:
                 why = ' '.join(str(e).split())[:120]
                 if topic not in self._keep_all:  # not a full keep_all history: failed

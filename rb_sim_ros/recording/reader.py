@@ -26,7 +26,7 @@ from mcap.records import (Channel, Chunk, Footer, Header, McapRecord, Message, M
 from mcap.stream_reader import breakup_chunk, CRCValidationError, StreamReader
 from rclpy.serialization import deserialize_message
 
-from rb_sim_ros.recording.errors import ReaderError
+from rb_sim_ros.recording.errors import interrupt_in, ReaderError
 from rb_sim_ros.recording.schemas import split_type_name
 
 MAGIC = b'\x89MCAP0\r\n'
@@ -369,6 +369,9 @@ class RecordingReader:
         try:
             return deserialize_message(data, cls)
         except Exception as e:  # rclpy raises several types for bad bytes
+            stop = interrupt_in(e)
+            if stop is not None:  # Ctrl-C during the conversion: not the file's fault
+                raise stop from None
             raise ReaderError(f'{self.path}: the message on {topic} at {log_time} ns does not '
                               f'deserialise as {self.topics[topic].type_name}: {e}') from None
 

@@ -638,6 +638,40 @@ def test_other_profiles_encodings_and_undecodable_messages_are_refused(tmp_path)
         list(RecordingReader(f).messages())
 
 
+def test_ctrl_c_while_rclpy_converts_a_message_is_an_interrupt_not_a_bad_file(tmp_path):
+    """A signal handled while rclpy's C++ builds the Python message surfaces as pybind11's
+    TypeError raised from the KeyboardInterrupt; the reader must re-raise the interrupt (a
+    replay stopped by Ctrl-C once said the recording was corrupt). A real timer, real rclpy:
+    every interrupt of many must come out as KeyboardInterrupt."""
+    f = tmp_path / 'x.mcap'
+    _raw_mcap(f, schema=('nav_msgs/msg/Odometry', 'ros2msg'),
+              data=serialize_message(Odometry()))
+    reader = RecordingReader(f)
+    raw = next(reader.raw_messages())
+    armed = [False]
+
+    def interrupt(_signum, _frame):
+        if armed[0]:
+            armed[0] = False
+            raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGALRM, interrupt)
+    signal.setitimer(signal.ITIMER_REAL, 3e-5, 3e-5)
+    interrupts = 0
+    try:
+        while interrupts < 200:
+            armed[0] = True
+            try:
+                while True:
+                    reader.deserialize(raw)
+            except KeyboardInterrupt:
+                interrupts += 1
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0, 0)
+        signal.signal(signal.SIGALRM, previous)
+    assert reader.deserialize(raw).message == Odometry()
+
+
 def test_a_corrupt_chunk_is_a_reader_error_and_recover_skips_it(tmp_path):
     f = tmp_path / 'run.mcap'
     sent = _record(f, n=400, chunk_size=4096)

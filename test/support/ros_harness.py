@@ -197,11 +197,30 @@ class Probe:
                 raise TimeoutError(f'timed out after {timeout} s waiting for {what}')
             self.executor.spin_once(timeout_sec=0.02)
 
+    # A read (a Get... service) unanswered this long is asked again: DDS can report a
+    # service ready before the server has matched this client's reply reader, and a reply
+    # sent then is lost (seen on a loaded machine). Calls that change state are never resent.
+    RESEND_READS_AFTER = 20.0
+
     def call(self, srv_type, name: str, request, timeout: float = 300.0):
         client = self.node.create_client(srv_type, name)
         self.wait_for(client.service_is_ready, timeout, f'service {name}')
+        end = time.monotonic() + timeout
         future = client.call_async(request)
-        self.wait_for(future.done, timeout, f'response of {name}')
+        if srv_type.__name__.startswith('Get'):
+            while True:
+                left = end - time.monotonic()
+                try:
+                    self.wait_for(future.done, min(self.RESEND_READS_AFTER, max(left, 0.0)),
+                                  f'response of {name}')
+                    break
+                except TimeoutError:
+                    if left <= self.RESEND_READS_AFTER:
+                        raise TimeoutError(f'timed out after {timeout} s waiting for the '
+                                           f'response of {name}') from None
+                    client.remove_pending_request(future)
+                    future = client.call_async(request)
+        self.wait_for(future.done, max(end - time.monotonic(), 0.0), f'response of {name}')
         return future.result()
 
     def publisher(self, msg_type, topic: str, subscribers: int = 1):
