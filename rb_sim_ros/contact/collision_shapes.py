@@ -1,10 +1,12 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""Collision shapes: sphere, box, capsule on any body; infinite plane on static bodies only.
+"""Collision shapes: sphere, box, capsule, cylinder on any body; infinite plane on static
+bodies only.
 
     Sphere(radius=0.1)
     Box(size=(0.4, 0.3, 0.2), position=(0.0, 0.0, 0.1))      # full edge lengths, like scene.py
     Capsule(radius=0.05, length=0.3)                            # cylinder part along local z
+    Cylinder(radius=0.1, length=0.3)                            # flat caps, along local z
     Plane(normal=(0.0, 0.0, 1.0), offset=0.0)                   # the ground z = 0
 
 A shape's ``position`` (m) and ``orientation_xyzw`` place its centre and axes in the frame of
@@ -37,9 +39,11 @@ from rb_sim_ros.contact.shapes.base import (IDENTITY_XYZW, MAX_LENGTH, MIN_LENGT
                                             ORIGIN)
 from rb_sim_ros.contact.shapes.box import Box
 from rb_sim_ros.contact.shapes.capsule import Capsule
+from rb_sim_ros.contact.shapes.cylinder import Cylinder
 from rb_sim_ros.contact.shapes.plane import Plane, UNIT_TOLERANCE
 from rb_sim_ros.contact.shapes.sphere import Sphere
 
-__all__ = ['Box', 'BY_NAME', 'Capsule', 'IDENTITY_XYZW', 'is_shape', 'KINDS', 'MAX_LENGTH',
+__all__ = ['Box', 'BY_NAME', 'Capsule', 'Cylinder', 'IDENTITY_XYZW', 'is_shape', 'KINDS',
+           'MAX_LENGTH',
            'MIN_LENGTH', 'NAMES', 'ORIGIN', 'Plane', 'RANK', 'Shape', 'shape_from_dict',
            'SHAPE_TYPES', 'shape_to_dict', 'Sphere', 'UNIT_TOLERANCE', 'world_pose']

@@ -24,8 +24,9 @@ many; the outputs must have MAX_CONTACTS_PER_PAIR rows from ``start`` (ValueErro
 batches of narrow_phase, for large scenes). Conventions: those of narrow_phase's module doc
 (normal from A to B; depth > 0 overlapping, < 0 a gap of at most ``margin``; point midway
 between the surfaces). KIND_* are collision_shapes.RANK: a pair is computed with rank(A) <=
-rank(B) (so a plane is always B) and a pair given the other way round is computed swapped,
-its normals negated.
+rank(B) (a plane is B but for the cylinder, which comes after it) and a pair given the other
+way round is computed swapped, its normals negated. The cylinder's pairs are the convex
+narrow phase's (``convex_kernels``).
 
 Features (stable while the same features touch; ``collision_world`` keys warm starts on them):
 0 for every pair with a sphere; capsule-plane 0, 1 the end balls at -h, +h; capsule-capsule 0
@@ -35,7 +36,7 @@ x_i = -h_i (s = 0) or +h_i (s = 1), 20, 21 the ends of a segment inside the box;
 vertex 4 ix + 2 iy + iz (index 1 at +h along that axis); box-box 200 + 3 i + j an edge of A
 along its axis i against one of B along j, else 1000 (reference axis + 1) + 500 (incident
 face on the -side of its axis k) + 10 k + the clipping tag (``_clip``), plus 100 when B holds
-the reference face.
+the reference face; the cylinder's pairs as ``convex_kernels`` says.
 
 Everything is + - * / abs sqrt on float64, loops written out, sums in a written order, no numpy
 call that could use BLAS or SIMD reductions: the compiled and interpreted (NUMBA_DISABLE_JIT=1)
@@ -56,13 +57,19 @@ import math
 
 import numpy as np
 
-from rb_sim_ros.contact import shapes
+from rb_sim_ros.contact import convex_kernels, shapes
+from rb_sim_ros.contact.contact_geometry import (apply as _apply, apply_t as _apply_t,
+                                                 clamp as _clamp, clip as _clip,
+                                                 column as _column, put as _put,
+                                                 reduce_to_four as _reduce, TINY_LENGTH,
+                                                 unit as _unit, write as _write)
 from rb_sim_ros.contact.shapes.base import GEOM_WIDTH, HALF_LENGTH, HX, HY, HZ, NORMAL, RADIUS
 from rb_sim_ros.core.jit import (generated_kernel, inline_kernel, kernel, literal_entry,
                                  literal_gate, made_global)
 
-KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE = (
-    shapes.sphere.KIND, shapes.capsule.KIND, shapes.box.KIND, shapes.plane.KIND)
+KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE, KIND_CYLINDER = (
+    shapes.sphere.KIND, shapes.capsule.KIND, shapes.box.KIND, shapes.plane.KIND,
+    shapes.cylinder.KIND)
 # The most contacts of one pair: capsule-box, its nearest point and 8 candidates (2 ends, 6
 # face crossings) on the same face. (Box-plane 8 vertices, box-box 4, capsule-capsule 2.)
 MAX_CONTACTS_PER_PAIR = 9
@@ -78,8 +85,6 @@ EDGE_ABSOLUTE = 1e-5
 # Contacts of a capsule lying on a box face: candidates whose normal is within this cosine of
 # the deepest one's count as the same face (two ends of a resting capsule).
 SAME_FACE_COS = 0.999
-# Below this length (m) a direction is undefined and a fallback is used.
-TINY_LENGTH = 1e-300
 # Squared segment length (m^2) below which a segment is a point (Ericson's epsilon).
 SEGMENT_TINY = 1e-30
 # Sutherland-Hodgman on one plane keeps the I vertices inside (d <= 0) and adds X crossings;
@@ -89,64 +94,6 @@ CLIP_CAPACITY = 19
 
 
 # -- small helpers -----------------------------------------------------------------------------
-@kernel
-def _clamp(x, lo, hi):
-    """x clamped to [lo, hi]: min(hi, max(lo, x)) as Python evaluates it; lo for a nan x."""
-    y = x if x > lo else lo
-    return y if y < hi else hi
-
-
-@kernel
-def _unit(x, y, z, fx, fy, fz):
-    """(x, y, z) / |(x, y, z)|, or the fallback (fx, fy, fz) when shorter than TINY_LENGTH."""
-    n = math.sqrt(x * x + y * y + z * z)
-    if n > TINY_LENGTH:
-        return x / n, y / n, z / n
-    return fx, fy, fz
-
-
-@kernel
-def _column(rot, j):
-    """Local axis j of a shape in the world frame: column j of R (rot row-major, 9)."""
-    return float(rot[j]), float(rot[3 + j]), float(rot[6 + j])
-
-
-@kernel
-def _apply(rot, x, y, z):
-    """R v: a vector of the shape's frame in the world frame."""
-    return (float(rot[0]) * x + float(rot[1]) * y + float(rot[2]) * z,
-            float(rot[3]) * x + float(rot[4]) * y + float(rot[5]) * z,
-            float(rot[6]) * x + float(rot[7]) * y + float(rot[8]) * z)
-
-
-@kernel
-def _apply_t(rot, x, y, z):
-    """R^T v: a world vector in the shape's frame."""
-    return (float(rot[0]) * x + float(rot[3]) * y + float(rot[6]) * z,
-            float(rot[1]) * x + float(rot[4]) * y + float(rot[7]) * z,
-            float(rot[2]) * x + float(rot[5]) * y + float(rot[8]) * z)
-
-
-@kernel
-def _write(point, normal, depth, feature, row, px, py, pz, nx, ny, nz, d, tag):
-    """Row ``row`` of the outputs: point p (m), normal n, depth d (m), feature tag."""
-    point[row, 0], point[row, 1], point[row, 2] = px, py, pz
-    normal[row, 0], normal[row, 1], normal[row, 2] = nx, ny, nz
-    depth[row] = d
-    feature[row] = tag
-
-
-@kernel
-def _put(point, normal, depth, feature, row, pax, pay, paz, pbx, pby, pbz, nx, ny, nz, tag):
-    """The contact between pA, the point of A deepest into B (or nearest it), and pB that of B,
-    normal n (A to B), world frame: point (pA + pB) / 2, depth (pA - pB) . n."""
-    point[row, 0], point[row, 1], point[row, 2] = (
-        0.5 * (pax + pbx), 0.5 * (pay + pby), 0.5 * (paz + pbz))
-    normal[row, 0], normal[row, 1], normal[row, 2] = nx, ny, nz
-    depth[row] = (pax - pbx) * nx + (pay - pby) * ny + (paz - pbz) * nz
-    feature[row] = tag
-
-
 @kernel
 def _segment_point(cx, cy, cz, ux, uy, uz, h, px, py, pz):
     """The point of the segment c + t u, |t| <= h (u unit) nearest p: t = (p - c) . u clamped."""
@@ -626,64 +573,6 @@ def _edge_contact(ca, rota, ga, cb, rotb, gb, i, j, lx, ly, lz, sep,
 
 
 @kernel
-def _clip(src, src_tag, count, dst, dst_tag, ux, uy, uz, limit, plane):
-    """Sutherland-Hodgman: the part of the polygon src[:count] (points, m) with u . p <= limit,
-    into dst; returns its vertex count. A vertex made on the edge from a vertex tagged t to one
-    tagged t' gets the tag 4 + 4 (min(t, t') mod 32) + plane: deterministic, and stable while
-    the same edges cross."""
-    out = 0
-    for k in range(count):
-        q = k + 1 if k + 1 < count else 0
-        px, py, pz = float(src[k, 0]), float(src[k, 1]), float(src[k, 2])
-        qx, qy, qz = float(src[q, 0]), float(src[q, 1]), float(src[q, 2])
-        tp, tq = int(src_tag[k]), int(src_tag[q])
-        dp = ux * px + uy * py + uz * pz - limit
-        dq = ux * qx + uy * qy + uz * qz - limit
-        if dp <= 0.0:
-            dst[out, 0], dst[out, 1], dst[out, 2] = px, py, pz
-            dst_tag[out] = tp
-            out += 1
-        if (dp < 0.0 and dq > 0.0) or (dq < 0.0 and dp > 0.0):
-            t = dp / (dp - dq)     # dp and dq of strictly opposite signs: dp - dq != 0
-            dst[out, 0] = px + t * (qx - px)
-            dst[out, 1] = py + t * (qy - py)
-            dst[out, 2] = pz + t * (qz - pz)
-            dst_tag[out] = 4 + 4 * ((tp if tp < tq else tq) % 32) + plane
-            out += 1
-    return out
-
-
-@kernel
-def _reduce(p, d, count, nx, ny, nz):
-    """Of the clipped points p[:count] (depths d), the indices of 4 to keep: the deepest (the
-    first on a tie), the one furthest from it, then the two that span the largest area on
-    either side of that line, (p_far - p_first) x (p - p_first) . n largest and least."""
-    first = 0
-    for k in range(1, count):
-        if float(d[k]) > float(d[first]):
-            first = k
-    fx, fy, fz = float(p[first, 0]), float(p[first, 1]), float(p[first, 2])
-    far, far_d2 = 0, -1.0
-    for k in range(count):
-        qx, qy, qz = float(p[k, 0]) - fx, float(p[k, 1]) - fy, float(p[k, 2]) - fz
-        d2 = qx * qx + qy * qy + qz * qz
-        if k == 0 or d2 > far_d2:
-            far, far_d2 = k, d2
-    ex, ey, ez = float(p[far, 0]) - fx, float(p[far, 1]) - fy, float(p[far, 2]) - fz
-    most, least = 0, 0
-    most_area, least_area = 0.0, 0.0
-    for k in range(count):
-        qx, qy, qz = float(p[k, 0]) - fx, float(p[k, 1]) - fy, float(p[k, 2]) - fz
-        area = ((ey * qz - ez * qy) * nx + (ez * qx - ex * qz) * ny
-                + (ex * qy - ey * qx) * nz)
-        if k == 0 or area > most_area:
-            most, most_area = k, area
-        if k == 0 or area < least_area:
-            least, least_area = k, area
-    return first, far, most, least
-
-
-@kernel
 def _face_contacts(cr, rotr, gr, axis, ci, roti, gi, margin, sign,
                    point, normal, depth, feature, row):
     """Box-box on a face axis: the reference box's face ``axis`` that faces the incident box
@@ -1020,6 +909,62 @@ def _pair_box_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_
                       point, normal, depth, feature, start)
 
 
+@kernel
+def _pair_convex(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                 point, normal, depth, feature, start, low, high):
+    """Two solid kinds by the convex narrow phase (``convex_kernels.convex_pair``), the lower
+    kind first."""
+    if swap:
+        return convex_kernels.convex_pair(low, geom_b, centre_b, rot_b, high, geom_a, centre_a,
+                                          rot_a, margin, point, normal, depth, feature, start)
+    return convex_kernels.convex_pair(low, geom_a, centre_a, rot_a, high, geom_b, centre_b,
+                                      rot_b, margin, point, normal, depth, feature, start)
+
+
+def _pair_sphere_cylinder(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                          point, normal, depth, feature, start):
+    return _pair_convex(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                        point, normal, depth, feature, start, int(KIND_SPHERE), int(KIND_CYLINDER))
+
+
+def _pair_capsule_cylinder(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b,
+                           margin, point, normal, depth, feature, start):
+    return _pair_convex(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                        point, normal, depth, feature, start, int(KIND_CAPSULE),
+                        int(KIND_CYLINDER))
+
+
+def _pair_box_cylinder(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                       point, normal, depth, feature, start):
+    return _pair_convex(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                        point, normal, depth, feature, start, int(KIND_BOX), int(KIND_CYLINDER))
+
+
+def _pair_cylinder_cylinder(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b,
+                            margin, point, normal, depth, feature, start):
+    return _pair_convex(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                        point, normal, depth, feature, start, int(KIND_CYLINDER),
+                        int(KIND_CYLINDER))
+
+
+def _pair_plane_cylinder(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+                         point, normal, depth, feature, start):
+    """The plane is the lower kind here: the solid's contacts (``convex_plane``, normals from
+    the solid) turned to run from the plane."""
+    if swap:
+        count = convex_kernels.convex_plane(int(KIND_CYLINDER), geom_a, centre_a, rot_a, centre_b,
+                                            geom_b, margin, point, normal, depth, feature,
+                                            start)
+    else:
+        count = convex_kernels.convex_plane(int(KIND_CYLINDER), geom_b, centre_b, rot_b, centre_a,
+                                            geom_a, margin, point, normal, depth, feature,
+                                            start)
+    for row in range(start, start + count):
+        normal[row, 0], normal[row, 1], normal[row, 2] = (
+            -normal[row, 0], -normal[row, 1], -normal[row, 2])
+    return count
+
+
 # (low kind, high kind, test): a row's index is its bit in a set of tests. Not plane-plane: two
 # planes are both static.
 PAIR_TESTS = (
@@ -1032,6 +977,11 @@ PAIR_TESTS = (
     (KIND_CAPSULE, KIND_PLANE, _pair_capsule_plane),
     (KIND_BOX, KIND_BOX, _pair_box_box),
     (KIND_BOX, KIND_PLANE, _pair_box_plane),
+    (KIND_SPHERE, KIND_CYLINDER, _pair_sphere_cylinder),
+    (KIND_CAPSULE, KIND_CYLINDER, _pair_capsule_cylinder),
+    (KIND_BOX, KIND_CYLINDER, _pair_box_cylinder),
+    (KIND_PLANE, KIND_CYLINDER, _pair_plane_cylinder),
+    (KIND_CYLINDER, KIND_CYLINDER, _pair_cylinder_cylinder),
 )
 PAIR_KINDS = tuple((low, high) for low, high, _ in PAIR_TESTS)
 PAIR_BIT = {pair: 1 << i for i, pair in enumerate(PAIR_KINDS)}

@@ -41,6 +41,8 @@ STATIC_COLOUR = (150, 150, 150)
 BACKGROUND = (255, 255, 255)
 GRID_COLOUR = (215, 215, 215)
 LIGHT = np.array([0.4, -0.5, 0.77])
+# The points of each rim a cylinder's outline is drawn through.
+RIM_POINTS = 32
 MAX_FPS = 1000.0
 MAX_FRAMES = 100_000
 # A GIF's delays are whole centiseconds, and viewers play a delay under 20 ms slower: every
@@ -74,8 +76,8 @@ def camera(view: str) -> np.ndarray:
 @dataclass
 class Part:
     """One drawable piece of a body, in its body frame, a drawing primitive of its collider
-    (contact.shapes.pieces): 'sphere' (radius), 'box' (half extents) or 'capsule' (radius,
-    half length along z), at ``position`` turned by ``rotation``."""
+    (contact.shapes.pieces): 'sphere' (radius), 'box' (half extents), 'capsule' or
+    'cylinder' (radius, half length along z), at ``position`` turned by ``rotation``."""
 
     primitive: str
     size: tuple
@@ -165,12 +167,29 @@ def _extent(p: Part) -> float:
     """How far a part reaches from its own centre (m)."""
     if p.primitive == 'capsule':
         return p.size[0] + p.size[1]
+    if p.primitive == 'cylinder':
+        return math.hypot(p.size[0], p.size[1])
     return max(p.size) * (math.sqrt(3.0) if p.primitive == 'box' else 1.0)
 
 
 def _reach(parts) -> float:
     """How far a body's parts reach from its centre (m), whatever its turn."""
     return max((float(np.linalg.norm(p.position)) + _extent(p) for p in parts), default=0.1)
+
+
+def _hull_2d(points: np.ndarray) -> np.ndarray:
+    """The convex hull of 2-D points, in order round it (Andrew's monotone chain)."""
+    ordered = sorted(map(tuple, np.asarray(points, dtype=float)))
+
+    def half(seq):
+        out: list = []
+        for p in seq:
+            while len(out) >= 2 and ((out[-1][0] - out[-2][0]) * (p[1] - out[-2][1])
+                                     - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])) <= 0:
+                out.pop()
+            out.append(p)
+        return out[:-1]
+    return np.array(half(ordered) + half(ordered[::-1]))
 
 
 def _part_points(part: Part, x, r) -> tuple[np.ndarray, float]:
@@ -180,7 +199,7 @@ def _part_points(part: Part, x, r) -> tuple[np.ndarray, float]:
     at = x + r @ part.position
     if part.primitive == 'sphere':
         return at[None, :], part.size[0]
-    if part.primitive == 'capsule':
+    if part.primitive in ('capsule', 'cylinder'):  # a cylinder lies within its capsule
         radius, half = part.size
         return np.array([at - rot[:, 2] * half, at + rot[:, 2] * half]), radius
     signs = np.array([[a, b, c] for a in (-1, 1) for b in (-1, 1) for c in (-1, 1)], float)
@@ -429,6 +448,16 @@ class Renderer:
                     (depth, 'circle', (uv[1], radius * self.scale), col),
                     (depth + 1e-9, 'polygon', np.array([uv[0] + n, uv[1] + n, uv[1] - n,
                                                         uv[0] - n]), col)]
+        if part.primitive == 'cylinder':  # its outline: the hull of its two rims, seen
+            radius, half = part.size
+            turn = np.linspace(0.0, 2.0 * math.pi, RIM_POINTS, endpoint=False)
+            rim = np.stack([radius * np.cos(turn), radius * np.sin(turn),
+                            np.zeros(RIM_POINTS)], axis=1)
+            points = np.concatenate([rim + (0.0, 0.0, -half), rim + (0.0, 0.0, half)])
+            uv = self._to_pixels((at + points @ rot.T) @ self.cam[:2].T, centre)
+            light = LIGHT / np.linalg.norm(LIGHT)
+            return [(float(at @ depth_axis), 'polygon', _hull_2d(uv),
+                     _shade(colour, 0.6 + 0.4 * abs(float(rot[:, 2] @ light))))]
         hx, hy, hz = part.size
         out = []
         light = LIGHT / np.linalg.norm(LIGHT)

@@ -4,12 +4,13 @@
 
 Markers per collider, in namespace ``<body>``, drawn from the pieces its kind gives
 (``contact.shapes.pieces``): a sphere piece is a SPHERE, a box a CUBE, a capsule a CYLINDER
-with two SPHERE caps, a plane a thin square CUBE of ``PLANE_SIZE`` m centred on the piece's
-origin (the point of the plane nearest its body's origin). Collider k's markers have ids
-``3 k``, ``3 k + 1``, ... (at most 3 each, so that every collider's ids stay fixed). Moving
-bodies are blue-grey, static ones grey. ``contacts`` (namespace ``contacts``, id 0) is a
-SPHERE_LIST of the last step's contact points that carried an impulse, in red. All
-poses are in ``world_frame``; the messages are built once and only their poses change.
+with two SPHERE caps, a cylinder a CYLINDER, a plane a thin square CUBE of ``PLANE_SIZE`` m
+centred on the piece's origin (the point of the plane nearest its body's origin). Collider
+k's markers have ids ``3 k``, ``3 k + 1``, ... (at most 3 each, so that every collider's ids
+stay fixed). Moving bodies are blue-grey, static ones grey. ``contacts`` (namespace
+``contacts``, id 0) is a SPHERE_LIST of the last step's contact points that carried an
+impulse, in red. All poses are in ``world_frame``; the messages are built once and only
+their poses change.
 """
 
 from __future__ import annotations
@@ -104,10 +105,16 @@ def _capsule(size, pos, rot):
             (Marker.SPHERE, (d, d, d), pos - h * axis, rot)]
 
 
+def _cylinder(size, pos, rot):
+    radius, h = size
+    return [(Marker.CYLINDER, (2.0 * radius, 2.0 * radius, 2.0 * h), pos, rot)]
+
+
 def _plane(size, pos, rot):
     return [(Marker.CUBE, (PLANE_SIZE, PLANE_SIZE, PLANE_THICKNESS),
              pos - rot[:, 2] * PLANE_THICKNESS / 2, rot)]
 
 
 # The markers of each drawing primitive (contact.shapes.base.PRIMITIVES).
-MARKERS = {'sphere': _sphere, 'box': _box, 'capsule': _capsule, 'plane': _plane}
+MARKERS = {'sphere': _sphere, 'box': _box, 'capsule': _capsule, 'cylinder': _cylinder,
+           'plane': _plane}

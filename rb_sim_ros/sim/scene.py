@@ -21,7 +21,7 @@
         density: 500                    #   sphere: radius; cylinder: radius, length (along z)
         position: [2.0, 0.0, 1.0]       # m; orientation [x, y, z, w]; linear_velocity m/s;
         linear_damping: 0.1             # angular_velocity rad/s (world); damping rates 1/s
-        colliders: shape                # collide as the box above (box or sphere shapes);
+        colliders: shape                # collide as the box above (any of the three shapes);
                                         # [{type: shape, friction: 0.2}] gives it a material
       - name: dumbbell
         mass: 2.0
@@ -67,7 +67,7 @@ import xml.etree.ElementTree as ElementTree
 
 from rb_sim_ros.contact import shapes
 from rb_sim_ros.contact.colliders import MAX_COLLIDERS
-from rb_sim_ros.contact.collision_shapes import Box, shape_from_dict, Sphere
+from rb_sim_ros.contact.collision_shapes import shape_from_dict
 from rb_sim_ros.contact.settings import MAX_ITERATIONS
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import RigidBody
@@ -331,18 +331,17 @@ def _points(where: str, points: Any, body: str) -> tuple:
 
 
 def _own_shape(shape: Any, dims: dict, material: dict):
-    """The body's own box or sphere as a collider, with ``material`` (restitution, friction)."""
-    if shape == 'box':
-        return Box(tuple(dims['size']), **material)
-    if shape == 'sphere':
-        return Sphere(dims['radius'], **material)
-    raise ValueError(f"'shape' needs a box or sphere shape, got {_show(shape)} (list the "
-                     'colliders instead)')
+    """The body's own box, sphere or cylinder as a collider, with ``material`` (restitution,
+    friction)."""
+    if shape in SHAPES:  # each of SHAPES is a kind of collider with the same fields
+        return shapes.BY_NAME[shape].VALUE(**dims, **material)
+    raise ValueError(f"'shape' needs a body shape ({', '.join(sorted(SHAPES))}), got "
+                     f'{_show(shape)} (list the colliders instead)')
 
 
 def _colliders(where: str, colliders: Any, shape: Any, dims: dict, static: bool) -> tuple:
     """The collision shapes of a body: a list of collision_shapes mappings, or 'shape' for the
-    body's own box or sphere (in a list: ``{type: shape, restitution: ..., friction: ...}``)."""
+    body's own shape (in a list: ``{type: shape, restitution: ..., friction: ...}``)."""
     if isinstance(colliders, str) and colliders == 'shape':
         try:
             return (_own_shape(shape, dims, {}),)

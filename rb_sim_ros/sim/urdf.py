@@ -9,7 +9,7 @@ What a file becomes:
 * each tree of links joined by ``fixed`` joints is one moving body named after its root
   link: the links' masses summed, centres and inertias (each ``<inertial>``: origin, mass,
   the tensor in the frame its ``rpy`` turns) combined by the parallel-axis theorem, its
-  colliders every ``<collision>`` of its links (box and sphere geometry);
+  colliders every ``<collision>`` of its links (box, sphere and cylinder geometry);
 * a ``floating`` joint splits the tree: the child's links are a body of their own, placed
   where the joint's origin puts them;
 * a root link called ``world`` is the world (URDF's idiom): what is fixed to it is a static
@@ -23,7 +23,7 @@ What a file becomes:
 ``rpy`` is roll about x, pitch about y, yaw about z, fixed axes (R = Rz Ry Rx), as URDF
 defines it. Refused, each with one line naming the file, the element and the reason:
 revolute, continuous, prismatic and planar joints (an articulated robot is not one rigid
-body), cylinder and mesh geometry (no such colliders yet), a body without mass, joints that
+body), mesh geometry (no such colliders yet), a body without mass, joints that
 do not make a tree (a link with two parents, a loop, a missing link), numbers that are not
 finite, more than ``scene.MAX_BYTES`` of XML, or more than ``MAX_LINKS`` links. Nothing but
 the file is read (``package://`` and ``file://`` name meshes, which are refused).
@@ -37,7 +37,7 @@ import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 
-from rb_sim_ros.contact.collision_shapes import Box, Sphere
+from rb_sim_ros.contact.collision_shapes import Box, Cylinder, Sphere
 from rb_sim_ros.core import so3
 from rb_sim_ros.sim.bodies import body_at, BodySpec, combined
 from rb_sim_ros.sim.mjcf import ModelError, ros_name, unique_name
@@ -220,8 +220,11 @@ def _geometry(path: str, where: str, collision):
         return ('box', tuple(_numbers(path, f'{where} box size', shape.get('size'), 3, '')))
     if shape.tag == 'sphere':
         return ('sphere', _number(path, f'{where} sphere radius', shape.get('radius')))
-    raise ModelError(f'{path}: {where}: {shape.tag} geometry: only box and sphere collide '
-                     'here')
+    if shape.tag == 'cylinder':  # (URDF's cylinder: along the z axis of its origin)
+        return ('cylinder', (_number(path, f'{where} cylinder radius', shape.get('radius')),
+                             _number(path, f'{where} cylinder length', shape.get('length'))))
+    raise ModelError(f'{path}: {where}: {shape.tag} geometry: only box, sphere and cylinder '
+                     'collide here')
 
 
 def _joints(path: str, robot) -> list:
@@ -261,8 +264,13 @@ def _body(path: str, links: dict, root: str, members: list, rot0, pos0, taken: s
         for link, r, p, (kind, size) in shapes:
             at = tuple((p - centre).tolist())
             quat = tuple(so3.quaternion_xyzw_from_matrix(r).tolist())
-            colliders.append(Box(size, position=at, orientation_xyzw=quat) if kind == 'box'
-                             else Sphere(size, position=at, orientation_xyzw=quat))
+            if kind == 'box':
+                colliders.append(Box(size, position=at, orientation_xyzw=quat))
+            elif kind == 'cylinder':
+                radius, length = size
+                colliders.append(Cylinder(radius, length, position=at, orientation_xyzw=quat))
+            else:
+                colliders.append(Sphere(size, position=at, orientation_xyzw=quat))
         name = unique_name(STATIC_BODY if static else ros_name(root, len(taken)), taken)
         return body_at(name, mass, inertia.reshape(9).tolist(), rot0, pos0, centre,
                        colliders, static)

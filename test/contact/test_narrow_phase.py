@@ -18,8 +18,9 @@ import numpy as np
 import pytest
 
 from rb_sim_ros.contact import broad_phase, narrow_kernels as nk, narrow_phase as nph
-from rb_sim_ros.contact.collision_shapes import (Box, Capsule, Plane, RANK, shape_from_dict,
-                                                 shape_to_dict, Sphere, world_pose)
+from rb_sim_ros.contact.collision_shapes import (Box, Capsule, Cylinder, Plane, RANK,
+                                                 shape_from_dict, shape_to_dict, Sphere,
+                                                 world_pose)
 from rb_sim_ros.core import so3
 from support import narrow_fingerprint
 
@@ -330,7 +331,7 @@ def test_batches_equal_collide_to_the_bit():
 
 
 # -- the array kernels ---------------------------------------------------------------------------
-KINDS = ('sphere', 'capsule', 'box', 'plane')
+KINDS = ('sphere', 'capsule', 'box', 'plane', 'cylinder')
 
 
 def _random_shape(rng, kind):
@@ -341,6 +342,8 @@ def _random_shape(rng, kind):
         return Capsule(float(rng.uniform(0.05, 0.3)), length)
     if kind == 'box':
         return Box(tuple(rng.uniform(0.1, 1.0, 3)))
+    if kind == 'cylinder':
+        return Cylinder(float(rng.uniform(0.05, 0.4)), float(rng.uniform(0.05, 1.0)))
     return Plane(tuple(rng.normal(size=3)))
 
 
@@ -356,7 +359,11 @@ def _random_rotation(rng):
 
 
 def _half_height(shape, rot) -> float:
-    """Half the extent of a placed sphere, capsule or box along the world z axis (m)."""
+    """Half the extent of a placed sphere, capsule, box or cylinder along the world z axis
+    (m)."""
+    if shape.kind == 'cylinder':
+        return (abs(rot[2, 2]) * shape.half_length
+                + shape.radius * math.sqrt(max(1.0 - rot[2, 2] ** 2, 0.0)))
     if shape.kind == 'box':
         return float(np.abs(rot[2]) @ shape.half_extents)
     if shape.kind == 'capsule':
@@ -372,7 +379,7 @@ def mixed_set(seed: int = 0, count: int = 700):
     rng = np.random.default_rng(seed)
     shapes, poses, pairs, margins = [], [], [], []
     while len(pairs) < count:
-        ka, kb = (KINDS[k] for k in rng.integers(4, size=2))
+        ka, kb = (KINDS[k] for k in rng.integers(len(KINDS), size=2))
         if ka == kb == 'plane':
             continue
         for kind in (ka, kb):
@@ -397,7 +404,8 @@ def mixed_set(seed: int = 0, count: int = 700):
            (Box((0.2, 0.2, 0.2)), (ORIGIN, np.full((3, 3), math.inf))),
            (Capsule(0.1, 0.3), (np.array([0.0, 0.0, -math.inf]), I3))]
     for shape, pose in bad:
-        for other in (Sphere(0.2), Capsule(0.1, 0.4), Box((0.3, 0.3, 0.3)), Plane()):
+        for other in (Sphere(0.2), Capsule(0.1, 0.4), Box((0.3, 0.3, 0.3)), Plane(),
+                      Cylinder(0.2, 0.3)):
             shapes += [shape, other]
             poses += [pose, (ORIGIN, I3)]
             pairs.append((len(shapes) - 2, len(shapes) - 1))

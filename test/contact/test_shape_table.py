@@ -25,7 +25,10 @@ EXAMPLES = {
                 'orientation': [0.0, 0.3826834323650898, 0.0, 0.9238795325112867]},
     'box': {'type': 'box', 'size': [0.4, 0.2, 0.6], 'friction': 0.7},
     'plane': {'type': 'plane', 'normal': [0.0, 0.0, 1.0], 'offset': -0.5},
+    'cylinder': {'type': 'cylinder', 'radius': 0.2, 'length': 0.5, 'position': [0.0, 0.1, 0.0],
+                 'orientation': [0.3826834323650898, 0.0, 0.0, 0.9238795325112867]},
 }
+SOLIDS = ('sphere', 'capsule', 'box', 'cylinder')
 Z_UP = np.array([0.0, 0.0, 1.0])
 
 
@@ -41,7 +44,8 @@ def test_every_kind_keeps_the_protocol_and_reads_back_as_written():
         assert shapes.shape_to_dict(shape) == EXAMPLES[module.NAME]
         row = shapes.packed(shape, np.eye(3))
         assert row.shape == (nk.GEOM_WIDTH,) and np.all(np.isfinite(row))
-    assert shapes.NAMES == ('sphere', 'capsule', 'box', 'plane')  # the ranks of the recordings
+    # the ranks of the recordings: a new kind comes last
+    assert shapes.NAMES == ('sphere', 'capsule', 'box', 'plane', 'cylinder')
 
 
 def _reach(shape, rotation, direction) -> float:
@@ -53,6 +57,10 @@ def _reach(shape, rotation, direction) -> float:
     if shape.kind == 'capsule':
         ends = [rotation @ np.array([0.0, 0.0, s * shape.half_length]) for s in (-1, 1)]
         return max(float(e @ d) for e in ends) + shape.radius
+    if shape.kind == 'cylinder':  # the farther cap's disc: its centre, then r across the axis
+        axis = rotation[:, 2]
+        across = math.sqrt(max(1.0 - float(axis @ d) ** 2, 0.0))
+        return abs(float(axis @ d)) * shape.half_length + shape.radius * across
     hx, hy, hz = shape.half_extents
     corners = [rotation @ np.array([sx * hx, sy * hy, sz * hz])
                for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
@@ -61,7 +69,7 @@ def _reach(shape, rotation, direction) -> float:
 
 def test_a_support_is_the_farthest_point_and_bounds_hold_the_shape():
     rng = np.random.default_rng(7)
-    solids = [shapes.shape_from_dict(EXAMPLES[n]) for n in ('sphere', 'capsule', 'box')]
+    solids = [shapes.shape_from_dict(EXAMPLES[n]) for n in SOLIDS]
     for _ in range(40):
         rotation = so3.exp(rng.normal(size=3))
         direction = rng.normal(size=3)
@@ -97,6 +105,10 @@ def _touching(low: str, high: str):
         return shapes.shape_from_dict({k: v for k, v in EXAMPLES[name].items()
                                        if k not in ('position', 'orientation')})
     a, b = upright(low), upright(high)
+    if low == 'plane':  # (the cylinder's row: the plane is the lower kind) as below, swapped
+        b_pose = shapes.world_pose(b, np.zeros(3), np.eye(3))
+        down = _reach(b, b_pose[1], -Z_UP)
+        return a, shapes.world_pose(a, (0.0, 0.0, 0.5 - down + 0.01), np.eye(3)), b, b_pose
     pose_a = shapes.world_pose(a, np.zeros(3), np.eye(3))
     down = _reach(a, pose_a[1], -Z_UP)
     if high == 'plane':
@@ -158,17 +170,18 @@ def test_plane_candidates_read_each_kind_by_its_support():
     """The broad phase's plane test keeps a collider exactly when its support towards the
     plane reaches it (within its body's margin), for every kind the table has."""
     rng = np.random.default_rng(3)
-    solids = [shapes.shape_from_dict(EXAMPLES[n]) for n in ('sphere', 'capsule', 'box')]
+    solids = [shapes.shape_from_dict(EXAMPLES[n]) for n in SOLIDS]
     for _ in range(30):
         rotation = so3.exp(rng.normal(size=3))
         kinds = np.array([shapes.kind_of(s) for s in solids])
         geoms = np.array([shapes.packed(s, rotation) for s in solids])
         reach = np.array([_reach(s, rotation, -Z_UP) for s in solids])
-        heights = reach + rng.choice([-1e-3, 1e-3], size=3)
-        centres = np.zeros((3, 3))
+        n = len(solids)
+        heights = reach + rng.choice([-1e-3, 1e-3], size=n)
+        centres = np.zeros((n, 3))
         centres[:, 2] = heights
         pairs = broad_phase.plane_candidates(
-            np.arange(3), np.zeros(3, dtype=np.int64), np.tile(rotation.reshape(9), (3, 1)),
+            np.arange(n), np.zeros(n, dtype=np.int64), np.tile(rotation.reshape(9), (n, 1)),
             kinds, geoms, centres, Z_UP.reshape(1, 3), np.zeros((1, 3)), np.zeros(1))
         assert pairs[:, 0].tolist() == np.flatnonzero(heights < reach).tolist()
 
@@ -200,7 +213,8 @@ def test_every_kind_draws_with_pieces_that_cover_it_exactly():
     shape's own reach, from its sizes), along its own axes; a plane's piece is its plane."""
     reach = {'sphere': lambda size: size[0],
              'box': lambda size: math.sqrt(sum(h * h for h in size)),
-             'capsule': lambda size: size[0] + size[1]}
+             'capsule': lambda size: size[0] + size[1],
+             'cylinder': lambda size: math.hypot(size[0], size[1])}
     for module in shapes.KINDS:
         shape = shapes.shape_from_dict(EXAMPLES[module.NAME])
         pieces = shapes.pieces(shape)

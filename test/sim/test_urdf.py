@@ -8,7 +8,7 @@ robot into bodies; every refusal one line naming the file and the element."""
 import numpy as np
 import pytest
 
-from rb_sim_ros.contact.collision_shapes import Box, Sphere
+from rb_sim_ros.contact.collision_shapes import Box, Cylinder
 from rb_sim_ros.core import so3
 from rb_sim_ros.sim import scene as scenes
 from rb_sim_ros.sim.mjcf import ModelError
@@ -28,7 +28,8 @@ ROBOT = """<robot name="rover">
   <link name="mast">
     <inertial><origin xyz="0 0 0.2" rpy="0 0.5 0"/><mass value="0.5"/>
       <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.001"/></inertial>
-    <collision><origin xyz="0 0 0.4"/><geometry><sphere radius="0.05"/></geometry></collision>
+    <collision><origin xyz="0 0 0.25" rpy="0.2 0 0"/>
+      <geometry><cylinder radius="0.05" length="0.5"/></geometry></collision>
   </link>
   <link name="camera">
     <inertial><mass value="0.2"/>
@@ -91,13 +92,14 @@ def test_fixed_links_are_one_body_with_the_parallel_axis_sum_of_theirs(tmp_path)
     ours = rot @ np.array(rover.inertia).reshape(3, 3) @ rot.T
     np.testing.assert_allclose(ours, inertia, atol=1e-12)
     # the colliders where MuJoCo puts the geoms (world), with their sizes
-    assert [type(c) for c in rover.colliders] == [Box, Sphere, Box]
+    assert [type(c) for c in rover.colliders] == [Box, Cylinder, Box]
     for c, g in zip(rover.colliders, range(model.ngeom)):
         at = np.array(rover.initial_position) + rot @ np.array(c.position)
         np.testing.assert_allclose(at, data.geom_xpos[g], atol=1e-12)
         np.testing.assert_allclose(rot @ c.rotation, data.geom_xmat[g].reshape(3, 3),
                                    atol=1e-12)
-    assert rover.colliders[0].size == (0.4, 0.3, 0.1) and rover.colliders[1].radius == 0.05
+    assert rover.colliders[0].size == (0.4, 0.3, 0.1)
+    assert (rover.colliders[1].radius, rover.colliders[1].length) == (0.05, 0.5)
 
 
 def test_a_floating_joint_makes_a_body_of_its_own_where_the_joint_puts_it(tmp_path):
@@ -123,8 +125,8 @@ def test_a_floating_joint_makes_a_body_of_its_own_where_the_joint_puts_it(tmp_pa
 @pytest.mark.parametrize('extra, match', [
     ('<link name="wheel"/><joint name="axle" type="continuous"><parent link="base"/>'
      '<child link="wheel"/></joint>', "joint 'axle' is a continuous joint: only fixed"),
-    ('<link name="can"><collision><geometry><cylinder radius="0.1" length="0.2"/></geometry>'
-     '</collision></link>', "link 'can' collision 0: cylinder geometry: only box and sphere"),
+    ('<link name="can"><collision><geometry><capsule radius="0.1" length="0.2"/></geometry>'
+     '</collision></link>', "link 'can' collision 0: capsule geometry: only box, sphere"),
     ('<link name="hull"><collision><geometry><mesh filename="package://rover/hull.stl"/>'
      '</geometry></collision></link>', "link 'hull' collision 0: mesh geometry"),
     ('<joint name="again" type="fixed"><parent link="base"/><child link="camera"/></joint>',

@@ -17,8 +17,14 @@ to know more of it:
   unit direction given in its own axes, which bounds (``world_kernels.extents``) and the
   plane test of the broad phase read through ``support_of``;
 * ``draw(shape)``, the pieces that draw it (``base.PRIMITIVES``: sphere, box, capsule,
-  plane), which RViz's markers (``ros.collision_markers``) and the pictures of a recording
-  (``pictures.render``) read through ``pieces``.
+  cylinder, plane), which RViz's markers (``ros.collision_markers``) and the pictures of a
+  recording (``pictures.render``) read through ``pieces``;
+* for a solid kind (not the plane), its core for the convex narrow phase
+  (``convex_kernels``): the shape is its core (a point, a segment, itself) rounded by
+  ``core_radius(geom)``; ``core_point(geom, l0, l1, l2)`` the core's farthest point along a
+  direction in its axes, and ``core_face(geom, l0, l1, l2, out, tags)`` the core's points
+  facing that way, in order round the face (a polygon, a segment, a point) with their
+  features, read through ``core_point_of`` and the like.
 
 The contact tests of each pair of kinds are rows of ``narrow_kernels.PAIR_TESTS``. A new kind
 is a module here, its place in ``KINDS``, and its rows there (docs/collisions.md).
@@ -31,13 +37,13 @@ from typing import Any, Union
 
 import numpy as np
 
-from rb_sim_ros.contact.shapes import box, capsule, plane, sphere
+from rb_sim_ros.contact.shapes import box, capsule, cylinder, plane, sphere
 from rb_sim_ros.contact.shapes.base import GEOM_WIDTH, IDENTITY_XYZW, ORIGIN
 from rb_sim_ros.core.jit import generated_kernel
 from rb_sim_ros.core.rigid_body import short
 
 # In narrow-phase rank order: a kind's number is its index.
-KINDS = (sphere, capsule, box, plane)
+KINDS = (sphere, capsule, box, plane, cylinder)
 for _number, _module in enumerate(KINDS):
     if _module.KIND != _number:
         raise ImportError(f'shape kind {_module.NAME!r}: KIND {_module.KIND} is not its place '
@@ -50,6 +56,7 @@ SHAPE_TYPES = tuple(m.VALUE for m in KINDS)
 Shape = Union[SHAPE_TYPES]  # type: ignore[valid-type]
 
 Sphere, Capsule, Box, Plane = sphere.Sphere, capsule.Capsule, box.Box, plane.Plane
+Cylinder = cylinder.Cylinder
 
 
 def is_shape(value: Any) -> bool:
@@ -104,6 +111,32 @@ def _global_name(module) -> str:
 
 
 support_of = generated_kernel(globals(), 'support_of', _support_source())
+
+
+# Each solid kind's core (written from KINDS, as support_of): what the convex narrow phase
+# reads of a kind. The plane has no core (a half-space has no farthest point).
+CORE_FACE_CAPACITY = 9  # the most points of a core_face (the cylinder's cap)
+
+
+def _core_source(name: str, args: str, absent: str, doc: str) -> str:
+    lines = [f'def {name}_of(kind, {args}):', f'    """{doc}"""']
+    for m in KINDS:
+        if hasattr(m, 'core_point'):
+            lines += [f'    if kind == {m.KIND}:',
+                      f'        return {_global_name(m)}.{name}({args})']
+    lines.append(f'    return {absent}')
+    return '\n'.join(lines) + '\n'
+
+
+core_radius_of = generated_kernel(globals(), 'core_radius_of', _core_source(
+    'core_radius', 'geom', 'math.nan', 'The rounding (m) of the core of a shape of ``kind``.'))
+core_point_of = generated_kernel(globals(), 'core_point_of', _core_source(
+    'core_point', 'geom, l0, l1, l2', '(math.nan, math.nan, math.nan)',
+    'The farthest point of the core of a shape of ``kind`` along (l0, l1, l2), its axes.'))
+core_face_of = generated_kernel(globals(), 'core_face_of', _core_source(
+    'core_face', 'geom, l0, l1, l2, out, tags', '0',
+    'The points of the core of a shape of ``kind`` facing (l0, l1, l2) (unit, its axes), in '
+    'out[:n], tags[:n]; n.'))
 
 
 def world_pose(shape, body_position: np.ndarray,

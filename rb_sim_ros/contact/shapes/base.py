@@ -23,10 +23,10 @@ NORMAL = HX
 
 # What a kind's ``draw(shape)`` gives: its pieces (primitive, size, position, rotation), in its
 # body's frame, of these primitives, which each drawing (ros.collision_markers,
-# pictures.render) knows: 'sphere' (radius,); 'box' (its half extents); 'capsule' (radius,
-# half length along the piece's z); 'plane' (): the plane z = 0 of the piece, the half-space
-# below it solid (a patch in RViz, the ground grid in a picture).
-PRIMITIVES = ('sphere', 'box', 'capsule', 'plane')
+# pictures.render) knows: 'sphere' (radius,); 'box' (its half extents); 'capsule' and
+# 'cylinder' (radius, half length along the piece's z); 'plane' (): the plane z = 0 of the
+# piece, the half-space below it solid (a patch in RViz, the ground grid in a picture).
+PRIMITIVES = ('sphere', 'box', 'capsule', 'cylinder', 'plane')
 
 IDENTITY_XYZW = (0.0, 0.0, 0.0, 1.0)
 ORIGIN = (0.0, 0.0, 0.0)

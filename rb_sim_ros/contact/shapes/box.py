@@ -72,3 +72,41 @@ def support(geoms, c, l0, l1, l2):
     that way, sum_j h_j |l_j|."""
     return (abs(l0) * float(geoms[c, HX]) + abs(l1) * float(geoms[c, HY])
             + abs(l2) * float(geoms[c, HZ]))
+
+
+# Its core for the convex narrow phase (convex_kernels): itself.
+@inline_kernel
+def core_radius(geom):
+    """No rounding: the box is its own core."""
+    return 0.0
+
+
+@inline_kernel
+def core_point(geom, l0, l1, l2):
+    """Its corner along (l0, l1, l2) (any length; + on a tie)."""
+    hx, hy, hz = float(geom[HX]), float(geom[HY]), float(geom[HZ])
+    return (hx if l0 >= 0.0 else -hx), (hy if l1 >= 0.0 else -hy), (hz if l2 >= 0.0 else -hz)
+
+
+@inline_kernel
+def core_face(geom, l0, l1, l2, out, tags):
+    """Its face most along (l0, l1, l2) (the first axis on a tie): its 4 corners in order
+    round it, tags 4 f + k with f = 2 axis + (1 on the + side)."""
+    a0, a1, a2 = abs(l0), abs(l1), abs(l2)
+    axis = 0 if a0 >= a1 and a0 >= a2 else (1 if a1 >= a2 else 2)
+    value = l0 if axis == 0 else (l1 if axis == 1 else l2)
+    side = 1.0 if value >= 0.0 else -1.0
+    face = 2 * axis + (1 if side > 0.0 else 0)
+    hx, hy, hz = float(geom[HX]), float(geom[HY]), float(geom[HZ])
+    for m in range(4):  # (+, +), (-, +), (-, -), (+, -) along the next two axes, cyclically
+        sj = 1.0 if m == 0 or m == 3 else -1.0
+        sk = 1.0 if m < 2 else -1.0
+        if axis == 0:
+            x, y, z = side * hx, sj * hy, sk * hz
+        elif axis == 1:
+            x, y, z = sk * hx, side * hy, sj * hz
+        else:
+            x, y, z = sj * hx, sk * hy, side * hz
+        out[m, 0], out[m, 1], out[m, 2] = x, y, z
+        tags[m] = 4 * face + m
+    return 4

@@ -70,3 +70,36 @@ def support(geoms, c, l0, l1, l2):
     """How far the capsule of row ``c`` reaches along (l0, l1, l2) (its axes, unit): the end
     of its segment that way, plus its radius."""
     return float(geoms[c, HALF_LENGTH]) * abs(l2) + float(geoms[c, RADIUS])
+
+
+# Its core for the convex narrow phase (convex_kernels): its segment, rounded by its radius.
+# A direction within asin(SIDE_SIN) (about 6 degrees) of square to the segment faces all of it.
+SIDE_SIN = 0.1
+
+
+@inline_kernel
+def core_radius(geom):
+    """The rounding of its core (m): its radius."""
+    return float(geom[RADIUS])
+
+
+@inline_kernel
+def core_point(geom, l0, l1, l2):
+    """Its segment's end along (l0, l1, l2) (any length)."""
+    h = float(geom[HALF_LENGTH])
+    return 0.0, 0.0, (h if l2 >= 0.0 else -h)
+
+
+@inline_kernel
+def core_face(geom, l0, l1, l2, out, tags):
+    """Its segment's part facing (l0, l1, l2) (unit): both ends (tags 0, 1) when the direction
+    is nearly square to it, else the end that way (tag 0 or 1)."""
+    h = float(geom[HALF_LENGTH])
+    if abs(l2) <= SIDE_SIN:
+        out[0, 0], out[0, 1], out[0, 2] = 0.0, 0.0, -h
+        out[1, 0], out[1, 1], out[1, 2] = 0.0, 0.0, h
+        tags[0], tags[1] = 0, 1
+        return 2
+    out[0, 0], out[0, 1], out[0, 2] = 0.0, 0.0, (h if l2 >= 0.0 else -h)
+    tags[0] = 1 if l2 >= 0.0 else 0
+    return 1

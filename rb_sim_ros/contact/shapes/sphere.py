@@ -62,3 +62,24 @@ def support(geoms, c, l0, l1, l2):
     """How far the shape of row ``c`` of ``geoms`` reaches from its centre along a unit
     direction, (l0, l1, l2) in the shape's axes (m): its radius."""
     return float(geoms[c, RADIUS])
+
+
+# Its core for the convex narrow phase (convex_kernels): its centre, rounded by its radius.
+@inline_kernel
+def core_radius(geom):
+    """The rounding of its core (m): its radius."""
+    return float(geom[RADIUS])
+
+
+@inline_kernel
+def core_point(geom, l0, l1, l2):
+    """Its core's farthest point along (l0, l1, l2): its centre."""
+    return 0.0, 0.0, 0.0
+
+
+@inline_kernel
+def core_face(geom, l0, l1, l2, out, tags):
+    """Its core's part facing (l0, l1, l2): its centre (1 point, tag 0)."""
+    out[0, 0], out[0, 1], out[0, 2] = 0.0, 0.0, 0.0
+    tags[0] = 0
+    return 1
