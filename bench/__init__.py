@@ -19,6 +19,7 @@ said otherwise):
 * ``collision_bench``: spheres settled in a box, next to MuJoCo
 * ``collision_cases``: the collision tests' scenarios, measured (docs/collisions.md)
 * ``contact_step_bench``: one body in contact, per step, next to MuJoCo
+* ``cylinder_bench``: a cylinder in contact (the convex narrow phase), next to MuJoCo
 * ``resting_bench``: what sleeping buys, next to MuJoCo
 * ``pile_bench``: 100 boxes piling, next to Rapier and MuJoCo
 * ``compile_cost``: what a first use compiles, on an empty kernel cache

@@ -324,6 +324,14 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((figs, '**Fast**', f'costs {ratios["10"][0]:.1f}x'))
     q.append((figs, '**Fast**', f'({ratios["1"][0]:.1f}x at one step a call'))
 
+    cyl = load('cylinder_bench', folder)['seconds_per_step']
+    cyl_ratios = {c: [r[f'rb_sim_ros, {c}'] / r[f'MuJoCo Newton, {c}'] for r in cyl.values()]
+                  for c in ('1', '10')}
+    q.append((figs, '#Collisions', f'{min(cyl_ratios["10"]):.1f}x to '
+              f'{max(cyl_ratios["10"]):.1f}x'))
+    q.append((figs, '#Collisions', f'{min(cyl_ratios["1"]):.1f}x to '
+              f'{max(cyl_ratios["1"]):.1f}x'))
+
     pile = load('pile_bench', folder)
     rows, out = pile['rows'], pile['outcomes']
     ms = [rows[k]['seconds_per_step'] * 1e3 for k in (

@@ -136,7 +136,8 @@ def _quick(name: str, tmp_path: Path) -> dict:
 def test_collision_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
     """Their checks: both engines' heaps stay in the box and agree; the collision tests'
     scenarios stay within the bounds their tests assert; a resting floor of boxes stays put in
-    every engine and all of it falls asleep; a drop wakes only what it hits."""
+    every engine and all of it falls asleep; a drop wakes only what it hits; a cylinder
+    rolls, rights itself and rests in both engines."""
     collision = _quick('collision_bench', tmp_path)
     like = collision['mujoco']['PGS, 10 iterations']
     assert like['max_iterations'] == 10 and collision['rb_sim_ros']['iterations'] <= 10
@@ -149,6 +150,9 @@ def test_collision_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
     contact = _quick('contact_step_bench', tmp_path)  # closed forms checked before timing
     assert set(contact['seconds_per_step']) == {'sliding box', 'bouncing ball', 'rolling ball',
                                                 'tipping cube'}
+    cylinder = _quick('cylinder_bench', tmp_path)  # both engines' outcomes checked first
+    assert set(cylinder['seconds_per_step']) == {'rolling cylinder', 'tipping cylinder',
+                                                 'cylinder on a box', 'crossed cylinders'}
 
 
 @pytest.mark.slow  # a benchmark
