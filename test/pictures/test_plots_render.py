@@ -5,13 +5,14 @@
 mechanics, the animation's pixels against the recorded poses (a ball's image goes down and up
 as its recorded height does, a static wall stays put), and the files read back."""
 
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from oracles.node_recording import record_offline
-from rb_sim_ros.contact.collision_shapes import Box, Plane, Sphere
+from rb_sim_ros.contact.collision_shapes import Box, Cylinder, Plane, Sphere
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.offline import replay
 from rb_sim_ros.pictures import plots, render
@@ -398,3 +399,19 @@ def test_the_envelope_keeps_every_run_s_extremes():
     assert 50.0 in ey and np.nanmin(ey) == np.nanmin(y)
     assert np.all(np.diff(et) > 0) and np.all(ey[~np.isnan(ey)] == np.interp(
         et[~np.isnan(ey)], t, y))  # samples of the line, not new points
+
+
+@pytest.mark.parametrize('view, rotation, ratio', [
+    ('side', (0.0, math.sin(math.pi / 4), 0.0, math.cos(math.pi / 4)), 3.0),  # lying along x
+    ('side', (0.0, 0.0, 0.0, 1.0), 1.0 / 3.0),                                  # standing
+    ('top', (0.0, 0.0, 0.0, 1.0), 1.0)])                                        # its cap
+def test_a_cylinder_is_drawn_as_its_outline(tmp_path, view, rotation, ratio):
+    """A cylinder 0.6 m long of radius 0.1, drawn alone: seen from the side lying, a
+    rectangle three times as wide as high; standing, a third; from above standing, its cap,
+    a disc as wide as high (the outline of its two rims)."""
+    can = BodySpec('can', 1.0, (0.01,) * 3, initial_position=(0.0, 0.0, 1.0),
+                   initial_orientation_xyzw=rotation, colliders=(Cylinder(0.1, 0.6),))
+    rec = record_offline(tmp_path / 'r.mcap', Config(bodies=(can,)), 1)
+    r = render.Renderer(rec, view, (400, 400))
+    width, height = _spans(_coloured(r.frame(0.0)))
+    assert width / height == pytest.approx(ratio, rel=0.05)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from visualization_msgs.msg import Marker
 
-from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
+from rb_sim_ros.contact.collision_shapes import Box, Capsule, Cylinder, Plane, Sphere
 from rb_sim_ros.contact.collision_world import WorldContact
 from rb_sim_ros.contact.shapes import base
 from rb_sim_ros.core import so3
@@ -79,6 +79,19 @@ def test_a_plane_is_drawn_square_to_its_normal(normal):
     np.testing.assert_allclose(_rotation(m.markers[0])[:, 2], n, atol=1e-12)
     np.testing.assert_allclose(_position(m.markers[0]) @ n, 0.5 - PLANE_THICKNESS / 2,
                                atol=1e-12)
+
+
+def test_a_cylinder_is_one_cylinder_marker_along_its_axis():
+    """RViz's CYLINDER is the shape itself: diameter 2 r across, its length along its z,
+    turned and placed as the collider in its body."""
+    config = Config(bodies=(BodySpec('can', colliders=(
+        Cylinder(0.1, 0.6, position=(0.0, 0.2, 0.0), orientation_xyzw=X90),)),))
+    markers = CollisionMarkers(config, 'odom').fill(0, {'can': ((1.0, 0.0, 0.0), Z90)})
+    m, = [m for m in markers.markers if m.ns == 'can']
+    assert m.type == Marker.CYLINDER
+    assert (m.scale.x, m.scale.y, m.scale.z) == pytest.approx((0.2, 0.2, 0.6))
+    np.testing.assert_allclose(_position(m), (0.8, 0.0, 0.0), atol=1e-12)  # Z90 turns +y to -x
+    np.testing.assert_allclose(_rotation(m)[:, 2], (1.0, 0.0, 0.0), atol=1e-12)
 
 
 def test_every_drawing_primitive_has_markers():
