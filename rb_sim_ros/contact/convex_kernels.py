@@ -49,7 +49,7 @@ from rb_sim_ros.contact.contact_geometry import (apply as _apply, apply_t as _ap
                                                  reduce_to_four as _reduce, TINY_LENGTH,
                                                  write as _write)
 from rb_sim_ros.contact.shapes.base import NORMAL
-from rb_sim_ros.core.jit import kernel
+from rb_sim_ros.core.jit import inline_kernel, kernel
 
 # GJK stops when the distance can shrink by no more than this fraction of its square (a
 # curved core converges linearly) or after GJK_ITERATIONS support points.
@@ -80,7 +80,7 @@ FACE_FEATURES = 0
 
 
 # -- supports -----------------------------------------------------------------------------------
-@kernel
+@inline_kernel
 def _support(kind, geom, centre, rot, dx, dy, dz):
     """The world point of the core of a shape (kind, geom, centre, rot) farthest along the
     world direction d."""
@@ -90,7 +90,7 @@ def _support(kind, geom, centre, rot, dx, dy, dz):
     return float(centre[0]) + wx, float(centre[1]) + wy, float(centre[2]) + wz
 
 
-@kernel
+@inline_kernel
 def _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, dx, dy, dz, k, W, PA, PB):
     """Row k of the simplex: a = A's core point along d, b = B's along -d, w = a - b (the
     point of A - B farthest along d)."""
@@ -101,12 +101,12 @@ def _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, dx, dy, dz, k, W, PA, PB):
     W[k, 0], W[k, 1], W[k, 2] = ax - bx, ay - by, az - bz
 
 
-@kernel
+@inline_kernel
 def _dot(M, i, x, y, z):
     return float(M[i, 0]) * x + float(M[i, 1]) * y + float(M[i, 2]) * z
 
 
-@kernel
+@inline_kernel
 def _tetra_face(f):
     """Face f of a tetrahedron 0, 1, 2, 3: its vertices and the one opposite."""
     if f == 0:
@@ -119,7 +119,7 @@ def _tetra_face(f):
 
 
 # -- GJK --------------------------------------------------------------------------------------
-@kernel
+@inline_kernel
 def _triangle(W, i, j, k):
     """The point of the triangle W[i], W[j], W[k] nearest the origin (Ericson 5.1.5): its
     barycentric coordinates (u, v, w) and which vertices it needs (a mask of 1 i, 2 j, 4 k)."""
@@ -165,35 +165,31 @@ def _triangle(W, i, j, k):
     return 1.0 - v - w, v, w, 7
 
 
-@kernel
+@inline_kernel
 def _det(ax, ay, az, bx, by, bz, cx, cy, cz):
     """a . (b x c)."""
     return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
 
 
-@kernel
-def _keep(W, PA, PB, lam, idx, weights, count):
-    """Reorder the simplex to the vertices idx[:count] with weights[:count] (in lam)."""
-    tw = np.empty((4, 3))
-    ta = np.empty((4, 3))
-    tb = np.empty((4, 3))
+@inline_kernel
+def _keep(W, PA, PB, lam, idx, weights, count, scratch):
+    """Reorder the simplex to the vertices idx[:count] with weights[:count] (in lam), through
+    ``scratch`` (4, 9)."""
     for m in range(count):
         i = int(idx[m])
         for q in range(3):
-            tw[m, q], ta[m, q], tb[m, q] = W[i, q], PA[i, q], PB[i, q]
+            scratch[m, q], scratch[m, 3 + q], scratch[m, 6 + q] = W[i, q], PA[i, q], PB[i, q]
     for m in range(count):
         for q in range(3):
-            W[m, q], PA[m, q], PB[m, q] = tw[m, q], ta[m, q], tb[m, q]
+            W[m, q], PA[m, q], PB[m, q] = scratch[m, q], scratch[m, 3 + q], scratch[m, 6 + q]
         lam[m] = weights[m]
 
 
-@kernel
-def _closest(W, PA, PB, lam, n):
+@inline_kernel
+def _closest(W, PA, PB, lam, n, idx, weights, scratch):
     """Reduce the simplex W[:n] (n 1 to 4) to the fewest vertices whose hull holds its point
     nearest the origin, their weights in lam; returns (n, inside): inside when the origin is
-    in the tetrahedron."""
-    idx = np.empty(4, dtype=np.int64)
-    weights = np.empty(4)
+    in the tetrahedron. idx, weights and scratch: room for the reduction."""
     if n == 1:
         lam[0] = 1.0
         return 1, False
@@ -204,17 +200,17 @@ def _closest(W, PA, PB, lam, n):
         t = -_dot(W, 0, ex, ey, ez) / e2 if e2 > 0.0 else 0.0
         if t <= 0.0:
             idx[0], weights[0] = 0, 1.0
-            _keep(W, PA, PB, lam, idx, weights, 1)
+            _keep(W, PA, PB, lam, idx, weights, 1, scratch)
             return 1, False
         if t >= 1.0:
             idx[0], weights[0] = 1, 1.0
-            _keep(W, PA, PB, lam, idx, weights, 1)
+            _keep(W, PA, PB, lam, idx, weights, 1, scratch)
             return 1, False
         lam[0], lam[1] = 1.0 - t, t
         return 2, False
     if n == 3:
         u, v, w, mask = _triangle(W, 0, 1, 2)
-        return _apply_mask(W, PA, PB, lam, idx, weights, int(0), int(1), int(2), u, v, w,
+        return _apply_mask(W, PA, PB, lam, idx, weights, scratch, int(0), int(1), int(2), u, v, w,
                            mask), False
     # n == 4: the origin's barycentric coordinates in the tetrahedron (signed volumes):
     # all >= 0, it is inside; else the nearest of the faces opposite a negative one (of
@@ -252,11 +248,12 @@ def _closest(W, PA, PB, lam, n):
                 bu, bv, bw, bmask, bi, bj, bk = u, v, w, mask, i, j, k
     if not found:
         return 4, True
-    return _apply_mask(W, PA, PB, lam, idx, weights, bi, bj, bk, bu, bv, bw, bmask), False
+    return _apply_mask(W, PA, PB, lam, idx, weights, scratch, bi, bj, bk, bu, bv, bw,
+                       bmask), False
 
 
-@kernel
-def _apply_mask(W, PA, PB, lam, idx, weights, i, j, k, u, v, w, mask):
+@inline_kernel
+def _apply_mask(W, PA, PB, lam, idx, weights, scratch, i, j, k, u, v, w, mask):
     """Keep the vertices of i, j, k that ``mask`` names, with weights u, v, w."""
     count = 0
     if mask & 1:
@@ -268,7 +265,7 @@ def _apply_mask(W, PA, PB, lam, idx, weights, i, j, k, u, v, w, mask):
     if mask & 4:
         idx[count], weights[count] = k, w
         count += 1
-    _keep(W, PA, PB, lam, idx, weights, count)
+    _keep(W, PA, PB, lam, idx, weights, count, scratch)
     return count
 
 
@@ -290,6 +287,9 @@ def _gjk(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, lam):
     PA_back = np.empty((4, 3))
     PB_back = np.empty((4, 3))
     lam_back = np.empty(4)
+    idx = np.empty(4, dtype=np.int64)
+    weights = np.empty(4)
+    scratch = np.empty((4, 9))
     for _ in range(GJK_ITERATIONS):
         _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, -vx, -vy, -vz, n, W, PA, PB)
         wx, wy, wz = float(W[n, 0]), float(W[n, 1]), float(W[n, 2])
@@ -307,7 +307,7 @@ def _gjk(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, lam):
                 W_back[m, q], PA_back[m, q], PB_back[m, q] = W[m, q], PA[m, q], PB[m, q]
         before = n
         n += 1
-        n, inside = _closest(W, PA, PB, lam, n)
+        n, inside = _closest(W, PA, PB, lam, n, idx, weights, scratch)
         if inside:
             return n, True, size2
         nx, ny, nz = 0.0, 0.0, 0.0
@@ -329,7 +329,7 @@ def _gjk(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, lam):
 
 
 # -- EPA --------------------------------------------------------------------------------------
-@kernel
+@inline_kernel
 def _face_plane(V, FV, FN, FD, f):
     """Face f's unit outward normal and distance from the origin; False if degenerate (a
     sliver: normal 0, distance inf, so that it is never the nearest nor seen, but keeps its
@@ -513,7 +513,7 @@ def _epa(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, size2):
     return good, gx, gy, gz, gd, gax, gay, gaz, gbx, gby, gbz
 
 
-@kernel
+@inline_kernel
 def _face_across(FV, alive, nf, s, t):
     """The live face that has the edge t -> s (the other side of a face's edge s -> t), or
     -1."""
@@ -525,7 +525,7 @@ def _face_across(FV, alive, nf, s, t):
     return -1
 
 
-@kernel
+@inline_kernel
 def _barycentric(V, i, j, k, px, py, pz, nx, ny, nz):
     """The barycentric coordinates of p (in the plane of triangle V[i], V[j], V[k], unit
     normal n) by signed areas; the centroid's for a degenerate triangle."""
@@ -540,7 +540,7 @@ def _barycentric(V, i, j, k, px, py, pz, nx, ny, nz):
     return u, v, 1.0 - u - v
 
 
-@kernel
+@inline_kernel
 def _area(ax, ay, az, bx, by, bz, cx, cy, cz, nx, ny, nz):
     """Twice the signed area of the triangle a, b, c seen along n."""
     e1x, e1y, e1z = bx - ax, by - ay, bz - az
@@ -550,7 +550,7 @@ def _area(ax, ay, az, bx, by, bz, cx, cy, cz, nx, ny, nz):
 
 
 # -- the manifold -------------------------------------------------------------------------------
-@kernel
+@inline_kernel
 def _world_face(kind, geom, centre, rot, dx, dy, dz, shift, out, tags):
     """The world points of the core's face along the world direction d (unit), each moved by
     ``shift`` along d (the rounding radius); their count."""
@@ -706,7 +706,7 @@ def _manifold(ref, nref, inc, inc_tags, ninc, ux, uy, uz, margin, deepest, sign,
     return written
 
 
-@kernel
+@inline_kernel
 def _crossing_tag(start, side):
     """The feature of the point where the incident edge from the point tagged ``start``
     crosses the reference's side ``side`` (0 to 8): distinct from the face tags (< 64) and
@@ -714,7 +714,7 @@ def _crossing_tag(start, side):
     return 64 + 32 * side + start % 32
 
 
-@kernel
+@inline_kernel
 def _clip_polygon(src, src_tag, count, dst, dst_tag, ux, uy, uz, limit, side):
     """Sutherland-Hodgman: the part of the polygon src[:count] with u . p <= limit, into
     dst; its count. A crossing is tagged ``_crossing_tag`` of its edge's start."""
@@ -739,7 +739,7 @@ def _clip_polygon(src, src_tag, count, dst, dst_tag, ux, uy, uz, limit, side):
     return out
 
 
-@kernel
+@inline_kernel
 def _clip_segment(seg, tags, sx, sy, sz, limit, plane):
     """The part of the segment seg[0], seg[1] with s . p <= limit, in place; 0 if none, else
     2 (a cut end gets the tag of a crossing, ``_crossing_tag``)."""
