@@ -300,7 +300,9 @@ def _gjk(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, lam):
             return n, False, size2  # w brings nothing: v is the nearest point
         for m in range(n):  # w is a vertex already: v is as near as it gets
             if W[m, 0] == wx and W[m, 1] == wy and W[m, 2] == wz:
-                return n, False, size2
+                # apart only if the plane square to v through w separates (else rounding
+                # stalled GJK on overlapping cores: EPA)
+                return n, not vx * wx + vy * wy + vz * wz > 0.0, size2
         for m in range(n):  # kept, should the next simplex be no nearer (rounding)
             lam_back[m] = lam[m]
             for q in range(3):
@@ -323,7 +325,7 @@ def _gjk(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, lam):
                 lam[m] = lam_back[m]
                 for q in range(3):
                     W[m, q], PA[m, q], PB[m, q] = W_back[m, q], PA_back[m, q], PB_back[m, q]
-            return before, False, size2
+            return before, not vx * wx + vy * wy + vz * wz > 0.0, size2  # (as above)
         vx, vy, vz, vv = nx, ny, nz, new
     return n, False, size2
 
@@ -674,8 +676,14 @@ def _manifold(ref, nref, inc, inc_tags, ninc, ux, uy, uz, margin, deepest, sign,
             ez = float(ref[1, 2]) - rz
             e2 = ex * ex + ey * ey + ez * ez
             t = ((px - rx) * ex + (py - ry) * ey + (pz - rz) * ez) / e2 if e2 > 0.0 else 0.0
-            s = ((px - (rx + t * ex)) * ux + (py - (ry + t * ey)) * uy
-                 + (pz - (rz + t * ez)) * uz)
+            gx_ = px - (rx + t * ex)
+            gy_ = py - (ry + t * ey)
+            gz_ = pz - (rz + t * ez)
+            s = gx_ * ux + gy_ * uy + gz_ * uz
+            # the offset across u: lines that pass each other aside do not touch there
+            ax_, ay_, az_ = gx_ - s * ux, gy_ - s * uy, gz_ - s * uz
+            if ax_ * ax_ + ay_ * ay_ + az_ * az_ > margin * margin + TOUCH_RELATIVE * e2:
+                continue
         if -s >= -margin:
             if -s > deepest:
                 s = -deepest
@@ -709,9 +717,12 @@ def _manifold(ref, nref, inc, inc_tags, ninc, ux, uy, uz, margin, deepest, sign,
 @inline_kernel
 def _crossing_tag(start, side):
     """The feature of the point where the incident edge from the point tagged ``start``
-    crosses the reference's side ``side`` (0 to 8): distinct from the face tags (< 64) and
-    from the other crossings of a face (an edge crosses a side once)."""
-    return 64 + 32 * side + start % 32
+    crosses the reference's side ``side`` (0 to 8), below 700: distinct from the face tags
+    (< 32) and from the other crossings of a face (an edge of the face crosses a side once;
+    one from an earlier crossing is named by that crossing's side)."""
+    if start < 64:  # an edge of the face as it was
+        return 64 + 64 * side + start % 32
+    return 96 + 64 * side + ((start - 64) // 64) % 32  # an edge from an earlier crossing
 
 
 @inline_kernel

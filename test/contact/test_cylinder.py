@@ -323,3 +323,56 @@ def test_a_scene_cylinder_collides_as_its_own_shape(tmp_path):
     assert can.colliders == (Cylinder(0.1, 0.3, friction=0.3),)
     m, moments = mass_and_inertia('cylinder', 1000.0, {'radius': 0.1, 'length': 0.3})
     assert can.mass == m and tuple(can.inertia) == moments
+
+
+@pytest.mark.parametrize('a, pose_a, b, pose_b, normal', [
+    # a can standing 10 um into a 1 km slab, 2 cm thick: GJK stalled on rounding and said
+    # "apart", with a horizontal normal (review of 7c06965)
+    (Cylinder(0.1, 0.3), ((0.0, 0.0, 0.16 - 1e-5), I3), Box((1e3, 1e3, 0.02)),
+     ((0.0, 0.0, 0.0), I3), (0.0, 0.0, -1.0)),
+    # two 100 m rods lying stacked along y, 0.1 mm into each other, 43 m apart along it
+    (Cylinder(0.01, 100.0), ((0.0, 43.182, 0.03 - 1e-4), so3.exp((math.pi / 2, 0.0, 0.0))),
+     Cylinder(0.01, 100.0), ((0.0, 0.0, 0.01), so3.exp((math.pi / 2, 0.0, 0.0))),
+     (0.0, 0.0, -1.0))])
+def test_long_and_flat_overlaps_are_overlaps_with_the_normal_across(a, pose_a, b, pose_b,
+                                                                    normal):
+    """Where a Minkowski difference is long and flat, GJK's last simplex is all rounding: it
+    may call shapes apart only where a plane separates them; these overlap, so every contact
+    is along the normal across the thin side (within a milliradian: EPA on the rods' curved
+    sides, measured 2e-4 rad), with a positive depth."""
+    pose_a = (np.array(pose_a[0]), pose_a[1])
+    pose_b = (np.array(pose_b[0]), pose_b[1])
+    contacts = nph.collide(a, pose_a, b, pose_b, margin=0.001)
+    assert contacts
+    for c in contacts:
+        assert c.depth > 0.0
+        np.testing.assert_allclose(c.normal, normal, atol=1e-3)
+
+
+def test_side_lines_that_pass_aside_touch_once_where_they_cross():
+    """Two cylinders lying on each other, one turned 0.14 rad about the vertical: their side
+    lines are near parallel but pass aside of each other at the ends; the one contact is
+    where they cross, on both surfaces."""
+    lying = so3.exp((math.pi / 2, 0.0, 0.0))
+    turned = so3.exp((0.0, 0.0, 0.14)) @ lying
+    contacts = nph.collide(Cylinder(0.1, 0.6), ((0.0, 0.0, 0.199), turned), Cylinder(0.1, 0.6),
+                           ((0.0, 0.0, 0.0), lying), margin=0.01)
+    for c in contacts:
+        on_a = turned.T @ (c.point + 0.5 * c.depth * c.normal - (0.0, 0.0, 0.199))
+        assert abs(_cylinder_point_distance(0.1, 0.3, on_a)) < 1e-6
+    assert len(contacts) == 1 and contacts[0].depth == pytest.approx(0.001, abs=1e-6)
+
+
+def test_features_of_one_pair_are_distinct_and_a_tipped_cap_has_one_lowest_point():
+    """Two caps clipped against each other give each contact its own feature (warm starts
+    are looked up by it); a cylinder tipped either way about y over a plane touches at its
+    one lowest rim point (the octant of 180 degrees was once counted twice)."""
+    contacts = nph.collide(Cylinder(0.1, 0.2), ((0.0, 0.0, 0.0), I3), Cylinder(0.3, 0.2),
+                           ((-0.30310889, -0.175, 0.2), so3.exp((0.02, 0.0, 0.0))), margin=0.02)
+    assert contacts and len({c.feature for c in contacts}) == len(contacts)
+    for tip in (0.3, -0.3):
+        rotation = so3.exp((0.0, tip, 0.0))
+        height = 0.1 * math.cos(0.3) + 0.1 * math.sin(0.3) - 1e-4  # 0.1 mm into the plane
+        contacts = nph.collide(Cylinder(0.1, 0.2), ((0.0, 0.0, height), rotation), Plane(),
+                               ((0.0, 0.0, 0.0), I3), margin=0.0)
+        assert len(contacts) == 1 and contacts[0].depth == pytest.approx(1e-4, abs=1e-12)

@@ -180,7 +180,7 @@ def _corner(k):
 def _octant(x, y):
     """k in 0..7 with the angle of (x, y) in [k * 45, (k + 1) * 45) degrees, by comparisons
     alone (the same in either tier)."""
-    if y >= 0.0:
+    if y > 0.0 or (y == 0.0 and x >= 0.0):  # [0, 180) degrees
         if x > 0.0:
             return 0 if x > y else 1
         return 2 if -x < y else 3
