@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from rb_sim_ros.core.jit import kernel
+from rb_sim_ros.core.jit import inline_kernel, kernel
 
 # Below this length (m) a direction is undefined and a fallback is used.
 TINY_LENGTH = 1e-300
@@ -129,3 +129,31 @@ def reduce_to_four(p, d, count, nx, ny, nz):
         if k == 0 or area < least_area:
             least, least_area = k, area
     return first, far, most, least
+
+
+@inline_kernel
+def write_at_most_four(p, d, tags, count, rx, ry, rz, sign, base,
+                       point, normal, depth, feature, row):
+    """The contacts p[:count] (depths d, features base + tags), normal sign * r, into the
+    outputs from ``row``: all of them when they are at most 4, else the 4 of
+    ``reduce_to_four`` about r (each once); returns how many."""
+    if count <= 4:
+        for m in range(count):
+            write(point, normal, depth, feature, row + m, float(p[m, 0]), float(p[m, 1]),
+                  float(p[m, 2]), sign * rx, sign * ry, sign * rz, float(d[m]),
+                  base + int(tags[m]))
+        return count
+    keep = reduce_to_four(p, d, count, rx, ry, rz)
+    written = 0
+    for q in range(4):
+        m = keep[q]
+        seen = False
+        for w in range(q):
+            if keep[w] == m:
+                seen = True
+        if not seen:
+            write(point, normal, depth, feature, row + written, float(p[m, 0]),
+                  float(p[m, 1]), float(p[m, 2]), sign * rx, sign * ry, sign * rz,
+                  float(d[m]), base + int(tags[m]))
+            written += 1
+    return written

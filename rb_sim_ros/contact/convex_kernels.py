@@ -45,9 +45,8 @@ import numpy as np
 
 from rb_sim_ros.contact import shapes
 from rb_sim_ros.contact.contact_geometry import (apply as _apply, apply_t as _apply_t,
-                                                 put as _put,
-                                                 reduce_to_four as _reduce, TINY_LENGTH,
-                                                 write as _write)
+                                                 put as _put, TINY_LENGTH,
+                                                 write_at_most_four as _write_four)
 from rb_sim_ros.contact.shapes.base import NORMAL
 from rb_sim_ros.core.jit import inline_kernel, kernel
 
@@ -69,12 +68,13 @@ EPA_VERTICES = 64
 EPA_FACES = 2 * EPA_VERTICES - 4
 EPA_RELATIVE = 1e-11
 # Clipping buffers: a convex face of at most 9 points clipped by at most 9 planes stays
-# within 18 points; more (rounding) stops the clip and the single contact is used.
+# within 18 points. A clip at most doubles a polygon (each edge keeps its start and adds at
+# most one crossing), so one of more than CLIP_ROOM / 2 points (rounding) is not clipped
+# further: the single contact is used.
 CLIP_ROOM = 64
 # Faces are clipped only where the reference face is within acos(FACE_COS) (8 degrees) of the
 # contact normal: a box or cylinder resting on a face, or tilted on it as far as it rocks.
 FACE_COS = 0.99
-CLIP_STOP = 40
 POINT_FEATURE = 3000
 FACE_FEATURES = 0
 
@@ -654,11 +654,11 @@ def _manifold(ref, nref, inc, inc_tags, ninc, ux, uy, uz, margin, deepest, sign,
             if _clip_segment(poly, tags, sx, sy, sz, limit, e) == 0:
                 return 0
             continue
+        if count > CLIP_ROOM // 2:  # (before the clip writes: it could overrun)
+            return -1
         count = _clip_polygon(poly, tags, count, other, other_tags, sx, sy, sz, limit, e)
         if count == 0:
             return 0
-        if count > CLIP_STOP:
-            return -1
         for m in range(count):
             poly[m, 0], poly[m, 1], poly[m, 2] = other[m, 0], other[m, 1], other[m, 2]
             tags[m] = other_tags[m]
@@ -692,26 +692,8 @@ def _manifold(ref, nref, inc, inc_tags, ninc, ux, uy, uz, margin, deepest, sign,
             other_tags[kept] = tags[m]
             depths[kept] = -s
             kept += 1
-    if kept <= 4:
-        for m in range(kept):
-            _write(point, normal, depth, feature, row + m, float(other[m, 0]),
-                   float(other[m, 1]), float(other[m, 2]), sign * ux, sign * uy, sign * uz,
-                   float(depths[m]), base + int(other_tags[m]) % 1000)
-        return kept
-    keep = _reduce(other, depths, kept, ux, uy, uz)
-    written = 0
-    for q in range(4):
-        m = keep[q]
-        seen = False
-        for w in range(q):
-            if keep[w] == m:
-                seen = True
-        if not seen:
-            _write(point, normal, depth, feature, row + written, float(other[m, 0]),
-                   float(other[m, 1]), float(other[m, 2]), sign * ux, sign * uy, sign * uz,
-                   float(depths[m]), base + int(other_tags[m]) % 1000)
-            written += 1
-    return written
+    return _write_four(other, depths, other_tags, kept, ux, uy, uz, sign, base,
+                       point, normal, depth, feature, row)
 
 
 @inline_kernel
@@ -845,7 +827,7 @@ def convex_plane(kind, geom, centre, rot, p, n, margin, point, normal, depth, fe
     """A solid shape against a half-space (point p, unit normal n = geom[NORMAL:]): the points
     of its core's face along -n whose height s above the plane less the radius is at most
     ``margin``, halfway to the plane, normal -n, depth -s, features the face's tags; at most
-    4 (``_reduce``)."""
+    4 (``contact_geometry.write_at_most_four``)."""
     nx, ny, nz = float(n[NORMAL]), float(n[NORMAL + 1]), float(n[NORMAL + 2])
     px, py, pz = float(p[0]), float(p[1]), float(p[2])
     radius = shapes.core_radius_of(kind, geom)
@@ -863,23 +845,5 @@ def convex_plane(kind, geom, centre, rot, p, n, margin, point, normal, depth, fe
             tags[kept] = tags[m]
             depths[kept] = -s
             kept += 1
-    if kept <= 4:
-        for m in range(kept):
-            _write(point, normal, depth, feature, row + m, float(face[m, 0]),
-                   float(face[m, 1]), float(face[m, 2]), -nx, -ny, -nz, float(depths[m]),
-                   int(tags[m]))
-        return kept
-    keep = _reduce(face, depths, kept, -nx, -ny, -nz)
-    written = 0
-    for q in range(4):
-        m = keep[q]
-        seen = False
-        for w in range(q):
-            if keep[w] == m:
-                seen = True
-        if not seen:
-            _write(point, normal, depth, feature, row + written, float(face[m, 0]),
-                   float(face[m, 1]), float(face[m, 2]), -nx, -ny, -nz, float(depths[m]),
-                   int(tags[m]))
-            written += 1
-    return written
+    return _write_four(face, depths, tags, kept, -nx, -ny, -nz, 1.0, int(0),
+                       point, normal, depth, feature, row)

@@ -60,9 +60,9 @@ import numpy as np
 from rb_sim_ros.contact import convex_kernels, shapes
 from rb_sim_ros.contact.contact_geometry import (apply as _apply, apply_t as _apply_t,
                                                  clamp as _clamp, clip as _clip,
-                                                 column as _column, put as _put,
-                                                 reduce_to_four as _reduce, TINY_LENGTH,
-                                                 unit as _unit, write as _write)
+                                                 column as _column, put as _put, TINY_LENGTH,
+                                                 unit as _unit, write as _write,
+                                                 write_at_most_four as _write_four)
 from rb_sim_ros.contact.shapes.base import GEOM_WIDTH, HALF_LENGTH, HX, HY, HZ, NORMAL, RADIUS
 from rb_sim_ros.core.jit import (generated_kernel, inline_kernel, kernel, literal_entry,
                                  literal_gate, made_global)
@@ -579,8 +579,8 @@ def _face_contacts(cr, rotr, gr, axis, ci, roti, gi, margin, sign,
     (outward normal n, from reference to incident), and the incident box's face most against
     n, clipped to the reference face's 4 side planes; the points within ``margin`` of the
     reference face (height s = n . p - (n . c_r + h_axis)), moved halfway to it, depth -s, at
-    most 4 (``_reduce``). ``sign`` -1: the reference box is B, so the normals are negated (A to
-    B) and the features get 100 more."""
+    most 4 (``contact_geometry.write_at_most_four``). ``sign`` -1: the reference box is B, so
+    the normals are negated (A to B) and the features get 100 more."""
     crx, cry, crz = float(cr[0]), float(cr[1]), float(cr[2])
     cix, ciy, ciz = float(ci[0]), float(ci[1]), float(ci[2])
     nx, ny, nz = _column(rotr, axis)
@@ -646,26 +646,8 @@ def _face_contacts(cr, rotr, gr, axis, ci, roti, gi, margin, sign,
             depths[kept] = -s
             kept += 1
     base = 1000 * (axis + 1) + (0 if sk > 0.0 else 500) + 10 * k + (100 if sign < 0.0 else 0)
-    if kept <= 4:
-        for m in range(kept):
-            _write(point, normal, depth, feature, row + m, float(other[m, 0]),
-                   float(other[m, 1]), float(other[m, 2]), sign * nx, sign * ny, sign * nz,
-                   float(depths[m]), base + int(other_tags[m]))
-        return kept
-    keep = _reduce(other, depths, kept, nx, ny, nz)
-    written = int(0)
-    for q in range(4):
-        m = keep[q]
-        seen = False
-        for w in range(q):
-            if keep[w] == m:
-                seen = True
-        if not seen:
-            _write(point, normal, depth, feature, row + written, float(other[m, 0]),
-                   float(other[m, 1]), float(other[m, 2]), sign * nx, sign * ny, sign * nz,
-                   float(depths[m]), base + int(other_tags[m]))
-            written += 1
-    return written
+    return _write_four(other, depths, other_tags, kept, nx, ny, nz, sign, base,
+                       point, normal, depth, feature, row)
 
 
 @kernel
