@@ -118,11 +118,11 @@ def sweep_and_prune(lower, upper, group, static, axis):
 
 
 @inline_kernel
-def plane_candidates(colliders, body, rotations, kinds, geoms, centres, plane_normals,
+def plane_candidates(colliders, body, rotations, kinds, geoms, pool, centres, plane_normals,
                      plane_points, margin):
     """Pairs (P, 2) of (collider, plane), sorted, where collider ``colliders[k]`` comes within
     its body's margin of plane p: n . c - support <= n . p0 + margin, support the collider's
-    extent towards the plane (its kind's, ``shapes.support_of``, along n in its axes)."""
+    extent towards the plane (its kind's, ``shapes.support_of``, along -n in its axes)."""
     count, planes = colliders.shape[0], plane_normals.shape[0]
     out = np.empty((count * planes, 2), dtype=np.int64)
     found = 0
@@ -132,14 +132,14 @@ def plane_candidates(colliders, body, rotations, kinds, geoms, centres, plane_no
         for p in range(planes):
             nx, ny, nz = (float(plane_normals[p, 0]), float(plane_normals[p, 1]),
                           float(plane_normals[p, 2]))
-            # n in the collider's axes: R^T n (the kinds are symmetric: -n reaches as far)
+            # -n in the collider's axes: -R^T n, towards the plane
             l0 = (nx * float(rotations[c, 0]) + ny * float(rotations[c, 3])
                   + nz * float(rotations[c, 6]))
             l1 = (nx * float(rotations[c, 1]) + ny * float(rotations[c, 4])
                   + nz * float(rotations[c, 7]))
             l2 = (nx * float(rotations[c, 2]) + ny * float(rotations[c, 5])
                   + nz * float(rotations[c, 8]))
-            support = shapes.support_of(kind, geoms, c, l0, l1, l2)
+            support = shapes.support_of(kind, geoms, pool, c, -l0, -l1, -l2)
             height = (nx * float(centres[c, 0]) + ny * float(centres[c, 1])
                       + nz * float(centres[c, 2])) - (
                 nx * float(plane_points[p, 0]) + ny * float(plane_points[p, 1])

@@ -80,7 +80,8 @@ class ColliderSet:
 
     Read by the world: ``moving`` (the moving owners; a world's body i is ``moving[i]``, its
     store row ``rows[i]``), ``kinds`` and ``geoms`` (colliders then planes, the narrow
-    phase's rows), ``body`` (each collider's moving body, or len(moving) for a static one),
+    phase's rows), ``pool`` (what their kinds keep beyond their rows: ``shapes.Pool``),
+    ``body`` (each collider's moving body, or len(moving) for a static one),
     ``owner`` (its owner's index, what the broad phase keeps apart), ``local_position`` and
     ``local_rotation9`` (in its body), ``reach`` (each moving body's colliders' reach from its
     centre of mass), ``centres``, ``rotations9``, ``lower`` and ``upper`` (colliders then
@@ -158,8 +159,10 @@ class ColliderSet:
         self.kinds = np.array([shapes.kind_of(c[0]) for c in colliders]
                               + [nk.KIND_PLANE] * npl, dtype=np.int64)
         self.geoms = np.zeros((nc + npl, nk.GEOM_WIDTH))
+        pool = shapes.Pool()
         for k, c in enumerate(colliders):
-            self.geoms[k] = shapes.packed(c[0], c[4])
+            self.geoms[k] = shapes.packed(c[0], c[4], pool)
+        self.pool = pool.array()
         self.geoms[nc:, nk.NORMAL:nk.NORMAL + 3] = self.plane_normals
         reach = np.zeros(nb)
         for shape, _, body, position, _ in colliders:
@@ -177,8 +180,8 @@ class ColliderSet:
         self.lower = np.zeros((nc, 3))
         self.upper = np.zeros((nc, 3))
         for c in np.flatnonzero(self.static).tolist():
-            wk.extents(c, rotations9, self.kinds, self.geoms, 0.0, centres, self.lower,
-                       self.upper)
+            wk.extents(c, rotations9, self.kinds, self.geoms, self.pool, 0.0, centres,
+                       self.lower, self.upper)
         self.centres = np.concatenate([centres, self.plane_points])
         self.rotations9 = np.concatenate([rotations9, np.tile(np.eye(3).reshape(9), (npl, 1))])
         # (Left writable: the compiled step is typed for writable C arrays, and a read-only

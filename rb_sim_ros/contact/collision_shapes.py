@@ -40,10 +40,11 @@ from rb_sim_ros.contact.shapes.base import (IDENTITY_XYZW, MAX_LENGTH, MIN_LENGT
 from rb_sim_ros.contact.shapes.box import Box
 from rb_sim_ros.contact.shapes.capsule import Capsule
 from rb_sim_ros.contact.shapes.cylinder import Cylinder
+from rb_sim_ros.contact.shapes.hull import Hull
 from rb_sim_ros.contact.shapes.plane import Plane, UNIT_TOLERANCE
 from rb_sim_ros.contact.shapes.sphere import Sphere
 
-__all__ = ['Box', 'BY_NAME', 'Capsule', 'Cylinder', 'IDENTITY_XYZW', 'is_shape', 'KINDS',
-           'MAX_LENGTH',
-           'MIN_LENGTH', 'NAMES', 'ORIGIN', 'Plane', 'RANK', 'Shape', 'shape_from_dict',
-           'SHAPE_TYPES', 'shape_to_dict', 'Sphere', 'UNIT_TOLERANCE', 'world_pose']
+__all__ = ['Box', 'BY_NAME', 'Capsule', 'Cylinder', 'Hull', 'IDENTITY_XYZW', 'is_shape',
+           'KINDS', 'MAX_LENGTH', 'MIN_LENGTH', 'NAMES', 'ORIGIN', 'Plane', 'RANK', 'Shape',
+           'shape_from_dict', 'SHAPE_TYPES', 'shape_to_dict', 'Sphere', 'UNIT_TOLERANCE',
+           'world_pose']

@@ -245,7 +245,7 @@ class CollisionWorld:
         self._cbody, self._cowner = cs.body, cs.owner
         self._cstatic, self._cdyn = cs.static, cs.dynamic
         self._local_pos, self._local_rot9 = cs.local_position, cs.local_rotation9
-        self._kinds, self._geoms, self._reach = cs.kinds, cs.geoms, cs.reach
+        self._kinds, self._geoms, self._pool, self._reach = cs.kinds, cs.geoms, cs.pool, cs.reach
         self._plane_normals, self._plane_points = cs.plane_normals, cs.plane_points
         # What the kernels write: the colliders' world placement and bounds (a static one's
         # as the set placed it), the planes' after them.
@@ -484,6 +484,7 @@ class CollisionWorld:
             st.bad, st.clock, st.warn_sq,
             self._rows, self._q, self._has_q, self._reach, self._inverse_mass, self._step_rows,
             self._body_of_row, self._kinds, self._geoms, self._restitution, self._friction,
+            self._pool,
             self._cbody, self._cowner, self._cstatic, self._cdyn, self._local_pos,
             self._local_rot9, self._plane_normals, self._plane_points,
             self._all_centres, self._all_rotations, self._lower, self._upper,

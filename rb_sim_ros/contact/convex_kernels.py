@@ -81,21 +81,21 @@ FACE_FEATURES = 0
 
 # -- supports -----------------------------------------------------------------------------------
 @inline_kernel
-def _support(kind, geom, centre, rot, dx, dy, dz):
+def _support(kind, geom, centre, rot, pool, dx, dy, dz):
     """The world point of the core of a shape (kind, geom, centre, rot) farthest along the
     world direction d."""
     lx, ly, lz = _apply_t(rot, dx, dy, dz)
-    px, py, pz = shapes.core_point_of(kind, geom, lx, ly, lz)
+    px, py, pz = shapes.core_point_of(kind, geom, pool, lx, ly, lz)
     wx, wy, wz = _apply(rot, px, py, pz)
     return float(centre[0]) + wx, float(centre[1]) + wy, float(centre[2]) + wz
 
 
 @inline_kernel
-def _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, dx, dy, dz, k, W, PA, PB):
+def _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, pool, dx, dy, dz, k, W, PA, PB):
     """Row k of the simplex: a = A's core point along d, b = B's along -d, w = a - b (the
     point of A - B farthest along d)."""
-    ax, ay, az = _support(ka, ga, ca, ra, dx, dy, dz)
-    bx, by, bz = _support(kb, gb, cb, rb, -dx, -dy, -dz)
+    ax, ay, az = _support(ka, ga, ca, ra, pool, dx, dy, dz)
+    bx, by, bz = _support(kb, gb, cb, rb, pool, -dx, -dy, -dz)
     PA[k, 0], PA[k, 1], PA[k, 2] = ax, ay, az
     PB[k, 0], PB[k, 1], PB[k, 2] = bx, by, bz
     W[k, 0], W[k, 1], W[k, 2] = ax - bx, ay - by, az - bz
@@ -270,7 +270,7 @@ def _apply_mask(W, PA, PB, lam, idx, weights, scratch, i, j, k, u, v, w, mask):
 
 
 @kernel
-def _gjk(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, lam):
+def _gjk(ka, ga, ca, ra, kb, gb, cb, rb, pool, W, PA, PB, lam):
     """GJK on the cores of A and B: (n, overlap, size2). On return W[:n], PA[:n], PB[:n] and
     lam[:n] give the closest points (a = sum lam PA, b = sum lam PB) when apart; overlap when
     the cores touch or overlap (then W[:n] is the last simplex, for EPA); size2 the largest
@@ -291,7 +291,7 @@ def _gjk(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, lam):
     weights = np.empty(4)
     scratch = np.empty((4, 9))
     for _ in range(GJK_ITERATIONS):
-        _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, -vx, -vy, -vz, n, W, PA, PB)
+        _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, pool, -vx, -vy, -vz, n, W, PA, PB)
         wx, wy, wz = float(W[n, 0]), float(W[n, 1]), float(W[n, 2])
         w2 = wx * wx + wy * wy + wz * wz
         if w2 > size2:
@@ -353,7 +353,7 @@ def _face_plane(V, FV, FN, FD, f):
 
 
 @kernel
-def _blow_up(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, n, size2):
+def _blow_up(ka, ga, ca, ra, kb, gb, cb, rb, pool, W, PA, PB, n, size2):
     """Grow GJK's simplex (the origin on or in it) to a tetrahedron of A - B; returns its
     vertex count (4, or less when A - B is flat there: no EPA)."""
     eps = 1e-9 * math.sqrt(size2)
@@ -362,7 +362,7 @@ def _blow_up(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, n, size2):
             dx = 1.0 if q == 0 else (-1.0 if q == 1 else 0.0)
             dy = 1.0 if q == 2 else (-1.0 if q == 3 else 0.0)
             dz = 1.0 if q == 4 else (-1.0 if q == 5 else 0.0)
-            _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, dx, dy, dz, int(1), W, PA, PB)
+            _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, pool, dx, dy, dz, int(1), W, PA, PB)
             ex, ey, ez = (float(W[1, 0]) - float(W[0, 0]), float(W[1, 1]) - float(W[0, 1]),
                           float(W[1, 2]) - float(W[0, 2]))
             if ex * ex + ey * ey + ez * ez > eps * eps:
@@ -387,7 +387,7 @@ def _blow_up(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, n, size2):
             dx, dy, dz = (px, py, pz) if q == 0 else ((-px, -py, -pz) if q == 1 else
                                                       ((qx, qy, qz) if q == 2 else
                                                        (-qx, -qy, -qz)))
-            _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, dx, dy, dz, int(2), W, PA, PB)
+            _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, pool, dx, dy, dz, int(2), W, PA, PB)
             # its distance from the segment's line
             rx, ry, rz = (float(W[2, 0]) - float(W[0, 0]), float(W[2, 1]) - float(W[0, 1]),
                           float(W[2, 2]) - float(W[0, 2]))
@@ -407,7 +407,7 @@ def _blow_up(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, n, size2):
             return n
         for q in range(2):
             s = 1.0 if q == 0 else -1.0
-            _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, s * nx, s * ny, s * nz, int(3),
+            _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, pool, s * nx, s * ny, s * nz, int(3),
                        W, PA, PB)
             h = (_dot(W, 3, nx, ny, nz) - (nx * ax + ny * ay + nz * az)) / length
             if abs(h) > eps:
@@ -417,7 +417,7 @@ def _blow_up(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, n, size2):
 
 
 @kernel
-def _epa(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, size2):
+def _epa(ka, ga, ca, ra, kb, gb, cb, rb, pool, W, PA, PB, size2):
     """EPA from the tetrahedron W[:4], PA, PB (the origin in it): (ok, nx, ny, nz, depth, a, b)
     with n the normal (A to B) of the face of A - B nearest the origin, depth its distance and
     a, b the cores' points there (barycentric on the face)."""
@@ -468,7 +468,7 @@ def _epa(ka, ga, ca, ra, kb, gb, cb, rb, W, PA, PB, size2):
         gbz = u * float(VB[i, 2]) + v * float(VB[j, 2]) + w * float(VB[k, 2])
         if nv == EPA_VERTICES:
             break
-        _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, nx, ny, nz, nv, V, VA, VB)
+        _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, pool, nx, ny, nz, nv, V, VA, VB)
         reach = _dot(V, nv, nx, ny, nz)
         if reach - nearest <= tolerance:
             break
@@ -553,11 +553,11 @@ def _area(ax, ay, az, bx, by, bz, cx, cy, cz, nx, ny, nz):
 
 # -- the manifold -------------------------------------------------------------------------------
 @inline_kernel
-def _world_face(kind, geom, centre, rot, dx, dy, dz, shift, out, tags):
+def _world_face(kind, geom, centre, rot, pool, dx, dy, dz, shift, out, tags):
     """The world points of the core's face along the world direction d (unit), each moved by
     ``shift`` along d (the rounding radius); their count."""
     lx, ly, lz = _apply_t(rot, dx, dy, dz)
-    count = shapes.core_face_of(kind, geom, lx, ly, lz, out, tags)
+    count = shapes.core_face_of(kind, geom, pool, lx, ly, lz, out, tags)
     for m in range(count):
         wx, wy, wz = _apply(rot, float(out[m, 0]), float(out[m, 1]), float(out[m, 2]))
         out[m, 0] = float(centre[0]) + wx + shift * dx
@@ -755,7 +755,8 @@ def _clip_segment(seg, tags, sx, sy, sz, limit, plane):
 
 # -- the pair tests ---------------------------------------------------------------------------
 @kernel
-def convex_pair(ka, ga, ca, rota, kb, gb, cb, rotb, margin, point, normal, depth, feature, row):
+def convex_pair(ka, ga, ca, rota, kb, gb, cb, rotb, pool, margin, point, normal, depth, feature,
+                row):
     """The contacts of two solid shapes (see the module doc) within ``margin``: written from
     ``row``; their count (0 to 4)."""
     W = np.empty((4, 3))
@@ -764,7 +765,7 @@ def convex_pair(ka, ga, ca, rota, kb, gb, cb, rotb, margin, point, normal, depth
     lam = np.empty(4)
     rad_a = shapes.core_radius_of(ka, ga)
     rad_b = shapes.core_radius_of(kb, gb)
-    n, overlap, size2 = _gjk(ka, ga, ca, rota, kb, gb, cb, rotb, W, PA, PB, lam)
+    n, overlap, size2 = _gjk(ka, ga, ca, rota, kb, gb, cb, rotb, pool, W, PA, PB, lam)
     ok = False
     nx, ny, nz, core_depth = 0.0, 0.0, 1.0, 0.0
     ax, ay, az, bx, by, bz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
@@ -783,9 +784,9 @@ def convex_pair(ka, ga, ca, rota, kb, gb, cb, rotb, margin, point, normal, depth
         if dist > TINY_LENGTH:
             nx, ny, nz, core_depth, ok = dx / dist, dy / dist, dz / dist, -dist, True
     if not ok:
-        if _blow_up(ka, ga, ca, rota, kb, gb, cb, rotb, W, PA, PB, n, size2) == 4:
+        if _blow_up(ka, ga, ca, rota, kb, gb, cb, rotb, pool, W, PA, PB, n, size2) == 4:
             ok, nx, ny, nz, core_depth, ax, ay, az, bx, by, bz = _epa(
-                ka, ga, ca, rota, kb, gb, cb, rotb, W, PA, PB, size2)
+                ka, ga, ca, rota, kb, gb, cb, rotb, pool, W, PA, PB, size2)
     if not ok:  # flat or failed: the centres' direction and the overlap along it
         nx, ny, nz = float(cb[0]) - float(ca[0]), float(cb[1]) - float(ca[1]), \
             float(cb[2]) - float(ca[2])
@@ -794,8 +795,8 @@ def convex_pair(ka, ga, ca, rota, kb, gb, cb, rotb, margin, point, normal, depth
             nx, ny, nz = nx / length, ny / length, nz / length
         else:
             nx, ny, nz = 0.0, 0.0, 1.0
-        ax, ay, az = _support(ka, ga, ca, rota, nx, ny, nz)
-        bx, by, bz = _support(kb, gb, cb, rotb, -nx, -ny, -nz)
+        ax, ay, az = _support(ka, ga, ca, rota, pool, nx, ny, nz)
+        bx, by, bz = _support(kb, gb, cb, rotb, pool, -nx, -ny, -nz)
         core_depth = (ax - bx) * nx + (ay - by) * ny + (az - bz) * nz
     deepest = core_depth + rad_a + rad_b
     if deepest < -margin:
@@ -805,8 +806,8 @@ def convex_pair(ka, ga, ca, rota, kb, gb, cb, rotb, margin, point, normal, depth
     tags_a = np.empty(shapes.CORE_FACE_CAPACITY, dtype=np.int64)
     face_b = np.empty((shapes.CORE_FACE_CAPACITY, 3))
     tags_b = np.empty(shapes.CORE_FACE_CAPACITY, dtype=np.int64)
-    na = _world_face(ka, ga, ca, rota, nx, ny, nz, rad_a, face_a, tags_a)
-    nb = _world_face(kb, gb, cb, rotb, -nx, -ny, -nz, rad_b, face_b, tags_b)
+    na = _world_face(ka, ga, ca, rota, pool, nx, ny, nz, rad_a, face_a, tags_a)
+    nb = _world_face(kb, gb, cb, rotb, pool, -nx, -ny, -nz, rad_b, face_b, tags_b)
     count = -1  # (a point against anything: the one contact of the closest points is exact)
     if na >= 2 and nb >= 2 and na >= nb:
         count = _manifold(face_a, na, face_b, tags_b, nb, nx, ny, nz, margin, deepest, 1.0,
@@ -823,7 +824,7 @@ def convex_pair(ka, ga, ca, rota, kb, gb, cb, rotb, margin, point, normal, depth
 
 
 @kernel
-def convex_plane(kind, geom, centre, rot, p, n, margin, point, normal, depth, feature, row):
+def convex_plane(kind, geom, centre, rot, pool, p, n, margin, point, normal, depth, feature, row):
     """A solid shape against a half-space (point p, unit normal n = geom[NORMAL:]): the points
     of its core's face along -n whose height s above the plane less the radius is at most
     ``margin``, halfway to the plane, normal -n, depth -s, features the face's tags; at most
@@ -833,7 +834,7 @@ def convex_plane(kind, geom, centre, rot, p, n, margin, point, normal, depth, fe
     radius = shapes.core_radius_of(kind, geom)
     face = np.empty((shapes.CORE_FACE_CAPACITY, 3))
     tags = np.empty(shapes.CORE_FACE_CAPACITY, dtype=np.int64)
-    count = _world_face(kind, geom, centre, rot, -nx, -ny, -nz, radius, face, tags)
+    count = _world_face(kind, geom, centre, rot, pool, -nx, -ny, -nz, radius, face, tags)
     kept = 0
     depths = np.empty(shapes.CORE_FACE_CAPACITY)
     for m in range(count):

@@ -67,9 +67,9 @@ from rb_sim_ros.contact.shapes.base import GEOM_WIDTH, HALF_LENGTH, HX, HY, HZ, 
 from rb_sim_ros.core.jit import (generated_kernel, inline_kernel, kernel, literal_entry,
                                  literal_gate, made_global)
 
-KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE, KIND_CYLINDER = (
+KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE, KIND_CYLINDER, KIND_HULL = (
     shapes.sphere.KIND, shapes.capsule.KIND, shapes.box.KIND, shapes.plane.KIND,
-    shapes.cylinder.KIND)
+    shapes.cylinder.KIND, shapes.hull.KIND)
 # The most contacts of one pair: capsule-box, its nearest point and 8 candidates (2 ends, 6
 # face crossings) on the same face. (Box-plane 8 vertices, box-box 4, capsule-capsule 2.)
 MAX_CONTACTS_PER_PAIR = 9
@@ -806,16 +806,16 @@ def pairs_named(names) -> int:
     return bits
 
 
-def _pair_sphere_sphere(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
-                        point, normal, depth, feature, start):
+def _pair_sphere_sphere(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool,
+                        margin, point, normal, depth, feature, start):
     return _sphere_sphere(float(centre_a[0]), float(centre_a[1]), float(centre_a[2]),
                           float(geom_a[RADIUS]), float(centre_b[0]), float(centre_b[1]),
                           float(centre_b[2]), float(geom_b[RADIUS]), margin, int(0),
                           0.0, 0.0, 1.0, point, normal, depth, feature, start)
 
 
-def _pair_sphere_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
-                         point, normal, depth, feature, start):
+def _pair_sphere_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool,
+                         margin, point, normal, depth, feature, start):
     if swap:
         return _sphere_capsule(centre_b, float(geom_b[RADIUS]), centre_a, rot_a,
                                float(geom_a[RADIUS]), float(geom_a[HALF_LENGTH]), margin,
@@ -825,7 +825,7 @@ def _pair_sphere_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
                            point, normal, depth, feature, start)
 
 
-def _pair_sphere_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+def _pair_sphere_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool, margin,
                      point, normal, depth, feature, start):
     if swap:
         return _sphere_box(centre_b, float(geom_b[RADIUS]), centre_a, rot_a, geom_a, margin,
@@ -834,7 +834,7 @@ def _pair_sphere_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot
                        point, normal, depth, feature, start)
 
 
-def _pair_sphere_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+def _pair_sphere_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool, margin,
                        point, normal, depth, feature, start):
     if swap:
         return _sphere_plane(float(centre_b[0]), float(centre_b[1]), float(centre_b[2]),
@@ -849,14 +849,14 @@ def _pair_sphere_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, r
                          int(0), point, normal, depth, feature, start)
 
 
-def _pair_capsule_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
-                          point, normal, depth, feature, start):
+def _pair_capsule_capsule(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool,
+                          margin, point, normal, depth, feature, start):
     return _capsule_capsule(centre_a, rot_a, float(geom_a[RADIUS]), float(geom_a[HALF_LENGTH]),
                             centre_b, rot_b, float(geom_b[RADIUS]), float(geom_b[HALF_LENGTH]),
                             margin, point, normal, depth, feature, start)
 
 
-def _pair_capsule_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+def _pair_capsule_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool, margin,
                       point, normal, depth, feature, start):
     if swap:
         return _capsule_box(centre_b, rot_b, float(geom_b[RADIUS]), float(geom_b[HALF_LENGTH]),
@@ -866,8 +866,8 @@ def _pair_capsule_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, ro
                         centre_b, rot_b, geom_b, margin, point, normal, depth, feature, start)
 
 
-def _pair_capsule_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
-                        point, normal, depth, feature, start):
+def _pair_capsule_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool,
+                        margin, point, normal, depth, feature, start):
     if swap:
         return _capsule_plane(centre_b, rot_b, float(geom_b[RADIUS]),
                               float(geom_b[HALF_LENGTH]), centre_a, geom_a, margin,
@@ -876,13 +876,13 @@ def _pair_capsule_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, 
                           centre_b, geom_b, margin, point, normal, depth, feature, start)
 
 
-def _pair_box_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+def _pair_box_box(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool, margin,
                   point, normal, depth, feature, start):
     return _box_box(centre_a, rot_a, geom_a, centre_b, rot_b, geom_b, margin,
                     point, normal, depth, feature, start)
 
 
-def _pair_box_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+def _pair_box_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool, margin,
                     point, normal, depth, feature, start):
     if swap:
         return _box_plane(centre_b, rot_b, geom_b, centre_a, geom_a, margin,
@@ -892,59 +892,47 @@ def _pair_box_plane(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_
 
 
 @kernel
-def _pair_convex(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
+def _pair_convex(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool, margin,
                  point, normal, depth, feature, start, low, high):
     """Two solid kinds by the convex narrow phase (``convex_kernels.convex_pair``), the lower
     kind first."""
     if swap:
         return convex_kernels.convex_pair(low, geom_b, centre_b, rot_b, high, geom_a, centre_a,
-                                          rot_a, margin, point, normal, depth, feature, start)
+                                          rot_a, pool, margin, point, normal, depth, feature,
+                                          start)
     return convex_kernels.convex_pair(low, geom_a, centre_a, rot_a, high, geom_b, centre_b,
-                                      rot_b, margin, point, normal, depth, feature, start)
+                                      rot_b, pool, margin, point, normal, depth, feature, start)
 
 
-def _pair_sphere_cylinder(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
-                          point, normal, depth, feature, start):
-    return _pair_convex(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
-                        point, normal, depth, feature, start, int(KIND_SPHERE), int(KIND_CYLINDER))
+def _convex_row(low, high):
+    """The test of a row of two solid kinds (low, high) served by the convex narrow phase."""
+    def test(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool, margin,
+             point, normal, depth, feature, start):
+        return _pair_convex(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool,
+                            margin, point, normal, depth, feature, start, int(low), int(high))
+    test.__name__ = test.__qualname__ = f'_pair_{KIND_NAMES[low]}_{KIND_NAMES[high]}'
+    return test
 
 
-def _pair_capsule_cylinder(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b,
-                           margin, point, normal, depth, feature, start):
-    return _pair_convex(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
-                        point, normal, depth, feature, start, int(KIND_CAPSULE),
-                        int(KIND_CYLINDER))
-
-
-def _pair_box_cylinder(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
-                       point, normal, depth, feature, start):
-    return _pair_convex(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
-                        point, normal, depth, feature, start, int(KIND_BOX), int(KIND_CYLINDER))
-
-
-def _pair_cylinder_cylinder(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b,
-                            margin, point, normal, depth, feature, start):
-    return _pair_convex(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
-                        point, normal, depth, feature, start, int(KIND_CYLINDER),
-                        int(KIND_CYLINDER))
-
-
-def _pair_plane_cylinder(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin,
-                         point, normal, depth, feature, start):
-    """The plane is the lower kind here: the solid's contacts (``convex_plane``, normals from
-    the solid) turned to run from the plane."""
-    if swap:
-        count = convex_kernels.convex_plane(int(KIND_CYLINDER), geom_a, centre_a, rot_a, centre_b,
-                                            geom_b, margin, point, normal, depth, feature,
-                                            start)
-    else:
-        count = convex_kernels.convex_plane(int(KIND_CYLINDER), geom_b, centre_b, rot_b, centre_a,
-                                            geom_a, margin, point, normal, depth, feature,
-                                            start)
-    for row in range(start, start + count):
-        normal[row, 0], normal[row, 1], normal[row, 2] = (
-            -normal[row, 0], -normal[row, 1], -normal[row, 2])
-    return count
+def _plane_row(kind):
+    """The test of the row (plane, ``kind``) for a solid kind ranked after the plane: the
+    solid's contacts (``convex_plane``, normals from the solid) turned to run from the plane."""
+    def test(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool, margin,
+             point, normal, depth, feature, start):
+        if swap:
+            count = convex_kernels.convex_plane(int(kind), geom_a, centre_a, rot_a, pool,
+                                                centre_b, geom_b, margin, point, normal, depth,
+                                                feature, start)
+        else:
+            count = convex_kernels.convex_plane(int(kind), geom_b, centre_b, rot_b, pool,
+                                                centre_a, geom_a, margin, point, normal, depth,
+                                                feature, start)
+        for row in range(start, start + count):
+            normal[row, 0], normal[row, 1], normal[row, 2] = (
+                -normal[row, 0], -normal[row, 1], -normal[row, 2])
+        return count
+    test.__name__ = test.__qualname__ = f'_pair_plane_{KIND_NAMES[kind]}'
+    return test
 
 
 # (low kind, high kind, test): a row's index is its bit in a set of tests. Not plane-plane: two
@@ -959,11 +947,17 @@ PAIR_TESTS = (
     (KIND_CAPSULE, KIND_PLANE, _pair_capsule_plane),
     (KIND_BOX, KIND_BOX, _pair_box_box),
     (KIND_BOX, KIND_PLANE, _pair_box_plane),
-    (KIND_SPHERE, KIND_CYLINDER, _pair_sphere_cylinder),
-    (KIND_CAPSULE, KIND_CYLINDER, _pair_capsule_cylinder),
-    (KIND_BOX, KIND_CYLINDER, _pair_box_cylinder),
-    (KIND_PLANE, KIND_CYLINDER, _pair_plane_cylinder),
-    (KIND_CYLINDER, KIND_CYLINDER, _pair_cylinder_cylinder),
+    (KIND_SPHERE, KIND_CYLINDER, _convex_row(KIND_SPHERE, KIND_CYLINDER)),
+    (KIND_CAPSULE, KIND_CYLINDER, _convex_row(KIND_CAPSULE, KIND_CYLINDER)),
+    (KIND_BOX, KIND_CYLINDER, _convex_row(KIND_BOX, KIND_CYLINDER)),
+    (KIND_PLANE, KIND_CYLINDER, _plane_row(KIND_CYLINDER)),
+    (KIND_CYLINDER, KIND_CYLINDER, _convex_row(KIND_CYLINDER, KIND_CYLINDER)),
+    (KIND_SPHERE, KIND_HULL, _convex_row(KIND_SPHERE, KIND_HULL)),
+    (KIND_CAPSULE, KIND_HULL, _convex_row(KIND_CAPSULE, KIND_HULL)),
+    (KIND_BOX, KIND_HULL, _convex_row(KIND_BOX, KIND_HULL)),
+    (KIND_PLANE, KIND_HULL, _plane_row(KIND_HULL)),
+    (KIND_CYLINDER, KIND_HULL, _convex_row(KIND_CYLINDER, KIND_HULL)),
+    (KIND_HULL, KIND_HULL, _convex_row(KIND_HULL, KIND_HULL)),
 )
 PAIR_KINDS = tuple((low, high) for low, high, _ in PAIR_TESTS)
 PAIR_BIT = {pair: 1 << i for i, pair in enumerate(PAIR_KINDS)}
@@ -983,8 +977,8 @@ _check_table()
 
 def _dispatch_source() -> str:
     """``_pair_dispatch``: for the pair (low, high) the gated test of its row, else -1."""
-    args = ('tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, margin, point, '
-            'normal, depth, feature, start')
+    args = ('tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool, margin, '
+            'point, normal, depth, feature, start')
     lines = [f'def _pair_dispatch(low, high, {args}):',
              '    """The contacts of a pair of kinds (low, high) by its row of PAIR_TESTS, or -1',
              '    (no row, or a test outside ``tests``). Written from the table."""']
@@ -1002,7 +996,7 @@ _pair_dispatch = generated_kernel(globals(), '_pair_dispatch', _dispatch_source(
 
 @inline_kernel
 def collide_pair_of(tests, kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, centre_b, rot_b,
-                    margin, point, normal, depth, feature, start):
+                    pool, margin, point, normal, depth, feature, start):
     """``collide_pair`` with the contact tests of the set ``tests`` alone (``PAIR_BIT``; a
     constant: see ``jit.literal_gate``); a pair outside it is a ValueError, as two planes
     are. Compiled into its callers (each with its own constant), never on its own."""
@@ -1022,7 +1016,7 @@ def collide_pair_of(tests, kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, cent
     low = kind_b if swap else kind_a
     high = kind_a if swap else kind_b
     count = _pair_dispatch(low, high, tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b,
-                           rot_b, margin, point, normal, depth, feature, start)
+                           rot_b, pool, margin, point, normal, depth, feature, start)
     if count < 0:
         raise ValueError('collide_pair: no contact test between these kinds (two planes are '
                          'both static, a kind is not one of KIND_*, or the pair is not in the '
@@ -1035,7 +1029,7 @@ def collide_pair_of(tests, kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, cent
 
 
 @kernel
-def collide_pair(kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, centre_b, rot_b, margin,
+def collide_pair(kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, centre_b, rot_b, pool, margin,
                  point, normal, depth, feature, start):
     """The contacts of shape A (kind_a, geom_a (5,), centre_a (3,), rot_a (9,), see the module
     doc) with shape B within ``margin`` (m), written to rows start, start + 1, ... of point
@@ -1043,14 +1037,14 @@ def collide_pair(kind_a, geom_a, centre_a, rot_a, kind_b, geom_b, centre_b, rot_
     their number (0 to MAX_CONTACTS_PER_PAIR). ValueError if the outputs have fewer than
     start + MAX_CONTACTS_PER_PAIR rows, an input array is too short, or both are planes."""
     return collide_pair_of(PAIRS_ALL, kind_a, geom_a, centre_a, rot_a, kind_b, geom_b,
-                           centre_b, rot_b, margin, point, normal, depth, feature, start)
+                           centre_b, rot_b, pool, margin, point, normal, depth, feature, start)
 
 
 def _collide_pairs_for(tests, name):
     """``collide_pairs`` (below) with the contact tests ``tests``, a constant in it; ``name``,
     its name and the name of its cache entry."""
 
-    def collide_pairs(pair_a, pair_b, kinds, geoms, centres, rotations, margins,
+    def collide_pairs(pair_a, pair_b, kinds, geoms, pool, centres, rotations, margins,
                       point, normal, depth, feature, source):
         """The contacts of P candidate pairs of colliders, pair k being colliders pair_a[k] and
         pair_b[k] (int64, indices into kinds (C,) int64, geoms (C, 5), centres (C, 3), rotations
@@ -1088,8 +1082,8 @@ def _collide_pairs_for(tests, name):
             for q in range(9):
                 rot_a[q], rot_b[q] = rotations[i, q], rotations[j, q]
             count = collide_pair_of(tests, int(kinds[i]), geom_a, centre_a, rot_a, int(kinds[j]),
-                                    geom_b, centre_b, rot_b, float(margins[k]), point, normal,
-                                    depth, feature, total)
+                                    geom_b, centre_b, rot_b, pool, float(margins[k]), point,
+                                    normal, depth, feature, total)
             for row in range(total, total + count):
                 source[row] = k
             total += count
@@ -1108,7 +1102,7 @@ def pairs_kernel(tests: int):
 
 
 @literal_entry(pairs_kernel)
-def collide_pairs_of(tests, pair_a, pair_b, kinds, geoms, centres, rotations, margins,
+def collide_pairs_of(tests, pair_a, pair_b, kinds, geoms, pool, centres, rotations, margins,
                      point, normal, depth, feature, source):
     """``collide_pairs`` with the contact tests ``tests`` alone (``PAIR_BIT``; a constant
     where a kernel calls it, which then calls ``pairs_kernel(tests)``); a pair outside them is

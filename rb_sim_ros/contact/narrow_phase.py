@@ -54,14 +54,15 @@ class Contact(NamedTuple):
     feature: int
 
 
-def shape_arrays(shape: Shape, centre, rotation) -> tuple[int, np.ndarray, np.ndarray,
-                                                          np.ndarray]:
+def shape_arrays(shape: Shape, centre, rotation,
+                 pool: shapes.Pool) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
     """(kind, geom (5,), centre (3,), rot (9,)) of ``shape`` placed at the world ``centre``
     (m) with the world ``rotation`` of its axes (from ``collision_shapes.world_pose``), as the
-    kernels take them (see narrow_kernels): new float64 arrays, C order, writeable. A plane's
-    geom[2:5] is its normal turned into the world frame, R n written out."""
+    kernels take them (see narrow_kernels): new float64 arrays, C order, writeable, what
+    its kind keeps beyond its row added to ``pool``. A plane's geom[2:5] is its normal turned
+    into the world frame, R n written out."""
     rot = np.array(rotation, dtype=np.float64, order='C').reshape(9)
-    return (shapes.kind_of(shape), shapes.packed(shape, rot),
+    return (shapes.kind_of(shape), shapes.packed(shape, rot, pool),
             np.array(centre, dtype=np.float64).reshape(3), rot)
 
 
@@ -74,8 +75,10 @@ def collide(a: Shape, pose_a, b: Shape, pose_b, margin: float = 0.0) -> list[Con
                          'they never meet)')
     point, normal = np.empty((MAX_CONTACTS_PER_PAIR, 3)), np.empty((MAX_CONTACTS_PER_PAIR, 3))
     depth, feature = np.empty(MAX_CONTACTS_PER_PAIR), np.empty(MAX_CONTACTS_PER_PAIR, np.int64)
-    count = collide_pair(*shape_arrays(a, *pose_a), *shape_arrays(b, *pose_b), float(margin),
-                         point, normal, depth, feature, 0)
+    pool = shapes.Pool()
+    arrays = shape_arrays(a, *pose_a, pool) + shape_arrays(b, *pose_b, pool)
+    count = collide_pair(*arrays, pool.array(), float(margin), point, normal, depth, feature,
+                         int(0))
     return [Contact(point[k], normal[k], float(depth[k]), int(feature[k]))
             for k in range(count)]
 

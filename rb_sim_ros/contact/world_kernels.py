@@ -69,7 +69,7 @@ def speculative_margins(v, w, reach, count, dt, g, speculative, margin):
 
 
 @inline_kernel
-def place_colliders(colliders, body, x, rot, local_pos, local_rot, kinds, geoms, margin,
+def place_colliders(colliders, body, x, rot, local_pos, local_rot, kinds, geoms, pool, margin,
                     centres, rotations, lower, upper):
     """World centre (m), rotation (9) and AABB [lower, upper] of each collider of
     ``colliders`` on its body ``body[c]``: centre = x + R p_local, rotation = R R_local, each
@@ -87,21 +87,22 @@ def place_colliders(colliders, body, x, rot, local_pos, local_rot, kinds, geoms,
                 rotations[c, 3 * a + j] = (ra0 * float(local_rot[c, j])
                                            + ra1 * float(local_rot[c, 3 + j])
                                            + ra2 * float(local_rot[c, 6 + j]))
-        extents(c, rotations, kinds, geoms, float(margin[b]), centres, lower, upper)
+        extents(c, rotations, kinds, geoms, pool, float(margin[b]), centres, lower, upper)
 
 
 @inline_kernel
-def extents(c, rotations, kinds, geoms, widen, centres, lower, upper):
+def extents(c, rotations, kinds, geoms, pool, widen, centres, lower, upper):
     """The AABB of collider c at its world pose, widened by ``widen`` (m): along world axis a
-    its kind's support in the direction whose components in its axes are row a of its
-    rotation (``shapes.support_of``; the kinds there are symmetric about their centre)."""
+    its kind's supports (``shapes.support_of``) in the directions whose components in its
+    axes are + and - row a of its rotation."""
     kind = int(kinds[c])
     for a in range(3):
-        e = shapes.support_of(kind, geoms, c, float(rotations[c, 3 * a]),
-                              float(rotations[c, 3 * a + 1]), float(rotations[c, 3 * a + 2]))
-        e += widen
-        lower[c, a] = float(centres[c, a]) - e
-        upper[c, a] = float(centres[c, a]) + e
+        r0, r1, r2 = (float(rotations[c, 3 * a]), float(rotations[c, 3 * a + 1]),
+                      float(rotations[c, 3 * a + 2]))
+        up = shapes.support_of(kind, geoms, pool, c, r0, r1, r2) + widen
+        down = shapes.support_of(kind, geoms, pool, c, -r0, -r1, -r2) + widen
+        lower[c, a] = float(centres[c, a]) - down
+        upper[c, a] = float(centres[c, a]) + up
 
 
 @inline_kernel

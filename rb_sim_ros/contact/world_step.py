@@ -109,8 +109,9 @@ COLLIDERS = (
     # (m), 1 / m; the store rows of every moving body, ascending, and of each row its index
     # among the moving bodies with colliders (-1 without: it never sleeps)
     'rows', 'q', 'has_q', 'reach', 'inverse_mass', 'step_rows', 'body_of_row',
-    # colliders (C) then planes (P): kinds, geoms, materials
-    'kinds', 'geoms', 'restitution', 'friction',
+    # colliders (C) then planes (P): kinds, geoms, materials; the data of variable size that
+    # kinds read at offsets in their geoms (a hull's vertices and faces)
+    'kinds', 'geoms', 'restitution', 'friction', 'pool',
     # colliders only: moving body (or nb: static), owner, static, the moving ones, offsets
     'cbody', 'cowner', 'cstatic', 'dyn', 'local_pos', 'local_rot',
     # planes
@@ -332,7 +333,7 @@ def _world_steps_of(family, tests, name):
                                        float(w.config[C_G]), w.config[C_SPECULATIVE] != 0.0,
                                        w.margin)
                 wk.place_colliders(w.dyn, w.cbody, w.x, w.rot, w.local_pos, w.local_rot,
-                                   w.kinds, w.geoms, w.margin, w.centres, w.rotations,
+                                   w.kinds, w.geoms, w.pool, w.margin, w.centres, w.rotations,
                                    w.lower, w.upper)
                 any_asleep = False
                 for c in range(nc):
@@ -394,7 +395,7 @@ def _world_steps_of(family, tests, name):
             planes = w.plane_normals.shape[0]
             if planes:
                 plane_pairs = bp.plane_candidates(awake[:count], w.cbody, w.rotations,
-                                                  w.kinds, w.geoms, w.centres,
+                                                  w.kinds, w.geoms, w.pool, w.centres,
                                                   w.plane_normals, w.plane_points, w.margin)
             else:
                 plane_pairs = np.zeros((0, 2), dtype=np.int64)
@@ -430,7 +431,7 @@ def _world_steps_of(family, tests, name):
             point, normal = np.empty((rows, 3)), np.empty((rows, 3))
             depth = np.empty(rows)
             feature, source = np.empty(rows, dtype=np.int64), np.empty(rows, dtype=np.int64)
-            m = nk.collide_pairs_of(tests, pair_a, pair_b, w.kinds, w.geoms, w.centres,
+            m = nk.collide_pairs_of(tests, pair_a, pair_b, w.kinds, w.geoms, w.pool, w.centres,
                                     w.rotations, margins, point, normal, depth, feature, source)
             point, normal, depth = point[:m], normal[:m], depth[:m]
             stats = w.stats
@@ -579,8 +580,8 @@ def compile_leaves(arrays, family, tests, group: str) -> None:
     f1, f2 = np.zeros(0), np.zeros((0, 3))
     i1, b1 = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_)
     if group == 'narrow':
-        compile_for(nk.pairs_kernel(tests), i1, i1, w.kinds, w.geoms, w.centres, w.rotations,
-                    f1, f2, f2, f1, i1, i1)
+        compile_for(nk.pairs_kernel(tests), i1, i1, w.kinds, w.geoms, w.pool, w.centres,
+                    w.rotations, f1, f2, f2, f1, i1, i1)
         compile_for(bp.stable_order, f1)  # sweep_and_prune's, _check_solve's
         compile_for(bp.stable_order, i1)  # _store_warm's
         compile_for(bp.sorted_copy, i1)  # sweep_and_prune's

@@ -243,7 +243,12 @@ def _config(data, path: str) -> Config:
                         for j, c in enumerate(_list_of_mappings(
                                 v, f'config.bodies[{i}].colliders', path)):
                             for ck, cv in c.items():
-                                _flat(cv, f'config.bodies[{i}].colliders[{j}].{ck}', path)
+                                where = f'config.bodies[{i}].colliders[{j}].{ck}'
+                                if ck == 'points' and isinstance(cv, list):  # a hull's
+                                    for m, point in enumerate(cv):
+                                        _flat(point, f'{where}[{m}]', path)
+                                else:
+                                    _flat(cv, where, path)
                     elif k == 'points':  # [[name, [x, y, z]], ...]
                         where = f'config.bodies[{i}].points'
                         if not isinstance(v, list):

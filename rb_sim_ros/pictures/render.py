@@ -77,7 +77,8 @@ def camera(view: str) -> np.ndarray:
 class Part:
     """One drawable piece of a body, in its body frame, a drawing primitive of its collider
     (contact.shapes.pieces): 'sphere' (radius), 'box' (half extents), 'capsule' or
-    'cylinder' (radius, half length along z), at ``position`` turned by ``rotation``."""
+    'cylinder' (radius, half length along z), 'mesh' (vertices, triangles), at ``position``
+    turned by ``rotation``."""
 
     primitive: str
     size: tuple
@@ -131,7 +132,8 @@ def parts_of(spec) -> list[Part]:
 
 
 def _drawable_part(part: Part) -> bool:
-    values = np.concatenate([np.asarray(part.size, dtype=float), part.position,
+    size = part.size[0] if part.primitive == 'mesh' else part.size
+    values = np.concatenate([np.asarray(size, dtype=float).ravel(), part.position,
                              part.rotation.ravel()])
     return bool(np.all(np.isfinite(values)) and np.all(np.abs(values) <= MAX_EXTENT)
                 and _extent(part) <= MAX_EXTENT)
@@ -169,6 +171,8 @@ def _extent(p: Part) -> float:
         return p.size[0] + p.size[1]
     if p.primitive == 'cylinder':
         return math.hypot(p.size[0], p.size[1])
+    if p.primitive == 'mesh':
+        return float(np.sqrt((np.asarray(p.size[0]) ** 2).sum(axis=1)).max())
     return max(p.size) * (math.sqrt(3.0) if p.primitive == 'box' else 1.0)
 
 
@@ -194,11 +198,14 @@ def _hull_2d(points: np.ndarray) -> np.ndarray:
 
 def _part_points(part: Part, x, r) -> tuple[np.ndarray, float]:
     """(points, padding): the part at pose (x, r) lies within ``padding`` of the points'
-    convex hull (a box's 8 corners, a capsule's two ends, a sphere's centre)."""
+    convex hull (a box's 8 corners, a capsule's two ends, a sphere's centre, a mesh's
+    vertices)."""
     rot = r @ part.rotation
     at = x + r @ part.position
     if part.primitive == 'sphere':
         return at[None, :], part.size[0]
+    if part.primitive == 'mesh':
+        return at + np.asarray(part.size[0]) @ rot.T, 0.0
     if part.primitive in ('capsule', 'cylinder'):  # a cylinder lies within its capsule
         radius, half = part.size
         return np.array([at - rot[:, 2] * half, at + rot[:, 2] * half]), radius
@@ -458,6 +465,8 @@ class Renderer:
             light = LIGHT / np.linalg.norm(LIGHT)
             return [(float(at @ depth_axis), 'polygon', _hull_2d(uv),
                      _shade(colour, 0.6 + 0.4 * abs(float(rot[:, 2] @ light))))]
+        if part.primitive == 'mesh':  # its triangles that face the camera, each lit
+            return self._mesh(part, at, rot, colour, centre)
         hx, hy, hz = part.size
         out = []
         light = LIGHT / np.linalg.norm(LIGHT)
@@ -478,6 +487,22 @@ class Renderer:
                 uv = self._to_pixels(corners @ self.cam[:2].T, centre)
                 out.append((float(corners.mean(axis=0) @ depth_axis), 'polygon', uv,
                             _shade(colour, 0.55 + 0.45 * max(0.0, float(normal @ light)))))
+        return out
+
+    def _mesh(self, part: Part, at, rot, colour, centre):
+        vertices, triangles = part.size
+        world = at + np.asarray(vertices) @ rot.T
+        light = LIGHT / np.linalg.norm(LIGHT)
+        out = []
+        for tri in np.asarray(triangles):
+            corners = world[tri]
+            normal = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+            length = float(np.linalg.norm(normal))
+            if length == 0.0 or normal @ self.cam[2] <= 0.0:
+                continue  # no area, or faces away
+            uv = self._to_pixels(corners @ self.cam[:2].T, centre)
+            out.append((float(corners.mean(axis=0) @ self.cam[2]), 'polygon', uv,
+                        _shade(colour, 0.55 + 0.45 * max(0.0, float(normal @ light) / length))))
         return out
 
 

@@ -4,8 +4,9 @@
 
 Markers per collider, in namespace ``<body>``, drawn from the pieces its kind gives
 (``contact.shapes.pieces``): a sphere piece is a SPHERE, a box a CUBE, a capsule a CYLINDER
-with two SPHERE caps, a cylinder a CYLINDER, a plane a thin square CUBE of ``PLANE_SIZE`` m
-centred on the piece's origin (the point of the plane nearest its body's origin). Collider
+with two SPHERE caps, a cylinder a CYLINDER, a mesh (a hull's surface) a TRIANGLE_LIST of
+its triangles, a plane a thin square CUBE of ``PLANE_SIZE`` m centred on the piece's origin
+(the point of the plane nearest its body's origin). Collider
 k's markers have ids ``3 k``, ``3 k + 1``, ... (at most 3 each, so that every collider's ids
 stay fixed). Moving bodies are blue-grey, static ones grey. ``contacts`` (namespace
 ``contacts``, id 0) is a SPHERE_LIST of the last step's contact points that carried an
@@ -41,11 +42,13 @@ class CollisionMarkers:
         for spec in config.bodies:
             colour = STATIC if spec.static else MOVING
             for k, shape in enumerate(spec.colliders):
-                for j, (kind, scale, pos, rot) in enumerate(_pieces(shape)):
+                for j, (kind, scale, pos, rot, points) in enumerate(_pieces(shape)):
                     m = Marker(ns=spec.name, id=3 * k + j, type=kind, action=Marker.ADD,
                                color=colour)
                     m.header.frame_id = world_frame
                     m.scale.x, m.scale.y, m.scale.z = scale
+                    m.points = [Point(x=float(p[0]), y=float(p[1]), z=float(p[2]))
+                                for p in points]
                     self.array.markers.append(m)
                     self._parts.append((spec.name, m, pos, rot))
         self.contacts = Marker(ns='contacts', id=0, type=Marker.SPHERE_LIST, action=Marker.ADD,
@@ -78,8 +81,9 @@ class CollisionMarkers:
 
 
 def _pieces(shape):
-    """(marker type, scale, position, rotation in the body frame) of the markers of ``shape``:
-    one or more of each piece its kind draws it with (``contact.shapes.pieces``)."""
+    """(marker type, scale, position, rotation in the body frame, points in the marker's
+    frame) of the markers of ``shape``: one or more of each piece its kind draws it with
+    (``contact.shapes.pieces``)."""
     out = []
     for primitive, size, pos, rot in shapes.pieces(shape):
         out += MARKERS[primitive](size, pos, rot)
@@ -90,31 +94,37 @@ def _pieces(shape):
 
 def _sphere(size, pos, rot):
     d = 2.0 * size[0]
-    return [(Marker.SPHERE, (d, d, d), pos, rot)]
+    return [(Marker.SPHERE, (d, d, d), pos, rot, ())]
 
 
 def _box(size, pos, rot):
-    return [(Marker.CUBE, tuple(2.0 * h for h in size), pos, rot)]
+    return [(Marker.CUBE, tuple(2.0 * h for h in size), pos, rot, ())]
 
 
 def _capsule(size, pos, rot):
     (radius, h), axis = size, rot[:, 2]
     d = 2.0 * radius
-    return [(Marker.CYLINDER, (d, d, 2.0 * h), pos, rot),
-            (Marker.SPHERE, (d, d, d), pos + h * axis, rot),
-            (Marker.SPHERE, (d, d, d), pos - h * axis, rot)]
+    return [(Marker.CYLINDER, (d, d, 2.0 * h), pos, rot, ()),
+            (Marker.SPHERE, (d, d, d), pos + h * axis, rot, ()),
+            (Marker.SPHERE, (d, d, d), pos - h * axis, rot, ())]
 
 
 def _cylinder(size, pos, rot):
     radius, h = size
-    return [(Marker.CYLINDER, (2.0 * radius, 2.0 * radius, 2.0 * h), pos, rot)]
+    return [(Marker.CYLINDER, (2.0 * radius, 2.0 * radius, 2.0 * h), pos, rot, ())]
+
+
+def _mesh(size, pos, rot):
+    vertices, triangles = size
+    return [(Marker.TRIANGLE_LIST, (1.0, 1.0, 1.0), pos, rot,
+             np.asarray(vertices)[np.asarray(triangles).reshape(-1)])]
 
 
 def _plane(size, pos, rot):
     return [(Marker.CUBE, (PLANE_SIZE, PLANE_SIZE, PLANE_THICKNESS),
-             pos - rot[:, 2] * PLANE_THICKNESS / 2, rot)]
+             pos - rot[:, 2] * PLANE_THICKNESS / 2, rot, ())]
 
 
 # The markers of each drawing primitive (contact.shapes.base.PRIMITIVES).
 MARKERS = {'sphere': _sphere, 'box': _box, 'capsule': _capsule, 'cylinder': _cylinder,
-           'plane': _plane}
+           'plane': _plane, 'mesh': _mesh}

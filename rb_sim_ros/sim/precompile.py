@@ -96,7 +96,7 @@ def part(name: str) -> tuple[str, int, int]:
         family, tests = ws.part_tests(name)
     except ValueError as e:
         raise ValueError(f'no kernel part {name!r}: one of {", ".join(PARTS)}, or a contact '
-                         "part of some tests, as 'contact-two-step:sphere-sphere+sphere-plane' "
+                         "part, as 'contact-two-step:sphere-sphere+sphere-plane' "
                          f'({e})') from None
     return 'contact', family, tests
 

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from rb_sim_ros.contact import convex_kernels as ck, narrow_kernels as nk, narrow_phase as nph
+from rb_sim_ros.contact import shapes
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Cylinder, Plane, Sphere
 from rb_sim_ros.core import so3
 from rb_sim_ros.sim.bodies import collision_world
@@ -191,8 +192,9 @@ def _box_overlap(a, pose_a, b, pose_b) -> tuple[float, np.ndarray]:
 def _convex(a, pose_a, b, pose_b, margin):
     rows = nk.MAX_CONTACTS_PER_PAIR
     out = (np.zeros((rows, 3)), np.zeros((rows, 3)), np.zeros(rows), np.zeros(rows, np.int64))
-    count = ck.convex_pair(*nph.shape_arrays(a, *pose_a), *nph.shape_arrays(b, *pose_b),
-                           margin, *out, 0)
+    pool = shapes.Pool()
+    arrays = nph.shape_arrays(a, *pose_a, pool) + nph.shape_arrays(b, *pose_b, pool)
+    count = ck.convex_pair(*arrays, pool.array(), margin, *out, 0)
     return count, out
 
 

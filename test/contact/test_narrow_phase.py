@@ -18,9 +18,10 @@ import numpy as np
 import pytest
 
 from rb_sim_ros.contact import broad_phase, narrow_kernels as nk, narrow_phase as nph
-from rb_sim_ros.contact.collision_shapes import (Box, Capsule, Cylinder, Plane, RANK,
+from rb_sim_ros.contact.collision_shapes import (Box, Capsule, Cylinder, Hull, Plane, RANK,
                                                  shape_from_dict, shape_to_dict, Sphere,
                                                  world_pose)
+from rb_sim_ros.contact.shapes import Pool
 from rb_sim_ros.core import so3
 from support import narrow_fingerprint
 
@@ -331,7 +332,7 @@ def test_batches_equal_collide_to_the_bit():
 
 
 # -- the array kernels ---------------------------------------------------------------------------
-KINDS = ('sphere', 'capsule', 'box', 'plane', 'cylinder')
+KINDS = ('sphere', 'capsule', 'box', 'plane', 'cylinder', 'hull')
 
 
 def _random_shape(rng, kind):
@@ -344,6 +345,13 @@ def _random_shape(rng, kind):
         return Box(tuple(rng.uniform(0.1, 1.0, 3)))
     if kind == 'cylinder':
         return Cylinder(float(rng.uniform(0.05, 0.4)), float(rng.uniform(0.05, 1.0)))
+    if kind == 'hull':  # a box's corners (faces on faces) or a cloud of points
+        if rng.random() < 0.3:
+            half = rng.uniform(0.05, 0.5, 3)
+            return Hull([[sx * half[0], sy * half[1], sz * half[2]]
+                         for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+        return Hull((rng.normal(size=(int(rng.integers(6, 40)), 3))
+                     * rng.uniform(0.05, 0.4, 3)).tolist())
     return Plane(tuple(rng.normal(size=3)))
 
 
@@ -359,13 +367,15 @@ def _random_rotation(rng):
 
 
 def _half_height(shape, rot) -> float:
-    """Half the extent of a placed sphere, capsule, box or cylinder along the world z axis
-    (m)."""
+    """Half the extent of a placed sphere, capsule, box, cylinder or hull along the world z
+    axis (m; a hull's farthest vertex from its origin)."""
     if shape.kind == 'cylinder':
         return (abs(rot[2, 2]) * shape.half_length
                 + shape.radius * math.sqrt(max(1.0 - rot[2, 2] ** 2, 0.0)))
     if shape.kind == 'box':
         return float(np.abs(rot[2]) @ shape.half_extents)
+    if shape.kind == 'hull':
+        return float(np.abs(np.array(shape.points) @ rot[2]).max())
     if shape.kind == 'capsule':
         return abs(rot[2, 2]) * shape.half_length + shape.radius
     return shape.radius
@@ -415,10 +425,11 @@ def mixed_set(seed: int = 0, count: int = 700):
 
 
 def _arrays(shapes, poses, pair_a, pair_b, margins) -> dict:
-    packed = [nph.shape_arrays(s, *p) for s, p in zip(shapes, poses)]
+    pool = Pool()
+    packed = [nph.shape_arrays(s, *p, pool) for s, p in zip(shapes, poses)]
     return {'pair_a': pair_a, 'pair_b': pair_b,
             'kinds': np.array([p[0] for p in packed], dtype=np.int64),
-            'geoms': np.array([p[1] for p in packed]),
+            'geoms': np.array([p[1] for p in packed]), 'pool': pool.array(),
             'centres': np.array([p[2] for p in packed]),
             'rotations': np.array([p[3] for p in packed]), 'margins': margins}
 
@@ -427,7 +438,7 @@ def _collide_pairs(arrays: dict):
     rows = len(arrays['pair_a']) * nk.MAX_CONTACTS_PER_PAIR
     out = (np.zeros((rows, 3)), np.zeros((rows, 3)), np.zeros(rows),
            np.zeros(rows, dtype=np.int64), np.zeros(rows, dtype=np.int64))
-    names = ('pair_a', 'pair_b', 'kinds', 'geoms', 'centres', 'rotations', 'margins')
+    names = ('pair_a', 'pair_b', 'kinds', 'geoms', 'pool', 'centres', 'rotations', 'margins')
     count = nk.collide_pairs(*(arrays[k] for k in names), *out)
     return count, out
 
@@ -494,15 +505,17 @@ def test_compiled_and_interpreted_collide_pairs_give_the_same_bits(tmp_path):
 
 
 def test_collide_pair_refuses_outputs_too_small_two_planes_and_bad_indices():
-    kind, geom, centre, rot = nph.shape_arrays(Sphere(0.5), ORIGIN, I3)
-    plane = nph.shape_arrays(Plane(), ORIGIN, I3)
+    pool = Pool()
+    kind, geom, centre, rot = nph.shape_arrays(Sphere(0.5), ORIGIN, I3, pool)
+    plane = nph.shape_arrays(Plane(), ORIGIN, I3, pool)
+    pool = pool.array()
     rows = nk.MAX_CONTACTS_PER_PAIR
     out = (np.zeros((rows, 3)), np.zeros((rows, 3)), np.zeros(rows), np.zeros(rows, np.int64))
-    assert nk.collide_pair(kind, geom, centre, rot, *plane, 0.0, *out, 0) == 1
+    assert nk.collide_pair(kind, geom, centre, rot, *plane, pool, 0.0, *out, 0) == 1
     with pytest.raises(ValueError, match='MAX_CONTACTS_PER_PAIR rows'):
-        nk.collide_pair(kind, geom, centre, rot, *plane, 0.0, *out, 1)
+        nk.collide_pair(kind, geom, centre, rot, *plane, pool, 0.0, *out, 1)
     with pytest.raises(ValueError, match='two planes'):
-        nk.collide_pair(*plane, *plane, 0.0, *out, 0)
+        nk.collide_pair(*plane, *plane, pool, 0.0, *out, 0)
     with pytest.raises(ValueError, match='between a plane and a plane .both static'):
         nph.collide(Plane(), (ORIGIN, I3), Plane(), (ORIGIN, I3))
     arrays = _arrays([Sphere(0.5), Plane()], [(ORIGIN, I3)] * 2, np.array([0]), np.array([1]),
@@ -514,7 +527,7 @@ def test_collide_pair_refuses_outputs_too_small_two_planes_and_bad_indices():
         _collide_pairs(arrays)
     with pytest.raises(ValueError, match='P \\* MAX_CONTACTS_PER_PAIR'):
         nk.collide_pairs(np.array([0]), np.array([1]), arrays['kinds'], arrays['geoms'],
-                         arrays['centres'], arrays['rotations'], np.zeros(1),
+                         arrays['pool'], arrays['centres'], arrays['rotations'], np.zeros(1),
                          *(a[:rows - 1] for a in out))
 
 
@@ -557,17 +570,17 @@ def test_plane_candidates_use_the_support_distance():
     geoms[:, nk.RADIUS] = 0.5
     colliders, body, margin = np.arange(3), np.zeros(3, dtype=np.int64), np.zeros(1)
     pairs = broad_phase.plane_candidates(colliders, body, rotations, spheres, geoms,
-                                         centres, normals, plane_points, margin)
+                                         np.zeros(0), centres, normals, plane_points, margin)
     np.testing.assert_array_equal(pairs, [[0, 0], [1, 1]])
     turned = np.tile(so3.exp([0.0, math.pi / 4, 0.0]).reshape(9), (3, 1))
     centres = np.array([[0.0, 0.0, 0.7], [4.3, 0.0, 3.0], [0.0, 0.0, 0.8]])
     boxes = np.full(3, nk.KIND_BOX)
     geoms = np.zeros((3, nk.GEOM_WIDTH))
     geoms[:, nk.HX:nk.HZ + 1] = 0.5
-    pairs = broad_phase.plane_candidates(colliders, body, turned, boxes, geoms, centres,
-                                         normals, plane_points, margin)
+    pairs = broad_phase.plane_candidates(colliders, body, turned, boxes, geoms,
+                                         np.zeros(0), centres, normals, plane_points, margin)
     np.testing.assert_array_equal(pairs, [[0, 0], [1, 1]])  # 0.7 < 0.707 < 0.8
     margin[0] = 0.1                                           # within the margin: a candidate
-    pairs = broad_phase.plane_candidates(colliders, body, turned, boxes, geoms, centres,
-                                         normals, plane_points, margin)
+    pairs = broad_phase.plane_candidates(colliders, body, turned, boxes, geoms,
+                                         np.zeros(0), centres, normals, plane_points, margin)
     np.testing.assert_array_equal(pairs, [[0, 0], [1, 1], [2, 0]])

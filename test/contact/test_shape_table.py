@@ -27,8 +27,13 @@ EXAMPLES = {
     'plane': {'type': 'plane', 'normal': [0.0, 0.0, 1.0], 'offset': -0.5},
     'cylinder': {'type': 'cylinder', 'radius': 0.2, 'length': 0.5, 'position': [0.0, 0.1, 0.0],
                  'orientation': [0.3826834323650898, 0.0, 0.0, 0.9238795325112867]},
+    # not symmetric about its origin
+    'hull': {'type': 'hull', 'points': [[-0.2, -0.1, -0.1], [0.3, -0.1, -0.1],
+                                        [-0.2, 0.25, -0.1], [-0.1, 0.0, 0.4],
+                                        [0.2, 0.2, 0.2]],
+             'orientation': [0.0, 0.0, 0.3826834323650898, 0.9238795325112867]},
 }
-SOLIDS = ('sphere', 'capsule', 'box', 'cylinder')
+SOLIDS = ('sphere', 'capsule', 'box', 'cylinder', 'hull')
 Z_UP = np.array([0.0, 0.0, 1.0])
 
 
@@ -42,10 +47,10 @@ def test_every_kind_keeps_the_protocol_and_reads_back_as_written():
         shape = shapes.shape_from_dict(EXAMPLES[module.NAME])
         assert isinstance(shape, module.VALUE) and shapes.kind_of(shape) == number
         assert shapes.shape_to_dict(shape) == EXAMPLES[module.NAME]
-        row = shapes.packed(shape, np.eye(3))
+        row = shapes.packed(shape, np.eye(3), shapes.Pool())
         assert row.shape == (nk.GEOM_WIDTH,) and np.all(np.isfinite(row))
     # the ranks of the recordings: a new kind comes last
-    assert shapes.NAMES == ('sphere', 'capsule', 'box', 'plane', 'cylinder')
+    assert shapes.NAMES == ('sphere', 'capsule', 'box', 'plane', 'cylinder', 'hull')
 
 
 def _reach(shape, rotation, direction) -> float:
@@ -61,6 +66,8 @@ def _reach(shape, rotation, direction) -> float:
         axis = rotation[:, 2]
         across = math.sqrt(max(1.0 - float(axis @ d) ** 2, 0.0))
         return abs(float(axis @ d)) * shape.half_length + shape.radius * across
+    if shape.kind == 'hull':
+        return max(float(rotation @ np.array(p) @ d) for p in shape.points)
     hx, hy, hz = shape.half_extents
     corners = [rotation @ np.array([sx * hx, sy * hy, sz * hz])
                for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
@@ -75,16 +82,18 @@ def test_a_support_is_the_farthest_point_and_bounds_hold_the_shape():
         direction = rng.normal(size=3)
         direction /= np.linalg.norm(direction)
         for shape in solids:
-            geoms = shapes.packed(shape, rotation).reshape(1, -1)
+            pool = shapes.Pool()
+            geoms = shapes.packed(shape, rotation, pool).reshape(1, -1)
+            pool = pool.array()
             local = rotation.T @ direction
-            got = shapes.support_of(shapes.kind_of(shape), geoms, 0, *local.tolist())
+            got = shapes.support_of(shapes.kind_of(shape), geoms, pool, 0, *local.tolist())
             assert got == pytest.approx(_reach(shape, rotation, direction), rel=1e-12,
                                         abs=1e-15), shape.kind
             # the bounds of the shape at that turn are its supports along the world axes
             lower, upper = np.zeros((1, 3)), np.zeros((1, 3))
             centre = rng.normal(size=(1, 3))
             wk.extents(0, rotation.reshape(1, 9), np.array([shapes.kind_of(shape)]), geoms,
-                       0.0, centre, lower, upper)
+                       pool, 0.0, centre, lower, upper)
             for a in range(3):
                 axis = np.eye(3)[a]
                 assert upper[0, a] - centre[0, a] == pytest.approx(
@@ -92,10 +101,10 @@ def test_a_support_is_the_farthest_point_and_bounds_hold_the_shape():
                 assert centre[0, a] - lower[0, a] == pytest.approx(
                     _reach(shape, rotation, -axis), rel=1e-12, abs=1e-15)
     plane = shapes.shape_from_dict(EXAMPLES['plane'])
-    assert shapes.support_of(shapes.plane.KIND, shapes.packed(plane, np.eye(3)).reshape(1, -1),
-                             0, 0.0, 0.0, 1.0) == math.inf
-    assert math.isnan(shapes.support_of(len(shapes.KINDS), np.zeros((1, nk.GEOM_WIDTH)), 0,
-                                        0.0, 0.0, 1.0))
+    row = shapes.packed(plane, np.eye(3), shapes.Pool()).reshape(1, -1)
+    assert shapes.support_of(shapes.plane.KIND, row, np.zeros(0), 0, 0.0, 0.0, 1.0) == math.inf
+    assert math.isnan(shapes.support_of(len(shapes.KINDS), np.zeros((1, nk.GEOM_WIDTH)),
+                                        np.zeros(0), 0, 0.0, 0.0, 1.0))
 
 
 def _touching(low: str, high: str):
@@ -142,13 +151,15 @@ def test_every_row_of_the_pair_table_is_reached_in_both_orders():
             assert low == high or (f.depth == g.depth and f.feature == g.feature), what
             np.testing.assert_allclose(f.point, g.point, rtol=0, atol=1e-15)
             np.testing.assert_allclose(f.normal, -g.normal, rtol=0, atol=1e-15)
-        arrays_a = nph.shape_arrays(a, *pose_a)
-        arrays_b = nph.shape_arrays(b, *pose_b)
+        pool = shapes.Pool()
+        arrays_a = nph.shape_arrays(a, *pose_a, pool)
+        arrays_b = nph.shape_arrays(b, *pose_b, pool)
+        pool = pool.array()
         out = (np.empty((nk.MAX_CONTACTS_PER_PAIR, 3)), np.empty((nk.MAX_CONTACTS_PER_PAIR, 3)),
                np.empty(nk.MAX_CONTACTS_PER_PAIR), np.empty(nk.MAX_CONTACTS_PER_PAIR, np.int64))
         for tests, found in ((nk.PAIR_BIT[(low, high)], len(forward)),
                              (nk.PAIRS_ALL & ~nk.PAIR_BIT[(low, high)], -1)):
-            assert dispatch(low, high, tests, False, *arrays_a[1:], *arrays_b[1:], 0.0, *out,
+            assert dispatch(low, high, tests, False, *arrays_a[1:], *arrays_b[1:], pool, 0.0, *out,
                             0) == found, what
     plane = shapes.shape_from_dict(EXAMPLES['plane'])
     at = shapes.world_pose(plane, np.zeros(3), np.eye(3))
@@ -174,7 +185,8 @@ def test_plane_candidates_read_each_kind_by_its_support():
     for _ in range(30):
         rotation = so3.exp(rng.normal(size=3))
         kinds = np.array([shapes.kind_of(s) for s in solids])
-        geoms = np.array([shapes.packed(s, rotation) for s in solids])
+        pool = shapes.Pool()
+        geoms = np.array([shapes.packed(s, rotation, pool) for s in solids])
         reach = np.array([_reach(s, rotation, -Z_UP) for s in solids])
         n = len(solids)
         heights = reach + rng.choice([-1e-3, 1e-3], size=n)
@@ -182,7 +194,7 @@ def test_plane_candidates_read_each_kind_by_its_support():
         centres[:, 2] = heights
         pairs = broad_phase.plane_candidates(
             np.arange(n), np.zeros(n, dtype=np.int64), np.tile(rotation.reshape(9), (n, 1)),
-            kinds, geoms, centres, Z_UP.reshape(1, 3), np.zeros((1, 3)), np.zeros(1))
+            kinds, geoms, pool.array(), centres, Z_UP.reshape(1, 3), np.zeros((1, 3)), np.zeros(1))
         assert pairs[:, 0].tolist() == np.flatnonzero(heights < reach).tolist()
 
 
@@ -214,7 +226,8 @@ def test_every_kind_draws_with_pieces_that_cover_it_exactly():
     reach = {'sphere': lambda size: size[0],
              'box': lambda size: math.sqrt(sum(h * h for h in size)),
              'capsule': lambda size: size[0] + size[1],
-             'cylinder': lambda size: math.hypot(size[0], size[1])}
+             'cylinder': lambda size: math.hypot(size[0], size[1]),
+             'mesh': lambda size: float(np.sqrt((size[0] ** 2).sum(axis=1)).max())}
     for module in shapes.KINDS:
         shape = shapes.shape_from_dict(EXAMPLES[module.NAME])
         pieces = shapes.pieces(shape)

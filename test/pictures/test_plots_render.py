@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from oracles.node_recording import record_offline
-from rb_sim_ros.contact.collision_shapes import Box, Cylinder, Plane, Sphere
+from rb_sim_ros.contact.collision_shapes import Box, Cylinder, Hull, Plane, Sphere
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.offline import replay
 from rb_sim_ros.pictures import plots, render
@@ -415,3 +415,19 @@ def test_a_cylinder_is_drawn_as_its_outline(tmp_path, view, rotation, ratio):
     r = render.Renderer(rec, view, (400, 400))
     width, height = _spans(_coloured(r.frame(0.0)))
     assert width / height == pytest.approx(ratio, rel=0.05)
+
+
+@pytest.mark.parametrize('view, ratio', [('side', 3.0), ('top', 3.0 / 2.0)])
+def test_a_hull_is_drawn_as_its_faces(tmp_path, view, ratio):
+    """The hull of a 0.6 x 0.4 x 0.2 m block's corners, drawn alone: from the side a
+    rectangle three times as wide as high, from above 3 / 2 (its lit faces fill its outline)."""
+    corners = [[x, y, z] for x in (-0.3, 0.3) for y in (-0.2, 0.2) for z in (-0.1, 0.1)]
+    block = BodySpec('block', 1.0, (0.01,) * 3, initial_position=(0.0, 0.0, 1.0),
+                     colliders=(Hull(corners),))
+    rec = record_offline(tmp_path / 'r.mcap', Config(bodies=(block,)), 1)
+    r = render.Renderer(rec, view, (400, 400))
+    mask = _coloured(r.frame(0.0))
+    width, height = _spans(mask)
+    assert width / height == pytest.approx(ratio, rel=0.05)
+    rows, cols = np.nonzero(mask)  # filled, not an outline
+    assert mask.sum() > 0.8 * (np.ptp(rows) + 1) * (np.ptp(cols) + 1)

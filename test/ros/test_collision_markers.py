@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from visualization_msgs.msg import Marker
 
-from rb_sim_ros.contact.collision_shapes import Box, Capsule, Cylinder, Plane, Sphere
+from rb_sim_ros.contact.collision_shapes import Box, Capsule, Cylinder, Hull, Plane, Sphere
 from rb_sim_ros.contact.collision_world import WorldContact
 from rb_sim_ros.contact.shapes import base
 from rb_sim_ros.core import so3
@@ -98,3 +98,24 @@ def test_every_drawing_primitive_has_markers():
     """The markers draw every primitive a kind may draw with (contact.shapes.base), so a new
     kind drawn with them needs nothing here."""
     assert set(MARKERS) == set(base.PRIMITIVES)
+
+
+def test_a_hull_is_one_triangle_list_of_its_surface():
+    """A hull's marker is a TRIANGLE_LIST of its faces' triangles in the hull's frame (placed
+    as the collider in its body): three points a triangle, each a vertex, and the triangles'
+    signed volumes about the centre sum to the hull's volume (a closed surface, outward)."""
+    corners = [[x, y, z] for x in (-0.1, 0.3) for y in (-0.2, 0.2) for z in (0.0, 0.5)]
+    hull = Hull(corners + [[0.1, 0.0, 0.7]], position=(0.0, 0.2, 0.0), orientation_xyzw=X90)
+    config = Config(bodies=(BodySpec('rock', colliders=(hull,)),))
+    markers = CollisionMarkers(config, 'odom').fill(0, {'rock': ((1.0, 0.0, 0.0), Z90)})
+    m, = [m for m in markers.markers if m.ns == 'rock']
+    assert m.type == Marker.TRIANGLE_LIST and (m.scale.x, m.scale.y, m.scale.z) == (1, 1, 1)
+    points = np.array([(p.x, p.y, p.z) for p in m.points])
+    assert len(points) % 3 == 0 and len(points) == 3 * len(hull.triangles())
+    assert {tuple(p) for p in points} == {tuple(v) for v in hull.points}
+    a, b, c = points[0::3], points[1::3], points[2::3]
+    volume = np.einsum('ij,ij->i', a, np.cross(b, c)).sum() / 6.0
+    assert volume == pytest.approx(hull.mass_properties()[0], rel=1e-12)
+    np.testing.assert_allclose(_position(m), (0.8, 0.0, 0.0), atol=1e-12)
+    np.testing.assert_allclose(_rotation(m), so3.matrix_from_quaternion_xyzw(Z90)
+                               @ so3.matrix_from_quaternion_xyzw(X90), atol=1e-12)

@@ -24,6 +24,8 @@ INPUTS = ('pair_a', 'pair_b', 'kinds', 'geoms', 'centres', 'rotations', 'margins
 def fingerprint(path: str) -> dict:
     with np.load(path) as data:
         inputs = [np.array(data[name], order='C') for name in INPUTS]
+        # the pool of what kinds keep beyond their rows (sets written before it have none)
+        inputs.insert(4, np.array(data['pool'], order='C') if 'pool' in data else np.zeros(0))
     rows = len(inputs[0]) * narrow_kernels.MAX_CONTACTS_PER_PAIR
     outputs = (np.zeros((rows, 3)), np.zeros((rows, 3)), np.zeros(rows),
                np.zeros(rows, dtype=np.int64), np.zeros(rows, dtype=np.int64))

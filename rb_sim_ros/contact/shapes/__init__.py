@@ -3,8 +3,8 @@
 """The table of shape kinds: one module each, and what the rest of the contact layer reads
 of a kind only through this table (as MuJoCo's geom types index its collision table).
 
-A kind's module (``sphere``, ``capsule``, ``box``, ``plane``) holds, and nothing else needs
-to know more of it:
+A kind's module (``sphere``, ``capsule``, ``box``, ``plane``, ``cylinder``, ``hull``) holds,
+and nothing else needs to know more of it:
 
 * ``NAME`` (a scene file's ``type``) and ``KIND``, its number: its index in ``KINDS`` and its
   rank in the narrow phase (a pair is computed lower kind first);
@@ -12,8 +12,10 @@ to know more of it:
   ``kind`` = NAME, ``position``, ``rotation`` (its axes in its body), ``bounding_radius``;
   ``FIELDS`` (a scene file's keys for it) and ``PLACED`` (whether it takes a position and an
   orientation);
-* ``pack(shape, geom, rotation)``, its sizes into its kernels' row (``base.GEOM_WIDTH``);
-* ``support(geoms, c, l0, l1, l2)``, a kernel: how far it reaches from its centre along a
+* ``pack(shape, geom, rotation, pool)``, its sizes into its kernels' row
+  (``base.GEOM_WIDTH``), what does not fit there added to ``pool`` (``base.Pool``), whose
+  array every kernel below is handed as ``pool``;
+* ``support(geoms, pool, c, l0, l1, l2)``, a kernel: how far it reaches from its centre along a
   unit direction given in its own axes, which bounds (``world_kernels.extents``) and the
   plane test of the broad phase read through ``support_of``;
 * ``draw(shape)``, the pieces that draw it (``base.PRIMITIVES``: sphere, box, capsule,
@@ -21,8 +23,8 @@ to know more of it:
   recording (``pictures.render``) read through ``pieces``;
 * for a solid kind (not the plane), its core for the convex narrow phase
   (``convex_kernels``): the shape is its core (a point, a segment, itself) rounded by
-  ``core_radius(geom)``; ``core_point(geom, l0, l1, l2)`` the core's farthest point along a
-  direction in its axes, and ``core_face(geom, l0, l1, l2, out, tags)`` the core's points
+  ``core_radius(geom)``; ``core_point(geom, pool, l0, l1, l2)`` the core's farthest point along a
+  direction in its axes, and ``core_face(geom, pool, l0, l1, l2, out, tags)`` the core's points
   facing that way, in order round the face (a polygon, a segment, a point) with their
   features, read through ``core_point_of`` and the like.
 
@@ -37,13 +39,13 @@ from typing import Any, Union
 
 import numpy as np
 
-from rb_sim_ros.contact.shapes import box, capsule, cylinder, plane, sphere
-from rb_sim_ros.contact.shapes.base import GEOM_WIDTH, IDENTITY_XYZW, ORIGIN
+from rb_sim_ros.contact.shapes import box, capsule, cylinder, hull, plane, sphere
+from rb_sim_ros.contact.shapes.base import FACE_CAPACITY, GEOM_WIDTH, IDENTITY_XYZW, ORIGIN, Pool
 from rb_sim_ros.core.jit import generated_kernel
 from rb_sim_ros.core.rigid_body import short
 
 # In narrow-phase rank order: a kind's number is its index.
-KINDS = (sphere, capsule, box, plane, cylinder)
+KINDS = (sphere, capsule, box, plane, cylinder, hull)
 for _number, _module in enumerate(KINDS):
     if _module.KIND != _number:
         raise ImportError(f'shape kind {_module.NAME!r}: KIND {_module.KIND} is not its place '
@@ -56,7 +58,7 @@ SHAPE_TYPES = tuple(m.VALUE for m in KINDS)
 Shape = Union[SHAPE_TYPES]  # type: ignore[valid-type]
 
 Sphere, Capsule, Box, Plane = sphere.Sphere, capsule.Capsule, box.Box, plane.Plane
-Cylinder = cylinder.Cylinder
+Cylinder, Hull = cylinder.Cylinder, hull.Hull
 
 
 def is_shape(value: Any) -> bool:
@@ -79,24 +81,24 @@ def kind_of(shape) -> int:
     return BY_NAME[shape.kind].KIND
 
 
-def packed(shape, rotation) -> np.ndarray:
+def packed(shape, rotation, pool: Pool) -> np.ndarray:
     """``shape``'s kernel row (GEOM_WIDTH,), its axes in the world being ``rotation`` (3 x 3 or
-    9, row-major)."""
+    9, row-major), what it needs beyond it added to ``pool``."""
     geom = np.zeros(GEOM_WIDTH)
-    module_of(shape).pack(shape, geom, np.asarray(rotation, dtype=np.float64).reshape(9))
+    module_of(shape).pack(shape, geom, np.asarray(rotation, dtype=np.float64).reshape(9), pool)
     return geom
 
 
 # The support of each kind, chosen by its number (written from KINDS; numba compiles it into
 # its callers as the if-chain it is).
 def _support_source() -> str:
-    lines = ['def support_of(kind, geoms, c, l0, l1, l2):',
+    lines = ['def support_of(kind, geoms, pool, c, l0, l1, l2):',
              '    """How far the shape of row c of geoms, of kind ``kind``, reaches from its',
              '    centre along the unit direction (l0, l1, l2) in its axes (m); nan for no',
              '    kind."""']
     for m in KINDS:
         lines += [f'    if kind == {m.KIND}:',
-                  f'        return {_global_name(m)}.support(geoms, c, l0, l1, l2)']
+                  f'        return {_global_name(m)}.support(geoms, pool, c, l0, l1, l2)']
     lines.append('    return math.nan')
     return '\n'.join(lines) + '\n'
 
@@ -115,7 +117,7 @@ support_of = generated_kernel(globals(), 'support_of', _support_source())
 
 # Each solid kind's core (written from KINDS, as support_of): what the convex narrow phase
 # reads of a kind. The plane has no core (a half-space has no farthest point).
-CORE_FACE_CAPACITY = 9  # the most points of a core_face (the cylinder's cap)
+CORE_FACE_CAPACITY = FACE_CAPACITY  # the most points of a core_face (the cylinder's cap)
 
 
 def _core_source(name: str, args: str, absent: str, doc: str) -> str:
@@ -131,10 +133,10 @@ def _core_source(name: str, args: str, absent: str, doc: str) -> str:
 core_radius_of = generated_kernel(globals(), 'core_radius_of', _core_source(
     'core_radius', 'geom', 'math.nan', 'The rounding (m) of the core of a shape of ``kind``.'))
 core_point_of = generated_kernel(globals(), 'core_point_of', _core_source(
-    'core_point', 'geom, l0, l1, l2', '(math.nan, math.nan, math.nan)',
+    'core_point', 'geom, pool, l0, l1, l2', '(math.nan, math.nan, math.nan)',
     'The farthest point of the core of a shape of ``kind`` along (l0, l1, l2), its axes.'))
 core_face_of = generated_kernel(globals(), 'core_face_of', _core_source(
-    'core_face', 'geom, l0, l1, l2, out, tags', '0',
+    'core_face', 'geom, pool, l0, l1, l2, out, tags', '0',
     'The points of the core of a shape of ``kind`` facing (l0, l1, l2) (unit, its axes), in '
     'out[:n], tags[:n]; n.'))
 
@@ -181,13 +183,17 @@ def shape_from_dict(data: dict[str, Any]):
     return module.VALUE(**kwargs)
 
 
+def _listed(value):
+    """Tuples, nested or not, as lists."""
+    return [_listed(v) for v in value] if isinstance(value, tuple) else value
+
+
 def shape_to_dict(shape) -> dict[str, Any]:
     """The JSON-able form read by ``shape_from_dict`` (placement only when not the identity)."""
     module = module_of(shape)
     out: dict[str, Any] = {'type': shape.kind}
     for key in module.FIELDS:
-        value = getattr(shape, key)
-        out[key] = list(value) if isinstance(value, tuple) else value
+        out[key] = _listed(getattr(shape, key))
     if module.PLACED:
         if shape.position != ORIGIN:
             out['position'] = list(shape.position)

@@ -4,7 +4,10 @@
 and the checks of a placement and a material.
 
 A shape's row ``geom`` (float64[GEOM_WIDTH]) holds its sizes in the slots its kind uses:
-(radius, half_length, hx, hy, hz); a plane's unit world normal in (hx, hy, hz) (NORMAL). Its
+(radius, half_length, hx, hy, hz); a plane's unit world normal in (hx, hy, hz) (NORMAL). What
+a kind needs beyond its row (a hull's vertices and faces) it adds to the ``Pool`` of the shapes
+packed with it, the one float64 array every kernel of theirs is handed, and keeps its offset in
+its row. Its
 kind's number (``KIND`` of its module, its index in ``shapes.KINDS``) is its rank in the
 narrow phase: a pair is computed lower kind first.
 """
@@ -14,19 +17,48 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+
 from rb_sim_ros.core import so3
 from rb_sim_ros.core.rigid_body import finite_floats, is_number, scaled_to_one, short
 
 GEOM_WIDTH = 5
+# The most points of a kind's ``core_face`` (the cylinder's cap: its octagon and one more).
+FACE_CAPACITY = 9
 RADIUS, HALF_LENGTH, HX, HY, HZ = 0, 1, 2, 3, 4
 NORMAL = HX
+
+
+class Pool:
+    """The data of variable size of shapes packed together (a collider set's), gathered as
+    each kind's ``pack`` adds its part: ``add(values)`` gives the offset of its first value;
+    ``array()`` all of it, the float64 array the kernels are handed (``pool``)."""
+
+    def __init__(self) -> None:
+        self._parts: list[np.ndarray] = []
+        self.size = 0
+
+    def add(self, values) -> int:
+        part = np.ascontiguousarray(values, dtype=np.float64).reshape(-1)
+        offset = self.size
+        self._parts.append(part)
+        self.size += part.size
+        return offset
+
+    def array(self) -> np.ndarray:
+        if not self._parts:
+            return np.zeros(0)
+        return np.ascontiguousarray(np.concatenate(self._parts))
+
 
 # What a kind's ``draw(shape)`` gives: its pieces (primitive, size, position, rotation), in its
 # body's frame, of these primitives, which each drawing (ros.collision_markers,
 # pictures.render) knows: 'sphere' (radius,); 'box' (its half extents); 'capsule' and
 # 'cylinder' (radius, half length along the piece's z); 'plane' (): the plane z = 0 of the
-# piece, the half-space below it solid (a patch in RViz, the ground grid in a picture).
-PRIMITIVES = ('sphere', 'box', 'capsule', 'cylinder', 'plane')
+# piece, the half-space below it solid (a patch in RViz, the ground grid in a picture);
+# 'mesh' (vertices (V, 3), triangles (T, 3) of vertex indices, counter-clockwise from
+# outside): a closed surface.
+PRIMITIVES = ('sphere', 'box', 'capsule', 'cylinder', 'plane', 'mesh')
 
 IDENTITY_XYZW = (0.0, 0.0, 0.0, 1.0)
 ORIGIN = (0.0, 0.0, 0.0)

@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from rb_sim_ros.contact.shapes.base import (HX, HY, HZ, IDENTITY_XYZW, material, ORIGIN,
-                                            placement, positive)
+                                            placement, Pool, positive)
 from rb_sim_ros.core.jit import inline_kernel
 from rb_sim_ros.core.rigid_body import finite_floats
 
@@ -56,7 +56,7 @@ class Box:
 VALUE = Box
 
 
-def pack(shape: Box, geom: np.ndarray, rotation: np.ndarray) -> None:
+def pack(shape: Box, geom: np.ndarray, rotation: np.ndarray, pool: Pool) -> None:
     """Write ``shape``'s half extents into its row ``geom`` (zeros)."""
     geom[HX:HZ + 1] = shape.half_extents
 
@@ -67,7 +67,7 @@ def draw(shape: Box) -> list[tuple]:
 
 
 @inline_kernel
-def support(geoms, c, l0, l1, l2):
+def support(geoms, pool, c, l0, l1, l2):
     """How far the box of row ``c`` reaches along (l0, l1, l2) (its axes, unit): its corner
     that way, sum_j h_j |l_j|."""
     return (abs(l0) * float(geoms[c, HX]) + abs(l1) * float(geoms[c, HY])
@@ -82,14 +82,14 @@ def core_radius(geom):
 
 
 @inline_kernel
-def core_point(geom, l0, l1, l2):
+def core_point(geom, pool, l0, l1, l2):
     """Its corner along (l0, l1, l2) (any length; + on a tie)."""
     hx, hy, hz = float(geom[HX]), float(geom[HY]), float(geom[HZ])
     return (hx if l0 >= 0.0 else -hx), (hy if l1 >= 0.0 else -hy), (hz if l2 >= 0.0 else -hz)
 
 
 @inline_kernel
-def core_face(geom, l0, l1, l2, out, tags):
+def core_face(geom, pool, l0, l1, l2, out, tags):
     """Its face most along (l0, l1, l2) (the first axis on a tie): its 4 corners in order
     round it, tags 4 f + k with f = 2 axis + (1 on the + side)."""
     a0, a1, a2 = abs(l0), abs(l1), abs(l2)

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rb_sim_ros.contact.shapes.base import (HALF_LENGTH, IDENTITY_XYZW, material, ORIGIN,
-                                            placement, positive, RADIUS)
+                                            placement, Pool, positive, RADIUS)
 from rb_sim_ros.core.jit import inline_kernel
 
 NAME = 'capsule'
@@ -60,13 +60,13 @@ def draw(shape: Capsule) -> list[tuple]:
              np.array(shape.rotation))]
 
 
-def pack(shape: Capsule, geom: np.ndarray, rotation: np.ndarray) -> None:
+def pack(shape: Capsule, geom: np.ndarray, rotation: np.ndarray, pool: Pool) -> None:
     """Write ``shape``'s sizes into its row ``geom`` (zeros)."""
     geom[RADIUS], geom[HALF_LENGTH] = shape.radius, shape.half_length
 
 
 @inline_kernel
-def support(geoms, c, l0, l1, l2):
+def support(geoms, pool, c, l0, l1, l2):
     """How far the capsule of row ``c`` reaches along (l0, l1, l2) (its axes, unit): the end
     of its segment that way, plus its radius."""
     return float(geoms[c, HALF_LENGTH]) * abs(l2) + float(geoms[c, RADIUS])
@@ -84,14 +84,14 @@ def core_radius(geom):
 
 
 @inline_kernel
-def core_point(geom, l0, l1, l2):
+def core_point(geom, pool, l0, l1, l2):
     """Its segment's end along (l0, l1, l2) (any length)."""
     h = float(geom[HALF_LENGTH])
     return 0.0, 0.0, (h if l2 >= 0.0 else -h)
 
 
 @inline_kernel
-def core_face(geom, l0, l1, l2, out, tags):
+def core_face(geom, pool, l0, l1, l2, out, tags):
     """Its segment's part facing (l0, l1, l2) (unit): both ends (tags 0, 1) when the direction
     is nearly square to it, else the end that way (tag 0 or 1)."""
     h = float(geom[HALF_LENGTH])

@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from rb_sim_ros.contact.shapes.base import (HALF_LENGTH, IDENTITY_XYZW, material, ORIGIN,
-                                            placement, positive, RADIUS)
+                                            placement, Pool, positive, RADIUS)
 from rb_sim_ros.core.jit import inline_kernel
 
 NAME = 'cylinder'
@@ -79,7 +79,7 @@ class Cylinder:
 VALUE = Cylinder
 
 
-def pack(shape: Cylinder, geom: np.ndarray, rotation: np.ndarray) -> None:
+def pack(shape: Cylinder, geom: np.ndarray, rotation: np.ndarray, pool: Pool) -> None:
     """Write ``shape``'s sizes into its row ``geom`` (zeros)."""
     geom[RADIUS], geom[HALF_LENGTH] = shape.radius, shape.half_length
 
@@ -91,7 +91,7 @@ def draw(shape: Cylinder) -> list[tuple]:
 
 
 @inline_kernel
-def support(geoms, c, l0, l1, l2):
+def support(geoms, pool, c, l0, l1, l2):
     """How far the cylinder of row ``c`` reaches along (l0, l1, l2) (its axes, unit): its rim
     point that way, r sqrt(l0^2 + l1^2) + h |l2|."""
     return (float(geoms[c, RADIUS]) * math.sqrt(l0 * l0 + l1 * l1)
@@ -105,7 +105,7 @@ def core_radius(geom):
 
 
 @inline_kernel
-def core_point(geom, l0, l1, l2):
+def core_point(geom, pool, l0, l1, l2):
     """Its farthest point along (l0, l1, l2) (its axes, any length): the rim point that way on
     the cap that way (the cap's centre for a direction along the axis)."""
     r, h = float(geom[RADIUS]), float(geom[HALF_LENGTH])
@@ -117,7 +117,7 @@ def core_point(geom, l0, l1, l2):
 
 
 @inline_kernel
-def core_face(geom, l0, l1, l2, out, tags):
+def core_face(geom, pool, l0, l1, l2, out, tags):
     """The part of its surface facing (l0, l1, l2) (its axes, unit), into out[:n] in order
     round its edge (tags: the points' features, stable while the face is the same); returns
     n: 9 for a cap (the octagon with the exact farthest rim point), 2 for the side's line, 1
@@ -145,7 +145,7 @@ def core_face(geom, l0, l1, l2, out, tags):
                 tags[n] = base + 8
                 n += 1
         return n
-    x, y, z = core_point(geom, l0, l1, l2)
+    x, y, z = core_point(geom, pool, l0, l1, l2)
     if abs(l2) <= SIDE_SIN * math.sqrt(l0 * l0 + l1 * l1 + l2 * l2):
         out[0, 0], out[0, 1], out[0, 2] = x, y, -h
         out[1, 0], out[1, 1], out[1, 2] = x, y, h

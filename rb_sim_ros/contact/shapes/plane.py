@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 
-from rb_sim_ros.contact.shapes.base import material, MAX_LENGTH, NORMAL, number
+from rb_sim_ros.contact.shapes.base import material, MAX_LENGTH, NORMAL, number, Pool
 from rb_sim_ros.core import so3
 from rb_sim_ros.core.jit import inline_kernel
 from rb_sim_ros.core.rigid_body import finite_floats, scaled_to_one
@@ -75,7 +75,7 @@ class Plane:
 VALUE = Plane
 
 
-def pack(shape: Plane, geom: np.ndarray, rotation: np.ndarray) -> None:
+def pack(shape: Plane, geom: np.ndarray, rotation: np.ndarray, pool: Pool) -> None:
     """Write ``shape``'s normal turned into the world, R n written out, into its row ``geom``
     (zeros); ``rotation`` (9, row-major) is its axes in the world."""
     nx, ny, nz = shape.normal
@@ -103,7 +103,7 @@ def _z_to(normal: np.ndarray) -> np.ndarray:
 
 
 @inline_kernel
-def support(geoms, c, l0, l1, l2):
+def support(geoms, pool, c, l0, l1, l2):
     """A half-space reaches without bound (no plane has bounds: the broad phase tests
     planes by their distance)."""
     return math.inf

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rb_sim_ros.contact.shapes.base import (IDENTITY_XYZW, material, ORIGIN, placement,
+from rb_sim_ros.contact.shapes.base import (IDENTITY_XYZW, material, ORIGIN, placement, Pool,
                                             positive, RADIUS)
 from rb_sim_ros.core.jit import inline_kernel
 
@@ -46,7 +46,7 @@ class Sphere:
 VALUE = Sphere
 
 
-def pack(shape: Sphere, geom: np.ndarray, rotation: np.ndarray) -> None:
+def pack(shape: Sphere, geom: np.ndarray, rotation: np.ndarray, pool: Pool) -> None:
     """Write ``shape``'s sizes into its row ``geom`` (zeros); ``rotation`` (9, its axes in the
     world) is not read."""
     geom[RADIUS] = shape.radius
@@ -58,7 +58,7 @@ def draw(shape: Sphere) -> list[tuple]:
 
 
 @inline_kernel
-def support(geoms, c, l0, l1, l2):
+def support(geoms, pool, c, l0, l1, l2):
     """How far the shape of row ``c`` of ``geoms`` reaches from its centre along a unit
     direction, (l0, l1, l2) in the shape's axes (m): its radius."""
     return float(geoms[c, RADIUS])
@@ -72,13 +72,13 @@ def core_radius(geom):
 
 
 @inline_kernel
-def core_point(geom, l0, l1, l2):
+def core_point(geom, pool, l0, l1, l2):
     """Its core's farthest point along (l0, l1, l2): its centre."""
     return 0.0, 0.0, 0.0
 
 
 @inline_kernel
-def core_face(geom, l0, l1, l2, out, tags):
+def core_face(geom, pool, l0, l1, l2, out, tags):
     """Its core's part facing (l0, l1, l2): its centre (1 point, tag 0)."""
     out[0, 0], out[0, 1], out[0, 2] = 0.0, 0.0, 0.0
     tags[0] = 0
