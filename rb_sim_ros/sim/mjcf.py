@@ -12,8 +12,9 @@ What a file becomes:
   their sum (the parallel-axis theorem) and whose colliders are all their geoms;
 * a body without joints that is a child of the world is a static body (and what is nested
   in it); geoms of the world body itself are a static body called ``mjcf_world``;
-* geoms are colliders: sphere, capsule, box, cylinder (on any body) and plane (on static
-  bodies), with
+* geoms are colliders: sphere, capsule, box, cylinder, mesh (the convex hull of its
+  vertices, as MuJoCo collides it; a mesh given in the file by ``vertex``, not a mesh file)
+  (on any body) and plane (on static bodies), with
   their friction (MuJoCo's first coefficient); geoms that collide with nothing (contype and
   conaffinity 0: visual ones) are left out;
 * gravity is the file's ``<option gravity>``; the step is the node's (``dt``), not the file's
@@ -28,7 +29,7 @@ and a repeated one gets ``_2``, ``_3``.
 
 Refused, each with one line naming the file, the body or geom and the reason: other joints
 (hinge, slide, ball: an articulated model is not one rigid body), other geom types
-(ellipsoid, mesh, height field, SDF), a moving body without mass, any file but an
+(ellipsoid, height field, SDF), a moving body without mass, any file but an
 ``include`` (no asset file is read), an include outside the model's folder (absolute,
 climbing with ``..``, or through a link; MuJoCo reads includes from the model's folder, and
 they are checked there), one that is not a regular file, more than ``scene.MAX_BYTES`` of
@@ -46,7 +47,7 @@ import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 
-from rb_sim_ros.contact.collision_shapes import Box, Capsule, Cylinder, Plane, Sphere
+from rb_sim_ros.contact.collision_shapes import Box, Capsule, Cylinder, Hull, Plane, Sphere
 from rb_sim_ros.core import so3
 from rb_sim_ros.sim.bodies import body_at, BodySpec, combined
 
@@ -324,6 +325,11 @@ def _collider(path, model, mujoco, g, rot, pos, moving) -> Any:
         if kind == types.mjGEOM_CYLINDER:
             return Cylinder(size[0], 2.0 * size[1], position=at, orientation_xyzw=quat,
                             friction=friction)
+        if kind == types.mjGEOM_MESH:  # the hull of its vertices, as MuJoCo collides it
+            mesh = int(model.geom_dataid[g])
+            start, count = int(model.mesh_vertadr[mesh]), int(model.mesh_vertnum[mesh])
+            return Hull(np.array(model.mesh_vert[start:start + count], dtype=float),
+                        position=at, orientation_xyzw=quat, friction=friction)
         if kind == types.mjGEOM_PLANE:
             if moving:
                 raise ModelError(f'{where}: a plane on a moving body')
@@ -334,5 +340,5 @@ def _collider(path, model, mujoco, g, rot, pos, moving) -> Any:
     except ValueError as e:
         raise ModelError(f'{where}: {e}') from None
     name = str(types(kind)).split('_')[-1].lower()
-    raise ModelError(f'{where}: a {name} geom: only sphere, capsule, box, cylinder and plane '
-                     'collide here')
+    raise ModelError(f'{where}: a {name} geom: only sphere, capsule, box, cylinder, mesh (given '
+                     'by its vertices) and plane collide here')

@@ -59,11 +59,14 @@ from __future__ import annotations
 
 from dataclasses import replace
 import math
+from pathlib import Path
 import re
 import reprlib
 import sys
 from typing import Any, NamedTuple, NoReturn
 import xml.etree.ElementTree as ElementTree
+
+import numpy as np
 
 from rb_sim_ros.contact import shapes
 from rb_sim_ros.contact.colliders import MAX_COLLIDERS
@@ -71,16 +74,20 @@ from rb_sim_ros.contact.collision_shapes import shape_from_dict
 from rb_sim_ros.contact.settings import MAX_ITERATIONS
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import RigidBody
-from rb_sim_ros.sim import mjcf, safe_yaml, urdf
+from rb_sim_ros.sim import meshes, mjcf, safe_yaml, urdf
 from rb_sim_ros.sim.simulation import BodySpec, ContactSettings, MAX_BODIES
 
 TOP_KEYS = {'gravity', 'contact', 'bodies', 'integrator', 'templates'}
 BODY_KEYS = {'name', 'mass', 'inertia', 'shape', 'size', 'radius', 'length', 'density',
-             'position', 'orientation', 'linear_velocity', 'angular_velocity', 'linear_damping',
-             'angular_damping', 'static', 'colliders', 'points'}
+             'file', 'scale', 'position', 'orientation', 'linear_velocity', 'angular_velocity',
+             'linear_damping', 'angular_damping', 'static', 'colliders', 'points'}
 SHAPES = {'box': {'size'}, 'sphere': {'radius'}, 'cylinder': {'radius', 'length'}}
-# a kind of shapes.KINDS, or 'shape': the body's own shape (its size, mass and inertia)
-COLLIDER_TYPES = tuple(sorted(shapes.NAMES + ('shape',)))
+# a body's own shape from a mesh file: its parts' hulls (sim/meshes.py)
+MESH = 'mesh'
+MESH_KEYS = {'file', 'scale'}
+# a kind of shapes.KINDS, 'shape': the body's own shape (its size, mass and inertia), or
+# 'mesh': the hulls of the parts of a mesh file
+COLLIDER_TYPES = tuple(sorted(shapes.NAMES + ('shape', MESH)))
 
 MAX_BYTES = 16 * 1024 * 1024
 MAX_DEPTH = 8  # the scene's own structure needs 6 (bodies, a body, colliders, one, position)
@@ -270,11 +277,17 @@ def _body(path: str, index: int, data: Any, where: str = '') -> BodySpec:
     kwargs['static'] = static
     shape = data.get('shape')
     dims: dict[str, Any] = {}
-    if 'shape' in data:
+    roots = _roots(path)
+    if shape == MESH:
+        kwargs['mass'], kwargs['inertia'], dims = _mesh_mass(where, data, roots)
+        field = 'shape'
+    elif 'shape' in data:
+        for key in sorted(MESH_KEYS & set(data)):
+            _fail(where, key, f'only with shape: {MESH}')
         kwargs['mass'], kwargs['inertia'], dims = _shape_mass(where, data, shape)
         field = 'shape'
     else:
-        for key in ('size', 'radius', 'length', 'density'):
+        for key in ('size', 'radius', 'length', 'density', 'file', 'scale'):
             if key in data:
                 _fail(where, key, 'only with a shape')
         if not static:
@@ -305,7 +318,8 @@ def _body(path: str, index: int, data: Any, where: str = '') -> BodySpec:
     for key in ('linear_damping', 'angular_damping'):
         if key in data:
             kwargs[key] = _number(where, key, data[key], 0.0, unit=' (1/s)')
-    kwargs['colliders'] = _colliders(where, data.get('colliders', []), shape, dims, static)
+    kwargs['colliders'] = _colliders(where, data.get('colliders', []), shape, dims, static,
+                                     roots)
     kwargs['points'] = _points(where, data.get('points', {}), kwargs['name'])
     try:
         return BodySpec(**kwargs)
@@ -330,21 +344,80 @@ def _points(where: str, points: Any, body: str) -> tuple:
     return tuple(out)
 
 
-def _own_shape(shape: Any, dims: dict, material: dict):
-    """The body's own box, sphere or cylinder as a collider, with ``material`` (restitution,
-    friction)."""
+def _roots(path: str) -> tuple[Path, ...]:
+    """The folders a scene file's mesh files are read from: its own (none for a body given
+    as text)."""
+    try:
+        file = Path(path)
+        return (file.resolve().parent,) if file.is_file() else ()
+    except (OSError, ValueError):
+        return ()
+
+
+def _mesh_mass(where: str, data: dict, roots) -> tuple[float, tuple, dict]:
+    """Mass, inertia (about the centre of mass, 9 components) and the hulls (placed about the
+    centre of mass, which is the body's origin) of a body of ``shape: mesh``: its file's parts
+    of uniform density."""
+    for key in ('mass', 'inertia'):
+        if key in data:
+            _fail(where, key, 'give either mass and inertia or a shape with a density, not both')
+    for key in ('size', 'radius', 'length'):
+        if key in data:
+            _fail(where, key, f'a {MESH} has no {key} (it has file and scale)')
+    if 'file' not in data:
+        _fail(where, 'file', f'missing (a {MESH} is read from a mesh file)')
+    if 'density' not in data:
+        _fail(where, 'density', 'missing (kg/m^3, needed with a shape)')
+    density = _number(where, 'density', data['density'], 0.0, True, ' (kg/m^3)')
+    try:
+        parts = meshes.mesh_parts(data['file'], roots, data.get('scale', 1.0))
+        hulls = meshes.hulls(parts, str(data['file']))
+        mass, centre, inertia = meshes.combined_mass(hulls, density)
+    except (ValueError, ArithmeticError) as e:
+        _fail(where, 'file', str(e))
+    if not (math.isfinite(mass) and mass >= TINY and np.all(np.isfinite(inertia))):
+        _fail(where, 'shape', f'this {MESH} and density give mass {mass!r} kg: it must be '
+              f'finite and at least {TINY:.3g}')
+    placed = [replace(h, points=h.vertices - centre) for h in hulls]
+    return mass, tuple(float(v) for v in inertia.ravel()), {'hulls': placed}
+
+
+def _own_shape(shape: Any, dims: dict, material: dict) -> list:
+    """The body's own box, sphere or cylinder as a collider, or its mesh's hulls, with
+    ``material`` (restitution, friction)."""
+    if shape == MESH:
+        return [replace(h, **material) for h in dims['hulls']]
     if shape in SHAPES:  # each of SHAPES is a kind of collider with the same fields
-        return shapes.BY_NAME[shape].VALUE(**dims, **material)
-    raise ValueError(f"'shape' needs a body shape ({', '.join(sorted(SHAPES))}), got "
-                     f'{_show(shape)} (list the colliders instead)')
+        return [shapes.BY_NAME[shape].VALUE(**dims, **material)]
+    raise ValueError(f"'shape' needs a body shape ({', '.join(sorted([*SHAPES, MESH]))}), "
+                     f'got {_show(shape)} (list the colliders instead)')
 
 
-def _colliders(where: str, colliders: Any, shape: Any, dims: dict, static: bool) -> tuple:
-    """The collision shapes of a body: a list of collision_shapes mappings, or 'shape' for the
-    body's own shape (in a list: ``{type: shape, restitution: ..., friction: ...}``)."""
+def _mesh_colliders(data: dict, roots) -> list:
+    """The hulls of a ``{type: mesh, file, scale, position, orientation, restitution,
+    friction}`` collider: one for each part of its file."""
+    allowed = {'type', 'file', 'scale', 'position', 'orientation', 'restitution', 'friction'}
+    unknown = sorted(str(k) for k in set(data) - allowed)
+    if unknown:
+        raise ValueError(f'{MESH}: unknown keys {_show(unknown)} (allowed: {sorted(allowed)})')
+    if 'file' not in data:
+        raise ValueError(f'{MESH}: file missing (a mesh file, relative to the scene file)')
+    placement = {key: data[key] for key in ('position', 'restitution', 'friction')
+                 if key in data}
+    if 'orientation' in data:
+        placement['orientation_xyzw'] = data['orientation']
+    parts = meshes.mesh_parts(data['file'], roots, data.get('scale', 1.0))
+    return meshes.hulls(parts, str(data['file']), **placement)
+
+
+def _colliders(where: str, colliders: Any, shape: Any, dims: dict, static: bool,
+               roots=()) -> tuple:
+    """The collision shapes of a body: a list of collision_shapes mappings (or of ``{type:
+    mesh, file: ...}``, the hulls of a mesh file's parts), or 'shape' for the body's own shape
+    (in a list: ``{type: shape, restitution: ..., friction: ...}``)."""
     if isinstance(colliders, str) and colliders == 'shape':
         try:
-            return (_own_shape(shape, dims, {}),)
+            return tuple(_own_shape(shape, dims, {}))
         except ValueError as e:
             _fail(where, 'colliders', str(e))
     if not isinstance(colliders, list):
@@ -366,11 +439,16 @@ def _colliders(where: str, colliders: Any, shape: Any, dims: dict, static: bool)
                 if unknown:
                     raise ValueError(f'shape: unknown keys {_show(unknown)} (allowed: friction, '
                                      'restitution, type)')
-                out.append(_own_shape(shape, dims, {k: v for k, v in c.items() if k != 'type'}))
+                out.extend(_own_shape(shape, dims, {k: v for k, v in c.items() if k != 'type'}))
+            elif kind == MESH:
+                out.extend(_mesh_colliders(c, roots))
             else:
                 out.append(shape_from_dict(c))
         except (ValueError, TypeError, ArithmeticError) as e:
             _fail(where, field, str(e))
+        if len(out) > MAX_COLLIDERS:
+            _fail(where, field, f'{len(out)} colliders with its parts, more than MAX_COLLIDERS '
+                  f'= {MAX_COLLIDERS} on one body')
         if shapes.module_of(out[-1]).STATIC_ONLY and not static:
             _fail(where, field, f'a {out[-1].kind} is only allowed on a static body '
                   '(static: true)')

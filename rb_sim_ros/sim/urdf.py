@@ -9,7 +9,10 @@ What a file becomes:
 * each tree of links joined by ``fixed`` joints is one moving body named after its root
   link: the links' masses summed, centres and inertias (each ``<inertial>``: origin, mass,
   the tensor in the frame its ``rpy`` turns) combined by the parallel-axis theorem, its
-  colliders every ``<collision>`` of its links (box, sphere and cylinder geometry);
+  colliders every ``<collision>`` of its links (box, sphere and cylinder geometry, and a
+  mesh as the convex hulls of its parts: ``sim/meshes.py``, its ``filename`` resolved as ROS
+  does, ``package://`` by the installed packages' share folders, a relative path from the
+  URDF's folder, and only there or in those folders);
 * a ``floating`` joint splits the tree: the child's links are a body of their own, placed
   where the joint's origin puts them;
 * a root link called ``world`` is the world (URDF's idiom): what is fixed to it is a static
@@ -23,22 +26,24 @@ What a file becomes:
 ``rpy`` is roll about x, pitch about y, yaw about z, fixed axes (R = Rz Ry Rx), as URDF
 defines it. Refused, each with one line naming the file, the element and the reason:
 revolute, continuous, prismatic and planar joints (an articulated robot is not one rigid
-body), mesh geometry (no such colliders yet), a body without mass, joints that
+body), a mesh file that cannot be read or lies elsewhere, a body without mass, joints that
 do not make a tree (a link with two parents, a loop, a missing link), numbers that are not
 finite, more than ``scene.MAX_BYTES`` of XML, or more than ``MAX_LINKS`` links. Nothing but
-the file is read (``package://`` and ``file://`` name meshes, which are refused).
+the file and its meshes are read.
 """
 
 from __future__ import annotations
 
 import math
 import os
+from pathlib import Path
 import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 
 from rb_sim_ros.contact.collision_shapes import Box, Cylinder, Sphere
 from rb_sim_ros.core import so3
+from rb_sim_ros.sim import meshes
 from rb_sim_ros.sim.bodies import body_at, BodySpec, combined
 from rb_sim_ros.sim.mjcf import ModelError, ros_name, unique_name
 
@@ -223,8 +228,18 @@ def _geometry(path: str, where: str, collision):
     if shape.tag == 'cylinder':  # (URDF's cylinder: along the z axis of its origin)
         return ('cylinder', (_number(path, f'{where} cylinder radius', shape.get('radius')),
                              _number(path, f'{where} cylinder length', shape.get('length'))))
-    raise ModelError(f'{path}: {where}: {shape.tag} geometry: only box, sphere and cylinder '
-                     'collide here')
+    if shape.tag == 'mesh':
+        scale = shape.get('scale')
+        scale = (1.0, 1.0, 1.0) if scale is None else tuple(
+            _numbers(path, f'{where} mesh scale', scale, 3, ''))
+        folder = Path(path).resolve().parent if os.path.isfile(path) else None
+        try:
+            name, roots = meshes.ros_resource(shape.get('filename'), folder)
+            return ('mesh', meshes.mesh_parts(name, roots, scale))
+        except meshes.MeshError as e:
+            raise ModelError(f'{path}: {where}: mesh: {e}') from None
+    raise ModelError(f'{path}: {where}: {shape.tag} geometry: only box, sphere, cylinder and '
+                     'mesh collide here')
 
 
 def _joints(path: str, robot) -> list:
@@ -269,6 +284,9 @@ def _body(path: str, links: dict, root: str, members: list, rot0, pos0, taken: s
             elif kind == 'cylinder':
                 radius, length = size
                 colliders.append(Cylinder(radius, length, position=at, orientation_xyzw=quat))
+            elif kind == 'mesh':
+                colliders.extend(meshes.hulls(size, f'link {link!r} mesh', position=at,
+                                              orientation_xyzw=quat))
             else:
                 colliders.append(Sphere(size, position=at, orientation_xyzw=quat))
         name = unique_name(STATIC_BODY if static else ros_name(root, len(taken)), taken)

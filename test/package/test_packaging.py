@@ -241,7 +241,8 @@ def test_the_launch_file_passes_scene_file_and_record_only_when_given(monkeypatc
 # and the README says how to install them on a ROS machine.
 ROSDEP_KEY = {'numpy': 'python3-numpy', 'yaml': 'python3-yaml', 'numba': 'python3-numba',
               'regex': 'python3-regex', 'matplotlib': 'python3-matplotlib', 'PIL': 'python3-pil',
-              'imageio': 'python3-imageio', 'tqdm': 'python3-tqdm'}
+              'imageio': 'python3-imageio', 'tqdm': 'python3-tqdm', 'scipy': 'python3-scipy',
+              'trimesh': 'python3-trimesh'}
 PYPI_ONLY = {'mcap', 'ray', 'imageio_ffmpeg', 'mujoco'}
 
 

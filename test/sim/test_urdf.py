@@ -128,7 +128,10 @@ def test_a_floating_joint_makes_a_body_of_its_own_where_the_joint_puts_it(tmp_pa
     ('<link name="can"><collision><geometry><capsule radius="0.1" length="0.2"/></geometry>'
      '</collision></link>', "link 'can' collision 0: capsule geometry: only box, sphere"),
     ('<link name="hull"><collision><geometry><mesh filename="package://rover/hull.stl"/>'
-     '</geometry></collision></link>', "link 'hull' collision 0: mesh geometry"),
+     '</geometry></collision></link>',
+     "link 'hull' collision 0: mesh: package://rover/hull.stl: no ROS package 'rover'"),
+    ('<link name="hull"><collision><geometry><mesh filename="../up.stl"/>'
+     '</geometry></collision></link>', "link 'hull' collision 0: mesh: ../up.stl: outside"),
     ('<joint name="again" type="fixed"><parent link="base"/><child link="camera"/></joint>',
      "joint 'again': link 'camera' has two parents"),
     ('<joint name="ghost" type="fixed"><parent link="base"/><child link="nowhere"/></joint>',
@@ -215,3 +218,39 @@ def test_a_link_called_world_is_the_world(tmp_path):
                                (2.0, 0.0, 0.4), atol=1e-15)
     assert (puck.name, puck.static, puck.mass) == ('puck', False, 0.2)
     assert puck.initial_position == (2.0, 0.0, 1.0)
+
+
+def test_a_mesh_collision_is_the_hull_of_its_file_found_as_ros_finds_it(tmp_path, monkeypatch):
+    """A ``<mesh>`` by a path relative to the URDF (scaled) and one by ``package://`` (found
+    through AMENT_PREFIX_PATH's share folders): each a hull whose vertices are the file's
+    corners, scaled, turned and moved by the collision's origin and the body's centre of
+    mass."""
+    trimesh = pytest.importorskip('trimesh')
+    (tmp_path / 'meshes').mkdir()
+    trimesh.creation.box(extents=(0.2, 0.1, 0.05)).export(tmp_path / 'meshes' / 'plate.stl')
+    prefix = tmp_path / 'install'
+    index = prefix / 'share' / 'ament_index' / 'resource_index' / 'packages'
+    index.mkdir(parents=True)
+    (index / 'rover').write_text('')
+    (prefix / 'share' / 'rover').mkdir()
+    trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(prefix / 'share' / 'rover' / 'c.stl')
+    monkeypatch.setenv('AMENT_PREFIX_PATH', str(prefix))
+    text = """<robot name="r"><link name="base">
+      <inertial><origin xyz="0.01 0.02 0.03"/><mass value="2.0"/>
+        <inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial>
+      <collision><origin xyz="0.1 0 0" rpy="0 0 0.5"/>
+        <geometry><mesh filename="meshes/plate.stl" scale="2 2 2"/></geometry></collision>
+      <collision><origin xyz="0 0 0.3"/>
+        <geometry><mesh filename="package://rover/c.stl"/></geometry></collision>
+    </link></robot>"""
+    _, (body,) = _load(_write(tmp_path, text))
+    plate, cube = body.colliders
+    turn = so3.exp((0.0, 0.0, 0.5))
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+    expected = corners * (0.2, 0.1, 0.05) + (np.array([0.1, 0.0, 0.0]) - (0.01, 0.02, 0.03)
+                                             ) @ turn  # in the hull's own axes: turned back
+    got = plate.vertices + np.array(plate.position) @ np.array(plate.rotation)
+    assert sorted(map(tuple, np.round(got, 6))) == sorted(map(tuple, np.round(expected, 6)))
+    np.testing.assert_allclose(plate.rotation, turn, atol=1e-12)
+    np.testing.assert_allclose(cube.position, (-0.01, -0.02, 0.27), atol=1e-12)
+    np.testing.assert_allclose(np.abs(cube.vertices), 0.05, atol=1e-7)

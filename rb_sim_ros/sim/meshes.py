@@ -1,0 +1,182 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""Mesh files as convex hulls: the parts of a mesh file (each connected piece of its
+surface, or each object of a file of several: the parts of a convex decomposition), each the
+points of one ``Hull`` collider, and the mass properties of the solid they make.
+
+A mesh file is untrusted input: ``mesh_parts`` reads one only from under the folders it is
+allowed (``roots``: the scene file's folder), of at most MAX_BYTES, of a binary or plain-text
+format (STL, OBJ, PLY, OFF, GLB: not the XML ones, DAE and 3MF, whose parsers expand what
+they are given), with at most MAX_VERTICES vertices and MAX_PARTS parts, every vertex finite;
+anything else is a MeshError naming the file and the reason. trimesh reads them (imported
+only when a mesh is read).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from rb_sim_ros.contact.colliders import MAX_COLLIDERS
+from rb_sim_ros.contact.shapes import hull
+
+MAX_BYTES = 64 * 1024 * 1024
+MAX_VERTICES = 1_000_000
+MAX_PARTS = MAX_COLLIDERS
+FORMATS = ('.stl', '.obj', '.ply', '.off', '.glb')
+
+
+class MeshError(ValueError):
+    """A mesh file that cannot be used; the message names the file and the reason."""
+
+
+def resolve(name: str, roots: Sequence[Path]) -> Path:
+    """The file ``name`` (relative to the first of ``roots``, or absolute), which must lie
+    under one of ``roots`` once links are followed."""
+    if not isinstance(name, str) or not name or '\0' in name:
+        raise MeshError(f'a mesh file name must be a non-empty string, got {name!r}')
+    if not roots:
+        raise MeshError(f'{name}: a mesh file is read relative to a scene file, and there is '
+                        'none here (a body given as text cannot name one)')
+    path = (Path(roots[0]) / name).resolve()
+    if not any(path.is_relative_to(Path(r).resolve()) for r in roots):
+        raise MeshError(f'{name}: outside the folders mesh files are read from '
+                        f'({", ".join(str(r) for r in roots)})')
+    if not path.is_file():
+        raise MeshError(f'{name}: no such file ({path})')
+    if path.suffix.lower() not in FORMATS:
+        raise MeshError(f'{name}: not a mesh format read here ({", ".join(FORMATS)}; the XML '
+                        'ones are not read)')
+    size = os.path.getsize(path)
+    if size > MAX_BYTES:
+        raise MeshError(f'{name}: {size} bytes, more than MAX_BYTES = {MAX_BYTES}')
+    return path
+
+
+def ros_resource(uri: str, folder: Path | None) -> tuple[str, tuple[Path, ...]]:
+    """(name, roots) of a mesh a ROS model names as ROS does: ``package://pkg/path`` under
+    the share folder of ``pkg`` (ament's index, or a share/pkg of AMENT_PREFIX_PATH),
+    ``file:///path`` or a plain path relative to ``folder`` (the model file's; None for a
+    model given as text). The roots allowed are ``folder`` and the share folders of the
+    installed ROS packages: nothing else is read."""
+    if not isinstance(uri, str) or not uri:
+        raise MeshError(f'a mesh filename must be a non-empty string, got {uri!r}')
+    shares = _shares()
+    own = (folder,) if folder is not None else ()
+    if uri.startswith('package://'):
+        package, _, rest = uri[len('package://'):].partition('/')
+        share = shares.get(package)
+        if share is None or not rest:
+            raise MeshError(f'{uri}: no ROS package {package!r} is installed here (none in '
+                            'AMENT_PREFIX_PATH)')
+        return rest, (share, *own, *shares.values())
+    if uri.startswith('file://'):
+        uri = uri[len('file://'):]
+    if not own and not os.path.isabs(uri):
+        raise MeshError(f'{uri}: a relative mesh path needs the model file it is relative to '
+                        '(a model given as text can name package:// meshes)')
+    return uri, (*own, *shares.values())
+
+
+def _shares() -> dict[str, Path]:
+    """The share folder of each ROS package installed (ament's prefixes)."""
+    out: dict[str, Path] = {}
+    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        index = Path(prefix) / 'share' / 'ament_index' / 'resource_index' / 'packages'
+        if prefix and index.is_dir():
+            for marker in sorted(index.iterdir()):
+                out.setdefault(marker.name, Path(prefix) / 'share' / marker.name)
+    return out
+
+
+def mesh_parts(name: str, roots: Sequence[Path], scale=1.0) -> list[np.ndarray]:
+    """The points (N, 3) (m, the file's frame times ``scale``: a number or 3) of each part
+    of the mesh file ``name``: each object of a file of several, else each connected piece of
+    its surface."""
+    path = resolve(name, roots)
+    scale = _scale(name, scale)
+    try:
+        import trimesh
+    except ImportError:
+        raise MeshError(f'{name}: reading mesh files needs trimesh (pip install trimesh, or '
+                        'rosdep: python3-trimesh)') from None
+    try:
+        loaded = trimesh.load(str(path), force=None, process=False)
+    except Exception as e:  # a parser's error on bad bytes: any kind
+        raise MeshError(f'{name}: not a readable mesh ({type(e).__name__}: '
+                        f'{str(e)[:200]})') from None
+    if isinstance(loaded, trimesh.Scene):
+        meshes = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)]
+    elif isinstance(loaded, trimesh.Trimesh):
+        meshes = [loaded]
+    else:
+        meshes = []
+    total = sum(len(m.vertices) for m in meshes)
+    if total > MAX_VERTICES:
+        raise MeshError(f'{name}: {total} vertices, more than MAX_VERTICES = {MAX_VERTICES} '
+                        '(decimate it first)')
+    if not meshes or total == 0:
+        raise MeshError(f'{name}: holds no triangles')
+    parts = []
+    for mesh in meshes:
+        vertices = np.asarray(mesh.vertices, dtype=np.float64)
+        if not np.all(np.isfinite(vertices)):
+            raise MeshError(f'{name}: a vertex is not finite')
+        if len(meshes) > 1:
+            pieces = [mesh]
+        else:  # its connected pieces (an STL's triangles share no vertices until merged)
+            mesh.merge_vertices()
+            pieces = mesh.split(only_watertight=False)
+        for piece in pieces or [mesh]:
+            parts.append(np.asarray(piece.vertices, dtype=np.float64) * scale)
+        if len(parts) > MAX_PARTS:
+            raise MeshError(f'{name}: more than MAX_PARTS = {MAX_PARTS} parts (each one a '
+                            'collider of its body)')
+    return parts
+
+
+def _scale(name: str, scale) -> np.ndarray:
+    values = np.atleast_1d(np.asarray(scale, dtype=object))
+    if values.size not in (1, 3) or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+        raise MeshError(f'{name}: scale must be a number or 3 numbers, got {scale!r}')
+    out = np.broadcast_to(values.astype(np.float64), (3,)).copy()
+    if not np.all(np.isfinite(out)) or not np.all(out > 0.0):
+        raise MeshError(f'{name}: scale must be finite and > 0, got {scale!r}')
+    return out
+
+
+def hulls(parts: Sequence[np.ndarray], name: str, **placement) -> list[hull.Hull]:
+    """One ``Hull`` of each part's points, with ``placement`` (position, orientation_xyzw,
+    restitution, friction) each; MeshError naming the part that is not a solid."""
+    out = []
+    for k, points in enumerate(parts):
+        try:
+            out.append(hull.Hull(points, **placement))
+        except ValueError as e:
+            raise MeshError(f'{name}: part {k}: {e}') from None
+    return out
+
+
+def combined_mass(shapes_: Sequence[hull.Hull],
+                  density: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass, centre of mass, inertia about it) of the solid hulls ``shapes_`` (each placed in
+    the frame they share) of uniform ``density``: their own, moved by the parallel-axis
+    theorem and summed."""
+    masses, centres, inertias = [], [], []
+    for s in shapes_:
+        m, c, inertia = s.mass_properties(density)
+        r = s.rotation
+        masses.append(m)
+        centres.append(np.array(s.position) + r @ c)
+        inertias.append(r @ inertia @ r.T)
+    total = float(sum(masses))
+    centre = sum(m * c for m, c in zip(masses, centres)) / total
+    inertia = np.zeros((3, 3))
+    for m, c, own in zip(masses, centres, inertias):
+        d = c - centre
+        inertia += own + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
+    return total, centre, 0.5 * (inertia + inertia.T)
