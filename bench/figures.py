@@ -332,6 +332,16 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((figs, '#Collisions', f'{min(cyl_ratios["1"]):.1f}x to '
               f'{max(cyl_ratios["1"]):.1f}x'))
 
+    hull = load('hull_bench', folder)['seconds_per_step']
+    hull_ratio = {(name, c): r[f'rb_sim_ros, {c}'] / r[f'MuJoCo Newton, {c}']
+                  for name, r in hull.items() for c in ('1', '10')}
+    on_plane = [hull_ratio[(n, c)] for n in ('tipping post', 'pebble on the ground')
+                for c in ('10', '1')]
+    q.append((figs, '#Collisions', f"{on_plane[0]:.1f}x and {on_plane[2]:.1f}x MuJoCo's step "
+              f'at ten steps a call ({on_plane[1]:.1f}x and {on_plane[3]:.1f}x at one)'))
+    q.append((figs, '#Collisions', f'a hull on a hull {hull_ratio[("hull on a hull", "10")]:.1f}x '
+              f'({hull_ratio[("hull on a hull", "1")]:.1f}x)'))
+
     pile = load('pile_bench', folder)
     rows, out = pile['rows'], pile['outcomes']
     ms = [rows[k]['seconds_per_step'] * 1e3 for k in (

@@ -153,6 +153,9 @@ def test_collision_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
     cylinder = _quick('cylinder_bench', tmp_path)  # both engines' outcomes checked first
     assert set(cylinder['seconds_per_step']) == {'rolling cylinder', 'tipping cylinder',
                                                  'cylinder on a box', 'crossed cylinders'}
+    hull = _quick('hull_bench', tmp_path)  # both engines' outcomes checked first
+    assert set(hull['seconds_per_step']) == {'tipping post', 'pebble on the ground',
+                                             'hull on a hull'}
 
 
 @pytest.mark.slow  # a benchmark
