@@ -27,6 +27,9 @@ MAX_BYTES = 64 * 1024 * 1024
 MAX_VERTICES = 1_000_000
 MAX_PARTS = MAX_COLLIDERS
 FORMATS = ('.stl', '.obj', '.ply', '.off', '.glb')
+# coacd's concavity threshold (its default: a part's surface within 5% of the mesh's size of
+# its hull)
+DECOMPOSE_THRESHOLD = 0.05
 
 
 class MeshError(ValueError):
@@ -92,12 +95,16 @@ def _shares() -> dict[str, Path]:
     return out
 
 
-def mesh_parts(name: str, roots: Sequence[Path], scale=1.0) -> list[np.ndarray]:
+def mesh_parts(name: str, roots: Sequence[Path], scale=1.0,
+               decompose: bool = False) -> list[np.ndarray]:
     """The points (N, 3) (m, the file's frame times ``scale``: a number or 3) of each part
     of the mesh file ``name``: each object of a file of several, else each connected piece of
-    its surface."""
+    its surface; with ``decompose``, each piece cut into convex parts by coacd (an
+    approximate convex decomposition, its seed fixed: the same parts every time)."""
     path = resolve(name, roots)
     scale = _scale(name, scale)
+    if not isinstance(decompose, bool):
+        raise MeshError(f'{name}: decompose must be true or false, got {decompose!r}')
     try:
         import trimesh
     except ImportError:
@@ -131,11 +138,32 @@ def mesh_parts(name: str, roots: Sequence[Path], scale=1.0) -> list[np.ndarray]:
             mesh.merge_vertices()
             pieces = mesh.split(only_watertight=False)
         for piece in pieces or [mesh]:
-            parts.append(np.asarray(piece.vertices, dtype=np.float64) * scale)
+            if decompose:
+                parts.extend(p * scale for p in _convex_parts(name, piece))
+            else:
+                parts.append(np.asarray(piece.vertices, dtype=np.float64) * scale)
         if len(parts) > MAX_PARTS:
             raise MeshError(f'{name}: more than MAX_PARTS = {MAX_PARTS} parts (each one a '
                             'collider of its body)')
     return parts
+
+
+def _convex_parts(name: str, mesh) -> list[np.ndarray]:
+    """The vertices of each convex part of ``mesh`` (coacd, threshold DECOMPOSE_THRESHOLD,
+    seed 0)."""
+    try:
+        import coacd
+    except ImportError:
+        raise MeshError(f'{name}: decompose needs coacd (pip install coacd)') from None
+    coacd.set_log_level('error')
+    try:
+        found = coacd.run_coacd(coacd.Mesh(np.asarray(mesh.vertices, dtype=np.float64),
+                                           np.asarray(mesh.faces, dtype=np.int32)),
+                                threshold=DECOMPOSE_THRESHOLD, seed=0)
+    except Exception as e:  # its C++ refusing a mesh: any kind
+        raise MeshError(f'{name}: coacd could not decompose it ({type(e).__name__}: '
+                        f'{str(e)[:200]})') from None
+    return [np.asarray(vertices, dtype=np.float64) for vertices, _ in found]
 
 
 def _scale(name: str, scale) -> np.ndarray:

@@ -79,12 +79,13 @@ from rb_sim_ros.sim.simulation import BodySpec, ContactSettings, MAX_BODIES
 
 TOP_KEYS = {'gravity', 'contact', 'bodies', 'integrator', 'templates'}
 BODY_KEYS = {'name', 'mass', 'inertia', 'shape', 'size', 'radius', 'length', 'density',
-             'file', 'scale', 'position', 'orientation', 'linear_velocity', 'angular_velocity',
-             'linear_damping', 'angular_damping', 'static', 'colliders', 'points'}
+             'file', 'scale', 'decompose', 'position', 'orientation', 'linear_velocity',
+             'angular_velocity', 'linear_damping', 'angular_damping', 'static', 'colliders',
+             'points'}
 SHAPES = {'box': {'size'}, 'sphere': {'radius'}, 'cylinder': {'radius', 'length'}}
 # a body's own shape from a mesh file: its parts' hulls (sim/meshes.py)
 MESH = 'mesh'
-MESH_KEYS = {'file', 'scale'}
+MESH_KEYS = {'file', 'scale', 'decompose'}
 # a kind of shapes.KINDS, 'shape': the body's own shape (its size, mass and inertia), or
 # 'mesh': the hulls of the parts of a mesh file
 COLLIDER_TYPES = tuple(sorted(shapes.NAMES + ('shape', MESH)))
@@ -287,7 +288,7 @@ def _body(path: str, index: int, data: Any, where: str = '') -> BodySpec:
         kwargs['mass'], kwargs['inertia'], dims = _shape_mass(where, data, shape)
         field = 'shape'
     else:
-        for key in ('size', 'radius', 'length', 'density', 'file', 'scale'):
+        for key in ('size', 'radius', 'length', 'density', *sorted(MESH_KEYS)):
             if key in data:
                 _fail(where, key, 'only with a shape')
         if not static:
@@ -370,7 +371,8 @@ def _mesh_mass(where: str, data: dict, roots) -> tuple[float, tuple, dict]:
         _fail(where, 'density', 'missing (kg/m^3, needed with a shape)')
     density = _number(where, 'density', data['density'], 0.0, True, ' (kg/m^3)')
     try:
-        parts = meshes.mesh_parts(data['file'], roots, data.get('scale', 1.0))
+        parts = meshes.mesh_parts(data['file'], roots, data.get('scale', 1.0),
+                                  data.get('decompose', False))
         hulls = meshes.hulls(parts, str(data['file']))
         mass, centre, inertia = meshes.combined_mass(hulls, density)
     except (ValueError, ArithmeticError) as e:
@@ -396,7 +398,8 @@ def _own_shape(shape: Any, dims: dict, material: dict) -> list:
 def _mesh_colliders(data: dict, roots) -> list:
     """The hulls of a ``{type: mesh, file, scale, position, orientation, restitution,
     friction}`` collider: one for each part of its file."""
-    allowed = {'type', 'file', 'scale', 'position', 'orientation', 'restitution', 'friction'}
+    allowed = {'type', 'file', 'scale', 'decompose', 'position', 'orientation', 'restitution',
+               'friction'}
     unknown = sorted(str(k) for k in set(data) - allowed)
     if unknown:
         raise ValueError(f'{MESH}: unknown keys {_show(unknown)} (allowed: {sorted(allowed)})')
@@ -406,7 +409,8 @@ def _mesh_colliders(data: dict, roots) -> list:
                  if key in data}
     if 'orientation' in data:
         placement['orientation_xyzw'] = data['orientation']
-    parts = meshes.mesh_parts(data['file'], roots, data.get('scale', 1.0))
+    parts = meshes.mesh_parts(data['file'], roots, data.get('scale', 1.0),
+                              data.get('decompose', False))
     return meshes.hulls(parts, str(data['file']), **placement)
 
 

@@ -124,3 +124,38 @@ def test_bad_mesh_files_are_refused_with_the_reason(tmp_path, monkeypatch):
     # the good file loads: nothing above was left half-done
     assert load_scene(_scene(folder, entry.format('box.stl'))).bodies[0].mass == \
         pytest.approx(500.0 * math.prod(SIZE), rel=FILE)
+
+
+def _l_prism() -> trimesh.Trimesh:
+    """An L-shaped slab 0.4 x 0.4 m, arms 0.1 m wide, 0.1 m thick (not convex)."""
+    outline = np.array([[0, 0], [0.4, 0], [0.4, 0.1], [0.1, 0.1], [0.1, 0.4], [0, 0.4]])
+    fan = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 5]])
+    return trimesh.creation.extrude_triangulation(outline, fan, 0.1)
+
+
+def test_decompose_cuts_a_non_convex_mesh_into_hulls_a_ball_falls_between(tmp_path):
+    """An L-shaped slab on the ground, static: as one hull it covers its inner corner, so a
+    ball dropped over the corner rests on the hull's top (0.1 m up); with ``decompose: true``
+    (coacd) its parts' hulls hold the L's volume (1%) and the ball falls past them to the
+    ground, as onto the true L."""
+    pytest.importorskip('coacd')
+    _l_prism().export(tmp_path / 'ell.stl')
+    heights = {}
+    for decompose in ('false', 'true'):
+        path = _scene(tmp_path, '  - {name: ell, static: true, colliders: [{type: mesh, '
+                      f'file: ell.stl, decompose: {decompose}}}]}}\n'
+                      '  - {name: ball, shape: sphere, radius: 0.03, density: 1000, '
+                      'position: [0.25, 0.25, 0.3], colliders: shape}\n')
+        ell = load_scene(path).bodies[0]
+        volume = sum(h.mass_properties()[0] for h in ell.colliders)
+        if decompose == 'true':
+            assert len(ell.colliders) >= 2
+            assert volume == pytest.approx(0.4 * 0.1 * 0.1 * 2 - 0.01 * 0.1, rel=0.01)
+        else:
+            assert len(ell.colliders) == 1
+        world = collision_world(load_scene(path).bodies, 1e-3, (0.0, 0.0, -9.81),
+                                contact=ContactSettings(friction=0.8))
+        world.step(800)
+        heights[decompose] = world.state('ball').position[2]
+    assert heights['false'] > 0.1  # on the single hull's slanted top
+    assert heights['true'] == pytest.approx(0.03, abs=2e-4)  # on the ground
