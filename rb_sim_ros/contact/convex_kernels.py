@@ -32,9 +32,10 @@ above the plane (less the radius) is at most the margin, at most 4.
 Conventions as ``narrow_kernels``: normal from A to B, depth > 0 overlapping, point midway,
 world frame, rot row-major; the same bits compiled and interpreted (every reduction written
 out, every division guarded); a bad input gives a meaningless contact, never an exception.
-Features: ``FACE_FEATURES`` + the reference side (A 0, B 1) * 1000 + the face tags of the
-incident face (``core_face``, < 64) or the tags of its crossings with the reference's sides
-(``_crossing_tag``), or ``POINT_FEATURE`` for the single contact.
+Features: ``FACE_FEATURES`` (+ ``REFERENCE_B`` when B's face is the reference) + the face
+tags of the incident face (``core_face``, < 64) or the tags of its crossings with the
+reference's sides (``_crossing_tag``, each its own), or ``POINT_FEATURE`` for the single
+contact.
 """
 
 from __future__ import annotations
@@ -77,6 +78,11 @@ CLIP_ROOM = 64
 FACE_COS = 0.99
 POINT_FEATURE = 3000
 FACE_FEATURES = 0
+# The incident face's tags below CROSSINGS (a hull's vertex indices, < 64), its crossings'
+# above (``_crossing_tag``, below 1378); B's face as the reference adds REFERENCE_B.
+CROSSINGS = 64
+SIDES = 9
+REFERENCE_B = 1500
 
 
 # -- supports -----------------------------------------------------------------------------------
@@ -697,14 +703,27 @@ def _manifold(ref, nref, inc, inc_tags, ninc, ux, uy, uz, margin, deepest, sign,
 
 
 @inline_kernel
-def _crossing_tag(start, side):
-    """The feature of the point where the incident edge from the point tagged ``start``
-    crosses the reference's side ``side`` (0 to 8), below 700: distinct from the face tags
-    (< 32) and from the other crossings of a face (an edge of the face crosses a side once;
-    one from an earlier crossing is named by that crossing's side)."""
-    if start < 64:  # an edge of the face as it was
-        return 64 + 64 * side + start % 32
-    return 96 + 64 * side + ((start - 64) // 64) % 32  # an edge from an earlier crossing
+def _edge_from(tag):
+    """The edge that starts at the clipped face's point tagged ``tag``: the face's own edge
+    from its corner ``tag`` (< 64), or, from a crossing, the edge it was on (entering: the
+    face's edge goes on) or the line of the side it crossed (leaving: the clipped face runs
+    along that side), 64 + the side."""
+    if tag < CROSSINGS:
+        return tag
+    crossing = (tag - CROSSINGS) // 2
+    if (tag - CROSSINGS) % 2 == 1:  # entering
+        return crossing // SIDES
+    return CROSSINGS + crossing % SIDES
+
+
+@inline_kernel
+def _crossing_tag(start, side, entering):
+    """The feature of the point where the edge from the point tagged ``start`` crosses the
+    reference's side ``side`` (0 to 8), entering (1) or leaving (0) it: CROSSINGS + 2 (9 e +
+    side) + entering, e the edge (``_edge_from``), below CROSSINGS + 2 * 9 * 73 = 1378. An
+    edge (a face's or a side's line) crosses a side's plane once, so each crossing of a face
+    has a tag of its own."""
+    return CROSSINGS + 2 * (SIDES * _edge_from(start) + side) + entering
 
 
 @inline_kernel
@@ -727,7 +746,7 @@ def _clip_polygon(src, src_tag, count, dst, dst_tag, ux, uy, uz, limit, side):
             dst[out, 0] = px + t * (qx - px)
             dst[out, 1] = py + t * (qy - py)
             dst[out, 2] = pz + t * (qz - pz)
-            dst_tag[out] = _crossing_tag(int(src_tag[k]), side)
+            dst_tag[out] = _crossing_tag(int(src_tag[k]), side, 1 if dp > 0.0 else 0)
             out += 1
     return out
 
@@ -747,7 +766,7 @@ def _clip_segment(seg, tags, sx, sy, sz, limit, plane):
     py = float(seg[0, 1]) + t * (float(seg[1, 1]) - float(seg[0, 1]))
     pz = float(seg[0, 2]) + t * (float(seg[1, 2]) - float(seg[0, 2]))
     end = 0 if d0 > 0.0 else 1
-    tag = _crossing_tag(int(tags[0]), plane)
+    tag = _crossing_tag(int(tags[0]), plane, 1 if end == 0 else 0)
     seg[end, 0], seg[end, 1], seg[end, 2] = px, py, pz
     tags[end] = tag
     return 2
@@ -814,7 +833,7 @@ def convex_pair(ka, ga, ca, rota, kb, gb, cb, rotb, pool, margin, point, normal,
                           FACE_FEATURES, point, normal, depth, feature, row)
     elif na >= 2 and nb >= 2:
         count = _manifold(face_b, nb, face_a, tags_a, na, -nx, -ny, -nz, margin, deepest, -1.0,
-                          FACE_FEATURES + 1000, point, normal, depth, feature, row)
+                          FACE_FEATURES + REFERENCE_B, point, normal, depth, feature, row)
     if count > 0:
         return count
     # one contact: the closest points on the rounded surfaces

@@ -14,6 +14,7 @@ only when a mesh is read).
 
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
 from typing import Sequence
@@ -22,14 +23,23 @@ import numpy as np
 
 from rb_sim_ros.contact.colliders import MAX_COLLIDERS
 from rb_sim_ros.contact.shapes import hull
+from rb_sim_ros.core.rigid_body import short
 
 MAX_BYTES = 64 * 1024 * 1024
 MAX_VERTICES = 1_000_000
 MAX_PARTS = MAX_COLLIDERS
+MAX_NAME = 4096
 FORMATS = ('.stl', '.obj', '.ply', '.off', '.glb')
 # coacd's concavity threshold (its default: a part's surface within 5% of the mesh's size of
 # its hull)
 DECOMPOSE_THRESHOLD = 0.05
+
+
+def _shown(name) -> str:
+    """A file name for a one-line message: control characters escaped, cut short."""
+    text = name if isinstance(name, str) else repr(name)
+    text = text.encode('unicode_escape').decode('ascii')
+    return text if len(text) <= 160 else text[:157] + '...'
 
 
 class MeshError(ValueError):
@@ -39,23 +49,29 @@ class MeshError(ValueError):
 def resolve(name: str, roots: Sequence[Path]) -> Path:
     """The file ``name`` (relative to the first of ``roots``, or absolute), which must lie
     under one of ``roots`` once links are followed."""
-    if not isinstance(name, str) or not name or '\0' in name:
-        raise MeshError(f'a mesh file name must be a non-empty string, got {name!r}')
+    if not isinstance(name, str) or not name or '\0' in name or len(name) > MAX_NAME:
+        raise MeshError(f'a mesh file name must be a string of 1 to {MAX_NAME} characters, got '
+                        f'{_shown(name)}')
     if not roots:
-        raise MeshError(f'{name}: a mesh file is read relative to a scene file, and there is '
-                        'none here (a body given as text cannot name one)')
-    path = (Path(roots[0]) / name).resolve()
-    if not any(path.is_relative_to(Path(r).resolve()) for r in roots):
-        raise MeshError(f'{name}: outside the folders mesh files are read from '
-                        f'({", ".join(str(r) for r in roots)})')
-    if not path.is_file():
-        raise MeshError(f'{name}: no such file ({path})')
+        raise MeshError(f'{_shown(name)}: a mesh file is read relative to a scene file, and '
+                        'there is none here (a body given as text cannot name one)')
+    try:
+        path = (Path(roots[0]) / name).resolve()
+        inside = any(path.is_relative_to(Path(r).resolve()) for r in roots)
+        if inside and not path.is_file():
+            raise MeshError(f'{_shown(name)}: no such file ({_shown(str(path))})')
+        size = os.path.getsize(path) if inside else 0
+    except (OSError, RuntimeError) as e:  # a loop of links, a name too long
+        raise MeshError(f'{_shown(name)}: cannot be read ({type(e).__name__}: '
+                        f'{short(str(e))})') from None
+    if not inside:
+        raise MeshError(f'{_shown(name)}: outside the folders mesh files are read from '
+                        f'({short(", ".join(str(r) for r in roots))})')
     if path.suffix.lower() not in FORMATS:
-        raise MeshError(f'{name}: not a mesh format read here ({", ".join(FORMATS)}; the XML '
-                        'ones are not read)')
-    size = os.path.getsize(path)
+        raise MeshError(f'{_shown(name)}: not a mesh format read here ({", ".join(FORMATS)}; '
+                        'the XML ones are not read)')
     if size > MAX_BYTES:
-        raise MeshError(f'{name}: {size} bytes, more than MAX_BYTES = {MAX_BYTES}')
+        raise MeshError(f'{_shown(name)}: {size} bytes, more than MAX_BYTES = {MAX_BYTES}')
     return path
 
 
@@ -66,21 +82,21 @@ def ros_resource(uri: str, folder: Path | None) -> tuple[str, tuple[Path, ...]]:
     model given as text). The roots allowed are ``folder`` and the share folders of the
     installed ROS packages: nothing else is read."""
     if not isinstance(uri, str) or not uri:
-        raise MeshError(f'a mesh filename must be a non-empty string, got {uri!r}')
+        raise MeshError(f'a mesh filename must be a non-empty string, got {short(uri)}')
     shares = _shares()
     own = (folder,) if folder is not None else ()
     if uri.startswith('package://'):
         package, _, rest = uri[len('package://'):].partition('/')
         share = shares.get(package)
         if share is None or not rest:
-            raise MeshError(f'{uri}: no ROS package {package!r} is installed here (none in '
-                            'AMENT_PREFIX_PATH)')
+            raise MeshError(f"{_shown(uri)}: no ROS package '{_shown(package)}' is installed "
+                            'here (none in AMENT_PREFIX_PATH)')
         return rest, (share, *own, *shares.values())
     if uri.startswith('file://'):
         uri = uri[len('file://'):]
     if not own and not os.path.isabs(uri):
-        raise MeshError(f'{uri}: a relative mesh path needs the model file it is relative to '
-                        '(a model given as text can name package:// meshes)')
+        raise MeshError(f'{_shown(uri)}: a relative mesh path needs the model file it is '
+                        'relative to (a model given as text can name package:// meshes)')
     return uri, (*own, *shares.values())
 
 
@@ -100,52 +116,92 @@ def mesh_parts(name: str, roots: Sequence[Path], scale=1.0,
     """The points (N, 3) (m, the file's frame times ``scale``: a number or 3) of each part
     of the mesh file ``name``: each object of a file of several, else each connected piece of
     its surface; with ``decompose``, each piece cut into convex parts by coacd (an
-    approximate convex decomposition, its seed fixed: the same parts every time)."""
+    approximate convex decomposition, its seed fixed: the same parts every time). The file's
+    bytes alone are read: no file it names (an OBJ's materials, a GLB's buffers)."""
     path = resolve(name, roots)
     scale = _scale(name, scale)
     if not isinstance(decompose, bool):
-        raise MeshError(f'{name}: decompose must be true or false, got {decompose!r}')
+        raise MeshError(f'{_shown(name)}: decompose must be true or false, got '
+                        f'{short(decompose)}')
+    try:
+        stat = path.stat()
+        key = (str(path), stat.st_mtime_ns, stat.st_size, decompose)
+        if key not in _READ:
+            data = path.read_bytes()[:MAX_BYTES + 1]
+            if len(data) > MAX_BYTES:
+                raise MeshError(f'{_shown(name)}: more than MAX_BYTES = {MAX_BYTES}')
+            while len(_READ) >= CACHED:
+                _READ.pop(next(iter(_READ)))
+            _READ[key] = _parts(_shown(name), data, path.suffix.lower()[1:], decompose)
+        return [part * scale for part in _READ[key]]
+    except OSError as e:
+        raise MeshError(f'{_shown(name)}: cannot be read ({type(e).__name__})') from None
+
+
+# The parts of the files read last (a scene of many bodies of one mesh reads it once).
+CACHED = 16
+_READ: dict[tuple, list[np.ndarray]] = {}
+
+
+def _parts(name: str, data: bytes, kind: str, decompose: bool) -> list[np.ndarray]:
     try:
         import trimesh
     except ImportError:
         raise MeshError(f'{name}: reading mesh files needs trimesh (pip install trimesh, or '
                         'rosdep: python3-trimesh)') from None
     try:
-        loaded = trimesh.load(str(path), force=None, process=False)
-    except Exception as e:  # a parser's error on bad bytes: any kind
+        loaded = trimesh.load(io.BytesIO(data), file_type=kind, process=False, resolver=None,
+                              skip_materials=True)
+        if isinstance(loaded, trimesh.Scene):
+            instances = loaded.graph.nodes_geometry
+            total = sum(len(getattr(loaded.geometry.get(loaded.graph[n][1]), 'vertices', ()))
+                        for n in instances)
+            if total > MAX_VERTICES:
+                raise MeshError(f'{name}: {total} vertices, more than MAX_VERTICES = '
+                                f'{MAX_VERTICES} (decimate it first)')
+            meshes = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)]
+        elif isinstance(loaded, trimesh.Trimesh):
+            meshes = [loaded]
+        else:
+            meshes = []
+        total = sum(len(m.vertices) for m in meshes)
+        if total > MAX_VERTICES:
+            raise MeshError(f'{name}: {total} vertices, more than MAX_VERTICES = '
+                            f'{MAX_VERTICES} (decimate it first)')
+        if not meshes or total == 0 or not any(len(m.faces) for m in meshes):
+            raise MeshError(f'{name}: holds no triangles')
+        parts: list[np.ndarray] = []
+        for mesh in meshes:
+            vertices = np.asarray(mesh.vertices, dtype=np.float64)
+            faces = np.asarray(mesh.faces)
+            if not np.all(np.isfinite(vertices)):
+                raise MeshError(f'{name}: a vertex is not finite')
+            if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
+                raise MeshError(f'{name}: a face names a vertex it does not have')
+            if len(meshes) > 1:
+                pieces = [mesh]
+            else:  # its connected pieces (an STL's triangles share no vertices until merged)
+                mesh.merge_vertices()
+                groups = trimesh.graph.connected_components(mesh.face_adjacency,
+                                                            nodes=np.arange(len(mesh.faces)))
+                if len(groups) > MAX_PARTS:
+                    raise MeshError(f'{name}: {len(groups)} pieces, more than MAX_PARTS = '
+                                    f'{MAX_PARTS} (each one a collider of its body)')
+                pieces = mesh.split(only_watertight=False) or [mesh]
+            for piece in pieces:
+                if decompose:
+                    parts.extend(_convex_parts(name, piece))
+                else:
+                    parts.append(np.asarray(piece.vertices, dtype=np.float64))
+                if len(parts) > MAX_PARTS:
+                    raise MeshError(f'{name}: more than MAX_PARTS = {MAX_PARTS} parts (each '
+                                    'one a collider of its body)')
+        return parts
+    except MeshError:
+        raise
+    except Exception as e:  # a parser's or its processing's error on bad bytes: any kind
         raise MeshError(f'{name}: not a readable mesh ({type(e).__name__}: '
-                        f'{str(e)[:200]})') from None
-    if isinstance(loaded, trimesh.Scene):
-        meshes = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)]
-    elif isinstance(loaded, trimesh.Trimesh):
-        meshes = [loaded]
-    else:
-        meshes = []
-    total = sum(len(m.vertices) for m in meshes)
-    if total > MAX_VERTICES:
-        raise MeshError(f'{name}: {total} vertices, more than MAX_VERTICES = {MAX_VERTICES} '
-                        '(decimate it first)')
-    if not meshes or total == 0:
-        raise MeshError(f'{name}: holds no triangles')
-    parts = []
-    for mesh in meshes:
-        vertices = np.asarray(mesh.vertices, dtype=np.float64)
-        if not np.all(np.isfinite(vertices)):
-            raise MeshError(f'{name}: a vertex is not finite')
-        if len(meshes) > 1:
-            pieces = [mesh]
-        else:  # its connected pieces (an STL's triangles share no vertices until merged)
-            mesh.merge_vertices()
-            pieces = mesh.split(only_watertight=False)
-        for piece in pieces or [mesh]:
-            if decompose:
-                parts.extend(p * scale for p in _convex_parts(name, piece))
-            else:
-                parts.append(np.asarray(piece.vertices, dtype=np.float64) * scale)
-        if len(parts) > MAX_PARTS:
-            raise MeshError(f'{name}: more than MAX_PARTS = {MAX_PARTS} parts (each one a '
-                            'collider of its body)')
-    return parts
+                        f'{short(str(e))})') from None
 
 
 def _convex_parts(name: str, mesh) -> list[np.ndarray]:
@@ -170,10 +226,11 @@ def _scale(name: str, scale) -> np.ndarray:
     values = np.atleast_1d(np.asarray(scale, dtype=object))
     if values.size not in (1, 3) or not all(
             isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
-        raise MeshError(f'{name}: scale must be a number or 3 numbers, got {scale!r}')
+        raise MeshError(f'{_shown(name)}: scale must be a number or 3 numbers, got '
+                        f'{short(scale)}')
     out = np.broadcast_to(values.astype(np.float64), (3,)).copy()
     if not np.all(np.isfinite(out)) or not np.all(out > 0.0):
-        raise MeshError(f'{name}: scale must be finite and > 0, got {scale!r}')
+        raise MeshError(f'{_shown(name)}: scale must be finite and > 0, got {short(scale)}')
     return out
 
 
@@ -185,7 +242,7 @@ def hulls(parts: Sequence[np.ndarray], name: str, **placement) -> list[hull.Hull
         try:
             out.append(hull.Hull(points, **placement))
         except ValueError as e:
-            raise MeshError(f'{name}: part {k}: {e}') from None
+            raise MeshError(f'{_shown(name)}: part {k}: {e}') from None
     return out
 
 

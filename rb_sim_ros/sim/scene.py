@@ -375,12 +375,15 @@ def _mesh_mass(where: str, data: dict, roots) -> tuple[float, tuple, dict]:
                                   data.get('decompose', False))
         hulls = meshes.hulls(parts, str(data['file']))
         mass, centre, inertia = meshes.combined_mass(hulls, density)
-    except (ValueError, ArithmeticError) as e:
+        if not (math.isfinite(mass) and mass >= TINY and np.all(np.isfinite(inertia))):
+            _fail(where, 'shape', f'this {MESH} and density give mass {mass!r} kg: it must be '
+                  f'finite and at least {TINY:.3g}')
+        # about the centre of mass, the body's origin
+        placed = [replace(h, points=h.vertices - centre) for h in hulls]
+    except (ValueError, TypeError, ArithmeticError) as e:
+        if isinstance(e, SceneError):
+            raise
         _fail(where, 'file', str(e))
-    if not (math.isfinite(mass) and mass >= TINY and np.all(np.isfinite(inertia))):
-        _fail(where, 'shape', f'this {MESH} and density give mass {mass!r} kg: it must be '
-              f'finite and at least {TINY:.3g}')
-    placed = [replace(h, points=h.vertices - centre) for h in hulls]
     return mass, tuple(float(v) for v in inertia.ravel()), {'hulls': placed}
 
 

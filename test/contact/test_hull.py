@@ -247,3 +247,50 @@ def test_box_hulls_stack_as_boxes_do():
         st = world.state(f'b{k}')
         assert st.position[2] == pytest.approx(0.1 + 0.2 * k, abs=5e-4)
         assert np.linalg.norm(st.linear_velocity) < 1e-5
+
+
+def _prism(sides: int, radius: float, height: float) -> Hull:
+    turn = np.linspace(0.0, 2.0 * math.pi, sides, endpoint=False)
+    ring = np.stack([radius * np.cos(turn), radius * np.sin(turn), np.zeros(sides)], axis=1)
+    return Hull(np.concatenate([ring - (0, 0, height / 2), ring + (0, 0, height / 2)]).tolist())
+
+
+def test_a_prism_of_many_corners_names_each_contact_apart():
+    """A 20-sided prism (40 vertices: tags past 32, caps of more than FACE_CAPACITY corners)
+    across a box's edge or tilted on its face, in many poses: every contact of a pair has its
+    own feature (warm starts are keyed on them), and each lies on both surfaces (depth at
+    most the overlap)."""
+    prism = _prism(20, 0.1, 0.3)
+    assert len(prism.points) == 40 and max(len(f) for f in prism.faces) == 20
+    rng = np.random.default_rng(2)
+    seen = 0
+    for _ in range(300):
+        turn = so3.exp(rng.normal(size=3) * 0.4) @ so3.exp((math.pi / 2, 0.0, 0.0))
+        if rng.random() < 0.5:
+            turn = so3.exp(rng.normal(size=3) * 0.05)
+        at = np.array([rng.uniform(-0.6, 0.6), rng.uniform(-0.2, 0.2), 0.0])
+        at[2] = 0.5 - (prism.vertices @ turn.T)[:, 2].min() - rng.uniform(0.0, 0.004)
+        contacts = nph.collide(Box((1.0, 1.0, 1.0)), (np.zeros(3), I3), prism, (at, turn),
+                               0.002)
+        features = [c.feature for c in contacts]
+        assert len(set(features)) == len(features), features
+        seen += len(contacts) > 1
+    assert seen > 100
+
+
+def test_a_prism_stands_on_its_cap_still():
+    """The 20-sided prism standing on its cap (a face of 20 corners, 9 of them its contacts)
+    comes to rest and stays still: no rocking, no creeping."""
+    prism = _prism(20, 0.1, 0.3)
+    m, _, inertia = prism.mass_properties(1000.0)
+    body = BodySpec('post', m, tuple(inertia.ravel()), initial_position=(0.0, 0.0, 0.16),
+                    initial_orientation_xyzw=_xyzw(so3.exp((0.05, -0.03, 0.0))),
+                    colliders=(prism,))
+    world = _world([body])
+    world.step(1500)
+    before = world.state('post')
+    world.step(500)
+    after = world.state('post')
+    assert after.position[2] == pytest.approx(0.15, abs=2e-4)
+    assert np.linalg.norm(np.array(after.position) - before.position) < 1e-7
+    assert np.linalg.norm(after.angular_velocity) < 1e-6

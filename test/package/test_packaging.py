@@ -243,7 +243,7 @@ ROSDEP_KEY = {'numpy': 'python3-numpy', 'yaml': 'python3-yaml', 'numba': 'python
               'regex': 'python3-regex', 'matplotlib': 'python3-matplotlib', 'PIL': 'python3-pil',
               'imageio': 'python3-imageio', 'tqdm': 'python3-tqdm', 'scipy': 'python3-scipy',
               'trimesh': 'python3-trimesh'}
-PYPI_ONLY = {'mcap', 'ray', 'imageio_ffmpeg', 'mujoco'}
+PYPI_ONLY = {'mcap', 'ray', 'imageio_ffmpeg', 'mujoco', 'coacd'}
 
 
 def test_every_module_the_package_imports_has_a_rosdep_key_in_package_xml():

@@ -159,3 +159,36 @@ def test_decompose_cuts_a_non_convex_mesh_into_hulls_a_ball_falls_between(tmp_pa
         heights[decompose] = world.state('ball').position[2]
     assert heights['false'] > 0.1  # on the single hull's slanted top
     assert heights['true'] == pytest.approx(0.03, abs=2e-4)  # on the ground
+
+
+def test_links_long_names_bad_indices_and_named_files_are_refused_or_not_read(tmp_path,
+                                                                              monkeypatch):
+    """A link out of the folder, a loop of links, a name too long, a face naming a vertex the
+    file does not have: each refused in a line naming the file. An OBJ naming a material
+    file: the mesh is read from its own bytes, and no other file is opened."""
+    folder = tmp_path / 'site'
+    folder.mkdir()
+    _box_mesh().export(tmp_path / 'secret.stl')
+    (folder / 'escape.stl').symlink_to(tmp_path / 'secret.stl')
+    (folder / 'loop.stl').symlink_to(folder / 'loop.stl')
+    entry = '  - {{name: b, shape: mesh, file: {}, density: 500, colliders: shape}}\n'
+    _refused(folder, entry.format('escape.stl'), 'escape.stl: outside the folders')
+    _refused(folder, entry.format('loop.stl'), 'loop.stl: cannot be read')
+    _refused(folder, entry.format('x' * 4000 + '.stl'), r'x\.\.\.: cannot be read')
+    with pytest.raises(meshes.MeshError, match='a string of 1 to 4096 characters'):
+        meshes.mesh_parts('x' * 5000, [folder])
+    (folder / 'bad.off').write_text('OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n'
+                                    '3 0 1 2\n3 0 1 3\n3 0 2 3\n3 1 2 9\n')
+    _refused(folder, entry.format('bad.off'), 'bad.off: ')
+    import trimesh.resolvers
+    opened = []
+    for kind in (trimesh.resolvers.FilePathResolver, trimesh.resolvers.ZipResolver):
+        monkeypatch.setattr(kind, 'get', lambda self, name: opened.append(name) or b'')
+    (tmp_path / 'stolen.mtl').write_text('newmtl m\nmap_Kd ../../secret.png\n')
+    cube = _box_mesh()
+    lines = ['mtllib ../stolen.mtl', 'usemtl m'] + [f'v {x} {y} {z}' for x, y, z in cube.vertices]
+    lines += [f'f {a + 1} {b + 1} {c + 1}' for a, b, c in cube.faces]
+    (folder / 'dressed.obj').write_text('\n'.join(lines) + '\n')
+    body = load_scene(_scene(folder, entry.format('dressed.obj'))).bodies[0]
+    assert body.mass == pytest.approx(500.0 * math.prod(SIZE), rel=1e-12)
+    assert opened == []

@@ -118,7 +118,7 @@ def test_shapes_against_textbook_and_a_point_cloud():
     ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], colliders: [{type: plane}]}]',
      "body 0 ('a'): colliders[0]: a plane is only allowed on a static body"),
     ('bodies: [{name: a, mass: 1, inertia: [1, 1, 1], colliders: [{type: shape}]}]',
-     "body 0 ('a'): colliders[0]: 'shape' needs a body shape (box, cylinder, sphere), got "
+     "body 0 ('a'): colliders[0]: 'shape' needs a body shape (box, cylinder, mesh, sphere), got "
      'None'),
     ('bodies: [{name: a, shape: box, size: [1, 1, 1], density: 1, '
      'colliders: [{type: shape, size: 2}]}]',

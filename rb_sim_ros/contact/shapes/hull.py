@@ -127,7 +127,7 @@ def _points(value) -> np.ndarray:
             raise ValueError(f'points: at most MAX_POINTS = {MAX_POINTS} points, got '
                              f'{len(value)} (decimate the mesh first)')
         for i, p in enumerate(value):
-            if (isinstance(p, (str, bytes)) or not hasattr(p, '__len__') or len(p) != 3
+            if (not isinstance(p, (list, tuple, np.ndarray)) or len(p) != 3
                     or not all(isinstance(c, (int, float)) and not isinstance(c, bool)
                                for c in p)):
                 raise ValueError(f'points[{i}] must be 3 numbers [x, y, z] (m), got '
@@ -230,7 +230,7 @@ def _ordered(vertices: np.ndarray, corners: list[int], n: np.ndarray, size: floa
     counter-clockwise seen from outside, without the points on its edges."""
     p = vertices[corners]
     centre = p.mean(axis=0)
-    u = p[0] - centre
+    u = p[int(np.argmax(((p - centre) ** 2).sum(axis=1)))] - centre  # never the centre
     u -= (u @ n) * n
     u /= np.linalg.norm(u)
     v = np.cross(n, u)
@@ -242,6 +242,9 @@ def _ordered(vertices: np.ndarray, corners: list[int], n: np.ndarray, size: floa
         turn = np.cross(vertices[i] - a, b - vertices[i]) @ n
         if turn > 1e-9 * size * size:
             kept.append(i)
+    if len(kept) < 3:
+        raise ValueError('points: their hull has a face of fewer than 3 corners (rounding: '
+                         'give points that are not nearly in one plane)')
     return kept
 
 
@@ -252,7 +255,8 @@ def mass_properties(vertices: np.ndarray, triangles: np.ndarray,
     ``density``: each triangle and the origin make a tetrahedron of signed volume
     det / 6 = a . (b x c) / 6 and second moment det (A C A^T), A = [a b c], C = (1 + I) / 120
     (the unit tetrahedron's)."""
-    a, b, c = (vertices[triangles[:, k]] for k in range(3))
+    origin = vertices.mean(axis=0)  # (tetrahedra from a point among them: no cancelling)
+    a, b, c = (vertices[triangles[:, k]] - origin for k in range(3))
     det = np.einsum('ij,ij->i', a, np.cross(b, c))
     volume = det.sum() / 6.0
     if not volume > 0.0:
@@ -264,7 +268,7 @@ def mass_properties(vertices: np.ndarray, triangles: np.ndarray,
     second /= 120.0  # integral of x x^T over the solid
     second -= volume * np.outer(centre, centre)
     inertia = density * (np.trace(second) * np.eye(3) - second)
-    return density * volume, centre, 0.5 * (inertia + inertia.T)
+    return density * volume, centre + origin, 0.5 * (inertia + inertia.T)
 
 
 def pack(shape: Hull, geom: np.ndarray, rotation: np.ndarray, pool: Pool) -> None:
