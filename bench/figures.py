@@ -342,6 +342,11 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((figs, '#Collisions', f'a hull on a hull {hull_ratio[("hull on a hull", "10")]:.1f}x '
               f'({hull_ratio[("hull on a hull", "1")]:.1f}x)'))
 
+    hull_pile = load('hull_pile_bench', folder)['seconds_per_step']
+    ms = (hull_pile['rb_sim_ros'] * 1e3, hull_pile['MuJoCo Newton'] * 1e3)
+    q.append((figs, '#Collisions', f"{ms[0]:.3f} ms a step against MuJoCo's "
+              f'{ms[1]:.3f}, {ms[0] / ms[1]:.2f}x'))
+
     pile = load('pile_bench', folder)
     rows, out = pile['rows'], pile['outcomes']
     ms = [rows[k]['seconds_per_step'] * 1e3 for k in (

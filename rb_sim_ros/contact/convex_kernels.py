@@ -276,10 +276,12 @@ def _apply_mask(W, PA, PB, lam, idx, weights, scratch, i, j, k, u, v, w, mask):
 
 
 @kernel
-def _gjk(ka, ga, ca, ra, kb, gb, cb, rb, pool, W, PA, PB, lam):
-    """GJK on the cores of A and B: (n, overlap, size2). On return W[:n], PA[:n], PB[:n] and
-    lam[:n] give the closest points (a = sum lam PA, b = sum lam PB) when apart; overlap when
-    the cores touch or overlap (then W[:n] is the last simplex, for EPA); size2 the largest
+def _gjk(ka, ga, ca, ra, kb, gb, cb, rb, pool, W, PA, PB, lam, beyond):
+    """GJK on the cores of A and B: (n, overlap, size2), n = -1 when the cores are found
+    farther apart than ``beyond`` (m: a plane square to v lies between them that far from
+    one, so no nearer points need be found). On return W[:n], PA[:n], PB[:n] and lam[:n]
+    give the closest points (a = sum lam PA, b = sum lam PB) when apart; overlap when the
+    cores touch or overlap (then W[:n] is the last simplex, for EPA); size2 the largest
     squared support point met (the scale of the tolerances)."""
     vx = float(ca[0]) - float(cb[0])
     vy = float(ca[1]) - float(cb[1])
@@ -302,7 +304,11 @@ def _gjk(ka, ga, ca, ra, kb, gb, cb, rb, pool, W, PA, PB, lam):
         w2 = wx * wx + wy * wy + wz * wz
         if w2 > size2:
             size2 = w2
-        if n > 0 and vv - (vx * wx + vy * wy + vz * wz) <= GJK_RELATIVE * vv:
+        vw = vx * wx + vy * wy + vz * wz
+        if vw > 0.0 and vw * vw > beyond * beyond * (vx * vx + vy * vy + vz * vz):
+            # (the distance is at least vw / |v|)
+            return -1, False, size2
+        if n > 0 and vv - vw <= GJK_RELATIVE * vv:
             return n, False, size2  # w brings nothing: v is the nearest point
         for m in range(n):  # w is a vertex already: v is as near as it gets
             if W[m, 0] == wx and W[m, 1] == wy and W[m, 2] == wz:
@@ -784,7 +790,10 @@ def convex_pair(ka, ga, ca, rota, kb, gb, cb, rotb, pool, margin, point, normal,
     lam = np.empty(4)
     rad_a = shapes.core_radius_of(ka, ga)
     rad_b = shapes.core_radius_of(kb, gb)
-    n, overlap, size2 = _gjk(ka, ga, ca, rota, kb, gb, cb, rotb, pool, W, PA, PB, lam)
+    n, overlap, size2 = _gjk(ka, ga, ca, rota, kb, gb, cb, rotb, pool, W, PA, PB, lam,
+                             rad_a + rad_b + margin)
+    if n < 0:  # apart by more than the margin
+        return 0
     ok = False
     nx, ny, nz, core_depth = 0.0, 0.0, 1.0, 0.0
     ax, ay, az, bx, by, bz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0

@@ -294,3 +294,22 @@ def test_a_prism_stands_on_its_cap_still():
     assert after.position[2] == pytest.approx(0.15, abs=2e-4)
     assert np.linalg.norm(np.array(after.position) - before.position) < 1e-7
     assert np.linalg.norm(after.angular_velocity) < 1e-6
+
+
+@pytest.mark.parametrize('other', ['hull', 'sphere', 'box'])
+def test_a_pair_within_the_margin_touches_and_one_beyond_does_not(other):
+    """The convex narrow phase stops early for cores farther apart than the margin (a plane
+    between them): a turned hull 1 mm above another shape gives a contact of depth -1 mm
+    with a margin of 1.001 mm, and none with 0.999 mm."""
+    pebble = Hull((np.random.default_rng(8).normal(size=(30, 3)) * 0.1).tolist())
+    turn = so3.exp((0.4, -0.2, 0.3))
+    shape = {'hull': Hull(CORNERS.tolist()), 'sphere': Sphere(0.1), 'box': Box(tuple(SIZE))}[other]
+    top = {'hull': SIZE[2] / 2, 'sphere': 0.1, 'box': SIZE[2] / 2}[other]
+    turned = pebble.vertices @ turn.T
+    lowest = turned[np.argmin(turned[:, 2])]
+    at = np.array([0.0, 0.0, top + 1e-3]) - lowest  # the lowest vertex over the top point
+    for margin, found in ((1.001e-3, True), (0.999e-3, False)):
+        contacts = nph.collide(shape, (np.zeros(3), I3), pebble, (at, turn), margin)
+        assert bool(contacts) == found, (other, margin)
+        if found:
+            assert max(c.depth for c in contacts) == pytest.approx(-1e-3, abs=1e-9)

@@ -156,6 +156,9 @@ def test_collision_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
     hull = _quick('hull_bench', tmp_path)  # both engines' outcomes checked first
     assert set(hull['seconds_per_step']) == {'tipping post', 'pebble on the ground',
                                              'hull on a hull'}
+    pile = _quick('hull_pile_bench', tmp_path)  # every hull in the bin in both engines
+    assert pile['hulls'] == 16 and set(pile['seconds_per_step']) == {'rb_sim_ros',
+                                                                     'MuJoCo Newton'}
 
 
 @pytest.mark.slow  # a benchmark
