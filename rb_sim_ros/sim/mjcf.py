@@ -13,8 +13,9 @@ What a file becomes:
 * a body without joints that is a child of the world is a static body (and what is nested
   in it); geoms of the world body itself are a static body called ``mjcf_world``;
 * geoms are colliders: sphere, capsule, box, cylinder, mesh (the convex hull of its
-  vertices, as MuJoCo collides it; a mesh given in the file by ``vertex``, not a mesh file)
-  (on any body) and plane (on static bodies), with
+  vertices as MuJoCo compiled them, as MuJoCo collides it: given by ``vertex``, or a mesh
+  file under the model's folder, its ``meshdir`` or ``assetdir`` a folder of it, checked as
+  ``sim/meshes.py`` checks a scene's) (on any body) and plane (on static bodies), with
   their friction (MuJoCo's first coefficient); geoms that collide with nothing (contype and
   conaffinity 0: visual ones) are left out;
 * gravity is the file's ``<option gravity>``; the step is the node's (``dt``), not the file's
@@ -30,12 +31,13 @@ and a repeated one gets ``_2``, ``_3``.
 Refused, each with one line naming the file, the body or geom and the reason: other joints
 (hinge, slide, ball: an articulated model is not one rigid body), other geom types
 (ellipsoid, height field, SDF), a moving body without mass, any file but an
-``include`` (no asset file is read), an include outside the model's folder (absolute,
-climbing with ``..``, or through a link; MuJoCo reads includes from the model's folder, and
-they are checked there), one that is not a regular file, more than ``scene.MAX_BYTES`` of
-model files in all, the elements of ``REFUSED_ELEMENTS`` and textures past
-``MAX_TEXTURE_PIXELS``, and whatever MuJoCo's compiler refuses. Nothing is read but the model
-and its includes.
+``include`` or a mesh (no texture, height field or skin file is read), a mesh file outside
+the model's folder, of another format or too large, an include outside the model's folder
+(absolute, climbing with ``..``, or through a link; MuJoCo reads includes from the model's
+folder, and they are checked there), one that is not a regular file, more than
+``scene.MAX_BYTES`` of model files in all, the elements of ``REFUSED_ELEMENTS`` and textures
+past ``MAX_TEXTURE_PIXELS``, and whatever MuJoCo's compiler refuses. Nothing is read but the
+model, its includes and its mesh files.
 """
 
 from __future__ import annotations
@@ -49,6 +51,7 @@ import numpy as np
 
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Cylinder, Hull, Plane, Sphere
 from rb_sim_ros.core import so3
+from rb_sim_ros.sim import meshes
 from rb_sim_ros.sim.bodies import body_at, BodySpec, combined
 
 # Include files followed (each checked in turn) before the model is refused as too deep.
@@ -121,10 +124,11 @@ def _inside(root: str, file: str) -> bool:
     return os.path.commonpath([root, os.path.realpath(file)]) == root
 
 
-def _check_tree(tree, where: str, include) -> None:
+def _check_tree(tree, where: str, include, mesh=None) -> None:
     """ModelError for what a model may not hold (REFUSED_ELEMENTS, a file named by any
-    attribute but an include's, textures past MAX_TEXTURE_PIXELS); ``include(value)`` is
-    called for each ``<include file>`` (None: an include is refused too)."""
+    attribute but an include's or a mesh's, textures past MAX_TEXTURE_PIXELS);
+    ``include(value)`` is called for each ``<include file>`` and ``mesh(value)`` for each
+    ``<mesh file>`` (None: refused too)."""
     pixels = 0
     for element in tree.iter():
         tag = element.tag
@@ -145,9 +149,15 @@ def _check_tree(tree, where: str, include) -> None:
         for name, value in element.attrib.items():
             if not name.startswith('file') or (tag == 'include' and name == 'file'):
                 continue
+            if tag == 'mesh' and name == 'file' and mesh is not None:
+                mesh(value)
+                continue
+            if tag == 'mesh' and name == 'file':
+                raise ModelError(f'{where}: <mesh file="{value[:80]}">: a model sent as text '
+                                 'may name no file (give the mesh by its vertices)')
             raise ModelError(f'{where}: <{tag} {name}="{value[:80]}">: no file but an '
-                             'include is read (meshes, textures, height fields and skins have '
-                             'no use here: no such colliders)')
+                             'include or a mesh is read (textures, height fields and skins '
+                             'have no use here)')
         if tag == 'include':
             include(element.get('file') or '')
 
@@ -189,8 +199,23 @@ def _check_files(path: str, root: str, max_bytes: int) -> None:
                                  '(MAX_INCLUDE_DEPTH)')
             visit(os.path.join(root, value), depth + 1)
 
-        _check_tree(tree, path, include)
+        def mesh(value: str) -> None:
+            try:
+                meshes.resolve(os.path.join(folder[0], value), [root])
+            except meshes.MeshError as e:
+                raise ModelError(f'{path}: <mesh file="{value[:80]}">: {e}') from None
 
+        for compiler in tree.iter('compiler'):
+            named = compiler.get('meshdir', compiler.get('assetdir'))
+            if named is None:
+                continue
+            if depth > 0 or os.path.isabs(named) or '..' in named.replace('\\', '/').split('/'):
+                raise ModelError(f'{path}: <compiler meshdir="{named[:80]}">: a folder of the '
+                                 'model (relative, without .., in the main file)')
+            folder[0] = named
+        _check_tree(tree, path, include, mesh)
+
+    folder = ['']  # the model's meshdir (or assetdir): where MuJoCo reads its mesh files
     visit(path, 0)
 
 

@@ -199,11 +199,13 @@ def test_files_outside_the_models_folder_are_never_read(tmp_path):
             ('<mujoco><include file="../secret.xml"/></mujoco>', 'outside the folder'),
             ('<mujoco><include file="link.xml"/></mujoco>', 'outside the folder'),
             ('<mujoco><asset><mesh name="m" file="/etc/passwd"/></asset></mujoco>',
-             'no file but an include is read'),
+             'outside the folders'),
+            ('<mujoco><compiler meshdir="../up"/><asset><mesh name="m" file="a.stl"/>'
+             '</asset></mujoco>', 'a folder of the model'),
             ('<mujoco><asset><texture name="t" type="2d" file="part.xml"/></asset>'
-             '<compiler texturedir="sub"/></mujoco>', 'no file but an include is read'),
+             '<compiler texturedir="sub"/></mujoco>', 'no file but an include or a mesh is read'),
             ('<mujoco><asset><texture name="t" type="cube" fileright="/etc/passwd"/>'
-             '</asset></mujoco>', 'no file but an include is read'),
+             '</asset></mujoco>', 'no file but an include or a mesh is read'),
             ('<mujoco><asset><texture name="t" type="2d" builtin="checker" width="8000" '
              'height="8000"/></asset></mujoco>', 'MAX_TEXTURE_PIXELS'),
             ('<mujoco><worldbody><replicate count="1000"><body><freejoint/><geom size="1"/>'
@@ -229,7 +231,7 @@ def test_a_model_sent_as_text_names_no_file_and_cannot_blow_up():
     for text, why in (
             ('<mujoco><include file="x.xml"/></mujoco>', 'may name no file'),
             ('<mujoco><asset><texture name="t" type="cube" fileright="/dev/zero"/></asset>'
-             '</mujoco>', 'no file but an include is read'),
+             '</mujoco>', 'no file but an include or a mesh is read'),
             ('<mujoco><asset><texture name="t" type="cube" builtin="flat" width="1000" '
              'height="1000"/></asset></mujoco>', 'MAX_TEXTURE_PIXELS'),
             ('<mujoco><worldbody><replicate count="99"><replicate count="99"><body><freejoint/>'
@@ -321,3 +323,31 @@ def test_a_mesh_body_has_mujocos_mass_and_lands_where_mujocos_lands(tmp_path):
     mesh = np.array(model.mesh_vert[:model.mesh_vertnum[0]], dtype=float)
     theirs = data.geom_xpos[g] + mesh @ data.geom_xmat[g].reshape(3, 3).T
     np.testing.assert_allclose(np.sort(ours[:, 2]), np.sort(theirs[:, 2]), atol=2e-3)
+
+
+def test_a_mesh_file_in_the_models_folder_is_a_hull_where_mujoco_puts_it(tmp_path):
+    """A mesh geom read from an STL under the model's meshdir: a hull of MuJoCo's vertices
+    (its 8 corners, about MuJoCo's centre of the mesh), the body MuJoCo's mass; the same
+    file through a link out of the folder is refused."""
+    trimesh = pytest.importorskip('trimesh')
+    (tmp_path / 'assets').mkdir()
+    trimesh.creation.box(extents=(0.4, 0.2, 0.1)).export(tmp_path / 'assets' / 'slab.stl')
+    text = ('<mujoco><compiler meshdir="assets"/><asset><mesh name="slab" file="slab.stl"/>'
+            '</asset><worldbody><body name="slab" pos="0 0 1"><freejoint/>'
+            '<geom type="mesh" mesh="slab" density="300"/></body></worldbody></mujoco>')
+    path = _write(tmp_path, text)
+    (slab,) = load_mjcf(path).bodies
+    model = mujoco.MjModel.from_xml_path(path)
+    assert slab.mass == pytest.approx(float(model.body_mass[1]), rel=1e-12)
+    assert slab.mass == pytest.approx(300.0 * 0.4 * 0.2 * 0.1, rel=1e-6)
+    (hull,) = slab.colliders
+    assert len(hull.points) == 8 and len(hull.faces) == 6
+    half = np.sort(np.abs(hull.vertices @ np.array(hull.rotation).T).max(axis=0))
+    np.testing.assert_allclose(half, [0.05, 0.1, 0.2], atol=1e-6)
+    outside = tmp_path / 'elsewhere'
+    outside.mkdir()
+    (tmp_path / 'assets' / 'slab.stl').rename(outside / 'slab.stl')
+    (tmp_path / 'assets' / 'slab.stl').symlink_to(outside / 'slab.stl')
+    with pytest.raises(SceneError, match='slab.stl.*outside the folders'):
+        load_scene(_write(tmp_path / 'assets', text.replace('meshdir="assets"', ''),
+                          'm.xml'))

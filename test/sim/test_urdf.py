@@ -191,7 +191,7 @@ def test_a_model_sent_as_text_is_one_body_named_by_the_request():
     for text, match in (
             ('<mujoco><include file="x.xml"/></mujoco>', 'may name no file'),
             ('<mujoco><asset><mesh name="m" file="/x.stl"/></asset></mujoco>',
-             'no file but an include is read'),
+             'a model sent as text may name no file'),
             ('<sdf version="1.9"/>', 'neither a URDF'),
             ('<robot', 'not XML')):
         with pytest.raises(SceneError, match=match) as e:
