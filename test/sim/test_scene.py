@@ -221,3 +221,28 @@ def test_a_bad_body_entry_is_one_line_naming_the_field(text, words):
     with pytest.raises(SceneError, match=re.escape(words)) as e:
         body_entry(text, '' if 'name: missing' in words else 'x')
     assert str(e.value).startswith('resource_string') and '\n' not in str(e.value)
+
+
+def test_the_hull_scene_loads_and_its_bodies_slide_off_the_wedge_to_rest():
+    """scenes/hulls.yaml: each body's mass and inertia are its hull's at the density its
+    comment says; the die and the nut slide down the wedge and rest on the ground beyond
+    it, each on a face (the die's centre at a quarter of its height, the nut's at half its
+    thickness)."""
+    from rb_sim_ros.sim.bodies import collision_world
+    scene = load_scene(str(SCENES / 'hulls.yaml'))
+    by_name = {b.name: b for b in scene.bodies}
+    for name, density in (('die', 1200.0), ('nut', 7800.0)):
+        (hull,) = by_name[name].colliders
+        mass, centre, inertia = hull.mass_properties(density)
+        assert by_name[name].mass == pytest.approx(mass, rel=1e-4)  # (points to 6 digits)
+        np.testing.assert_allclose(by_name[name].inertia, np.diag(inertia), rtol=1e-4)
+        np.testing.assert_allclose(centre, 0.0, atol=1e-9)
+    world = collision_world(scene.bodies, 1e-3, scene.gravity, contact=scene.contact)
+    world.step(4000)
+    die, nut = world.state('die'), world.state('nut')
+    assert die.position[0] > 0.0 and nut.position[0] > 0.0  # past the wedge's foot
+    height = 0.1 * math.sqrt(2.0 / 3.0)  # a regular tetrahedron's, edge 0.1
+    assert die.position[2] == pytest.approx(height / 4, abs=5e-4)
+    assert nut.position[2] == pytest.approx(0.015, abs=5e-4)
+    for body in (die, nut):
+        assert np.linalg.norm(body.linear_velocity) < 1e-3
