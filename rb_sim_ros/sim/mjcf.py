@@ -43,6 +43,7 @@ model, its includes and its mesh files.
 from __future__ import annotations
 
 import os
+from pathlib import Path
 import re
 from typing import Any
 import xml.etree.ElementTree as ElementTree
@@ -201,7 +202,7 @@ def _check_files(path: str, root: str, max_bytes: int) -> None:
 
         def mesh(value: str) -> None:
             try:
-                meshes.resolve(os.path.join(folder[0], value), [root])
+                meshes.resolve(os.path.join(folder[0], value), [Path(root)])
             except meshes.MeshError as e:
                 raise ModelError(f'{path}: <mesh file="{value[:80]}">: {e}') from None
 
