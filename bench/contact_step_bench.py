@@ -138,6 +138,58 @@ def theirs(scene, steps: int, solver, per_call: int = 1) -> tuple[mujoco.MjData,
     return data, times
 
 
+def scenes_main(module: str, doc: str, scenes: dict, check, json_name: str) -> int:
+    """The run of a benchmark of one-body contact scenes beside MuJoCo (``cylinder_bench``,
+    ``hull_bench``): ``scenes`` name -> the form ``ours`` and ``theirs`` take; ``check(name,
+    world, data, scene)`` the problems of each engine's outcome (exit 1 if any, before
+    anything is timed). Then the time per step (median over a run's calls, best of the
+    repeats) at one step a call and ten, MuJoCo with its default Newton solver; ratios ours /
+    MuJoCo; the figures written to docs/bench/``json_name`` (or ``--json``)."""
+    parser = argparse.ArgumentParser(
+        prog=f'python -m bench.{module}', description=doc,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('--quick', action='store_true', help='the checks, and 1 repeat')
+    parser.add_argument('--repeats', type=int, help='timed runs of each scene (default 5)')
+    parser.add_argument('--json', type=Path, help='write the figures here (default: '
+                        f'docs/bench/{json_name}; --quick: none)')
+    opts = parser.parse_args()
+    repeats = opts.repeats or (1 if opts.quick else 5)
+    newton = mujoco.mjtSolver.mjSOL_NEWTON
+    problems, rows = [], {}
+    for name, scene in scenes.items():
+        steps = scene[5]
+        world, _ = ours(scene, steps)
+        data, _ = theirs(scene, steps, newton)
+        problems += check(name, world, data, scene)
+        best: dict = {}
+        for _ in range(repeats):
+            for calls, n in (('1', 1), ('10', 10)):
+                for who, t in ((f'rb_sim_ros, {calls}', ours(scene, steps, n)[1]),
+                               (f'MuJoCo Newton, {calls}', theirs(scene, steps, newton, n)[1])):
+                    best[who] = min(best.get(who, math.inf), float(np.median(t)))
+        rows[name] = best
+    if problems:
+        print('checks failed: ' + '; '.join(problems), file=sys.stderr)
+        return 1
+    print('\nus per step, dt = 1 ms, median of a run, best of the repeats; one step a call and'
+          '\nten (step(10), mj_step(m, d, 10))')
+    print('| scene | steps a call | rb_sim_ros | MuJoCo Newton | ours / MuJoCo |')
+    print('| --- | --- | ---: | ---: | ---: |')
+    for name, r in rows.items():
+        for calls in ('1', '10'):
+            o, t = r[f'rb_sim_ros, {calls}'], r[f'MuJoCo Newton, {calls}']
+            print(f'| {name} | {calls} | {o * 1e6:.2f} | {t * 1e6:.2f} | {o / t:.2f}x |')
+    sane = figures.Sanity()
+    for name, r in rows.items():
+        for c, value in r.items():
+            sane.within(f'{name}, {c}', value, 1e-7, 0.1)
+    path = opts.json or (None if opts.quick else figures.DOCS_BENCH / json_name)
+    if path:
+        figures.write(path, {'quick': opts.quick, 'repeats': repeats, 'dt': DT,
+                             'seconds_per_step': rows})
+    return sane.report()
+
+
 def check(name: str, world: CollisionWorld, data: mujoco.MjData) -> list[str]:
     """The closed form or outcome of each scene (module doc), for both engines."""
     st = world.state('b')

@@ -26,16 +26,12 @@ Writes docs/bench/cylinder_bench.json (or ``--json``; ``--quick`` writes none un
 
 from __future__ import annotations
 
-import argparse
 import math
-from pathlib import Path
 import sys
 
-import mujoco
 import numpy as np
 
-from bench import figures
-from bench.contact_step_bench import ours, theirs
+from bench.contact_step_bench import scenes_main
 from rb_sim_ros.contact.collision_shapes import Box, Cylinder, Plane
 from rb_sim_ros.core import so3
 from rb_sim_ros.sim.scene import mass_and_inertia
@@ -104,7 +100,7 @@ def scenes() -> dict:
     }
 
 
-def check(name: str, world, data) -> list[str]:
+def check(name: str, world, data, scene) -> list[str]:
     """Each scene's outcome (module doc), for both engines (MuJoCo's body 'b' is its last)."""
     st = world.state('b')
     x = np.array(st.position)
@@ -133,49 +129,7 @@ def check(name: str, world, data) -> list[str]:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(
-        prog='python -m bench.cylinder_bench', description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument('--quick', action='store_true', help='the checks, and 1 repeat')
-    parser.add_argument('--repeats', type=int, help='timed runs of each scene (default 5)')
-    parser.add_argument('--json', type=Path, help='write the figures here (default: '
-                        'docs/bench/cylinder_bench.json; --quick: none)')
-    opts = parser.parse_args()
-    repeats = opts.repeats or (1 if opts.quick else 5)
-    newton = mujoco.mjtSolver.mjSOL_NEWTON
-    problems, rows = [], {}
-    for name, scene in scenes().items():
-        steps = scene[5]
-        world, _ = ours(scene, steps)
-        data, _ = theirs(scene, steps, newton)
-        problems += check(name, world, data)
-        best: dict = {}
-        for _ in range(repeats):
-            for calls, n in (('1', 1), ('10', 10)):
-                for who, t in ((f'rb_sim_ros, {calls}', ours(scene, steps, n)[1]),
-                               (f'MuJoCo Newton, {calls}', theirs(scene, steps, newton, n)[1])):
-                    best[who] = min(best.get(who, math.inf), float(np.median(t)))
-        rows[name] = best
-    if problems:
-        print('checks failed: ' + '; '.join(problems), file=sys.stderr)
-        return 1
-    print('\nus per step, dt = 1 ms, median of a run, best of the repeats; one step a call and'
-          '\nten (step(10), mj_step(m, d, 10))')
-    print('| scene | steps a call | rb_sim_ros | MuJoCo Newton | ours / MuJoCo |')
-    print('| --- | --- | ---: | ---: | ---: |')
-    for name, r in rows.items():
-        for calls in ('1', '10'):
-            o, t = r[f'rb_sim_ros, {calls}'], r[f'MuJoCo Newton, {calls}']
-            print(f'| {name} | {calls} | {o * 1e6:.2f} | {t * 1e6:.2f} | {o / t:.2f}x |')
-    sane = figures.Sanity()
-    for name, r in rows.items():
-        for c, value in r.items():
-            sane.within(f'{name}, {c}', value, 1e-7, 0.1)
-    path = opts.json or (None if opts.quick else figures.DOCS_BENCH / 'cylinder_bench.json')
-    if path:
-        figures.write(path, {'quick': opts.quick, 'repeats': repeats, 'dt': DT,
-                             'seconds_per_step': rows})
-    return sane.report()
+    return scenes_main('cylinder_bench', __doc__, scenes(), check, 'cylinder_bench.json')
 
 
 if __name__ == '__main__':
