@@ -145,6 +145,13 @@ def _block(shape, rotation=I3, position=(0.0, 0.0, 0.3), name='block', **kwargs)
                     initial_orientation_xyzw=_xyzw(rotation), colliders=(shape,), **kwargs)
 
 
+def _solid(name, hull, density, position, rotation):
+    """A body of ``hull`` (its origin its centre of mass) of uniform ``density``."""
+    m, _, inertia = hull.mass_properties(density)
+    return BodySpec(name, m, tuple(inertia.ravel()), initial_position=position,
+                    initial_orientation_xyzw=_xyzw(rotation), colliders=(hull,))
+
+
 def _world(bodies, planes=(Plane(),), friction=0.8, dt=1e-3):
     return collision_world(bodies, dt, (0.0, 0.0, -G), planes=planes,
                            contact=ContactSettings(friction=friction))
@@ -222,12 +229,8 @@ def test_a_tetrahedron_comes_to_rest_on_a_face():
     ends on a face: three vertices at the ground (within the slop), the fourth above, at
     rest."""
     corner = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float) * 0.3
-    m, centre, inertia = Hull(corner.tolist()).mass_properties(1000.0)
-    tet = Hull((corner - centre).tolist())
-    body = BodySpec('tet', m, tuple(inertia.ravel()), initial_position=(0.0, 0.0, 0.5),
-                    initial_orientation_xyzw=_xyzw(so3.exp((0.3, -0.4, 0.2))),
-                    colliders=(tet,))
-    world = _world([body])
+    tet = Hull((corner - Hull(corner.tolist()).mass_properties()[1]).tolist())
+    world = _world([_solid('tet', tet, 1000.0, (0.0, 0.0, 0.5), so3.exp((0.3, -0.4, 0.2)))])
     world.step(3000)
     st = world.state('tet')
     heights = np.sort((np.array(st.position) + tet.vertices @ _rotation(st).T)[:, 2])
@@ -282,11 +285,8 @@ def test_a_prism_stands_on_its_cap_still():
     """The 20-sided prism standing on its cap (a face of 20 corners, 9 of them its contacts)
     comes to rest and stays still: no rocking, no creeping."""
     prism = _prism(20, 0.1, 0.3)
-    m, _, inertia = prism.mass_properties(1000.0)
-    body = BodySpec('post', m, tuple(inertia.ravel()), initial_position=(0.0, 0.0, 0.16),
-                    initial_orientation_xyzw=_xyzw(so3.exp((0.05, -0.03, 0.0))),
-                    colliders=(prism,))
-    world = _world([body])
+    world = _world([_solid('post', prism, 1000.0, (0.0, 0.0, 0.16),
+                           so3.exp((0.05, -0.03, 0.0)))])
     world.step(1500)
     before = world.state('post')
     world.step(500)
