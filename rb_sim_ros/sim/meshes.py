@@ -152,22 +152,18 @@ def _parts(name: str, data: bytes, kind: str, decompose: bool) -> list[np.ndarra
     try:
         loaded = trimesh.load(io.BytesIO(data), file_type=kind, process=False, resolver=None,
                               skip_materials=True)
-        if isinstance(loaded, trimesh.Scene):
-            instances = loaded.graph.nodes_geometry
+        if isinstance(loaded, trimesh.Scene):  # counted before its instances are made
             total = sum(len(getattr(loaded.geometry.get(loaded.graph[n][1]), 'vertices', ()))
-                        for n in instances)
-            if total > MAX_VERTICES:
-                raise MeshError(f'{name}: {total} vertices, more than MAX_VERTICES = '
-                                f'{MAX_VERTICES} (decimate it first)')
-            meshes = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)]
-        elif isinstance(loaded, trimesh.Trimesh):
-            meshes = [loaded]
+                        for n in loaded.graph.nodes_geometry)
         else:
-            meshes = []
-        total = sum(len(m.vertices) for m in meshes)
+            total = len(getattr(loaded, 'vertices', ()))
         if total > MAX_VERTICES:
             raise MeshError(f'{name}: {total} vertices, more than MAX_VERTICES = '
                             f'{MAX_VERTICES} (decimate it first)')
+        if isinstance(loaded, trimesh.Scene):
+            meshes = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)]
+        else:
+            meshes = [loaded] if isinstance(loaded, trimesh.Trimesh) else []
         if not meshes or total == 0 or not any(len(m.faces) for m in meshes):
             raise MeshError(f'{name}: holds no triangles')
         parts: list[np.ndarray] = []
