@@ -109,9 +109,19 @@ def probe(ros_env):
     p.close()
 
 
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    """Each phase's report kept on the test (``item.rep_call``), for fixtures that say more
+    when the test failed."""
+    outcome = yield
+    report = outcome.get_result()
+    setattr(item, f'rep_{report.when}', report)
+
+
 @pytest.fixture
-def start_sim(installed, ros_env, tmp_path):
-    """start_sim('-p', 'dt:=0.001', ...) runs the installed simulator with --ros-args."""
+def start_sim(installed, ros_env, tmp_path, request):
+    """start_sim('-p', 'dt:=0.001', ...) runs the installed simulator with --ros-args. When
+    the test fails, the end of each node's log is printed (in the failure's report)."""
     procs = []
 
     def start(*ros_args, exe='simulator', args=()):
@@ -123,3 +133,9 @@ def start_sim(installed, ros_env, tmp_path):
     yield start
     for p in procs:
         p.stop()
+    report = getattr(request.node, 'rep_call', None)
+    if report is not None and report.failed:
+        for p in procs:
+            lines = p.output().splitlines()
+            print(f'--- the last {min(len(lines), 60)} lines of {p.log.name} ---',
+                  *lines[-60:], sep='\n')

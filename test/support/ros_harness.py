@@ -182,6 +182,7 @@ class Probe:
         self.node = rclpy.create_node(name, context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
+        self._clients: dict = {}
 
     def collect(self, msg_type, topic: str, qos=10) -> list:
         """Subscribe; the returned list fills with every message received."""
@@ -199,15 +200,22 @@ class Probe:
 
     # A read (a Get... service) unanswered this long is asked again: DDS can report a
     # service ready before the server has matched this client's reply reader, and a reply
-    # sent then is lost (seen on a loaded machine). Calls that change state are never resent.
+    # sent then is lost (seen on a loaded machine). A call that changes state is resent only
+    # when its caller says a second one does no harm (``resend=True``, e.g. one more step of
+    # a loop that steps until something is seen). A client is made once for each service and
+    # kept: once a reply has come the match is made and no later call can lose one.
     RESEND_READS_AFTER = 20.0
 
-    def call(self, srv_type, name: str, request, timeout: float = 300.0):
-        client = self.node.create_client(srv_type, name)
+    def call(self, srv_type, name: str, request, timeout: float = 300.0,
+             resend: bool | None = None):
+        key = (srv_type, name)
+        client = self._clients.get(key)
+        if client is None:
+            client = self._clients[key] = self.node.create_client(srv_type, name)
         self.wait_for(client.service_is_ready, timeout, f'service {name}')
         end = time.monotonic() + timeout
         future = client.call_async(request)
-        if srv_type.__name__.startswith('Get'):
+        if srv_type.__name__.startswith('Get') if resend is None else resend:
             while True:
                 left = end - time.monotonic()
                 try:
