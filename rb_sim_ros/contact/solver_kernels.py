@@ -57,7 +57,7 @@ import math
 
 import numpy as np
 
-from rb_sim_ros.core.jit import kernel
+from rb_sim_ros.core.jit import borrowed, keep_alive, kernel
 
 # -- settings: indices into the settings array ---------------------------------------------------
 RESTITUTION, FRICTION, DT = 0, 1, 2
@@ -561,8 +561,30 @@ def solve_arrays(body_a, body_b, point, normal, depth, position, velocity, angul
     p_iterations = int(settings[POSITION_ITERATIONS])
     tolerance = float(settings[TOLERANCE])
     mu_r, mu_t = float(settings[ROLLING_RESISTANCE]), float(settings[TORSIONAL_FRICTION])
-    u0 = np.empty((n, 6))
-    moving = np.empty(n, dtype=np.bool_)
+    # The solve's own arrays, carved from three made at once and borrowed (jit.borrowed):
+    # three allocations where there were eighteen, and no reference count of them taken as
+    # they pass to the stages (kept alive to the end: jit.keep_alive).
+    own_f = np.empty(n * 27 + m * (ROWS_WIDTH + 9))
+    own_i = np.empty(6 * m + n + 1, dtype=np.int64)
+    own_b = np.empty(2 * n, dtype=np.bool_)
+    fs, ints, flags = borrowed(own_f), borrowed(own_i), borrowed(own_b)
+    u0 = fs[:6 * n].reshape((n, 6))
+    u = fs[6 * n:12 * n].reshape((n, 6))
+    q = fs[12 * n:18 * n].reshape((n, 6))
+    inertia = fs[18 * n:27 * n].reshape((n, 9))
+    at = 27 * n
+    rows = fs[at:at + m * ROWS_WIDTH].reshape((m, ROWS_WIDTH))
+    at += m * ROWS_WIDTH
+    lam = fs[at:at + 3 * m].reshape((m, 3))
+    p_lam = fs[at + 3 * m:at + 6 * m].reshape((m, 3))
+    target = fs[at + 6 * m:at + 7 * m]
+    plastic = fs[at + 7 * m:at + 8 * m]
+    p_target = fs[at + 8 * m:at + 9 * m]
+    colour, order, slot_of = ints[:m], ints[m:2 * m], ints[2 * m:3 * m]
+    slot_a, slot_b = ints[3 * m:4 * m], ints[4 * m:5 * m]
+    first = ints[5 * m:6 * m + 1]
+    which_all = ints[6 * m + 1:6 * m + 1 + n]
+    moving, involved = flags[:n], flags[n:]
     for i in range(n):
         for c in range(3):
             u0[i, c] = float(velocity[i, c])
@@ -578,22 +600,17 @@ def solve_arrays(body_a, body_b, point, normal, depth, position, velocity, angul
             out_touched[i] = False
         return 0, 0, 0
     # Colour, then the rows in colour order: slot s holds contact order[s].
-    colour = np.empty(m, dtype=np.int64)
     colours = _colour(body_a, body_b, moving, colour)
-    first = np.zeros(colours + 1, dtype=np.int64)
+    first = first[:colours + 1]
+    first[:] = 0
     for k in range(m):
         first[colour[k] + 1] += 1
     for c in range(colours):
         first[c + 1] += first[c]
-    order = np.empty(m, dtype=np.int64)
-    slot_of = np.empty(m, dtype=np.int64)
     for k in range(m):  # a stable sort by colour
         s = int(first[colour[k]])
         first[colour[k]] += 1
         order[s], slot_of[k] = k, s
-    rows = np.empty((m, ROWS_WIDTH))
-    slot_a = np.empty(m, dtype=np.int64)
-    slot_b = np.empty(m, dtype=np.int64)
     _rows(order, body_a, body_b, point, normal, position, inverse_mass, inverse_inertia,
           friction, rows, slot_a, slot_b)
     largest_mu = 0.0
@@ -604,14 +621,12 @@ def solve_arrays(body_a, body_b, point, normal, depth, position, velocity, angul
     with_friction = largest_mu > 0.0
     no_friction = m < 0  # False
 
-    target = np.empty(m)
-    plastic = np.empty(m)
     _targets(rows, order, slot_a, slot_b, u0, depth, restitution, dt,
              float(settings[BOUNCE_THRESHOLD]), target, plastic)
 
     # The velocity pass: warm start, Gauss-Seidel, then the couples.
-    u = u0.copy()
-    lam = np.zeros((m, 3))
+    u[:] = u0
+    lam[:] = 0.0
     if use_warm:
         _warm_start(rows, slot_a, slot_b, slot_of, warm_normal, warm_tangent, with_friction,
                     u, lam)
@@ -623,7 +638,7 @@ def solve_arrays(body_a, body_b, point, normal, depth, position, velocity, angul
     # Energy guard: Newton's law with friction or with simultaneous contacts (Kane's
     # paradox), or a warm start the iterations did not undo, can create energy; then the
     # solve is blended with the plastic one (docs/collisions.md, "Energy").
-    involved = np.zeros(n, dtype=np.bool_)
+    involved[:] = False
     for k in range(m):
         involved[int(body_a[k])] = True
         involved[int(body_b[k])] = True
@@ -631,8 +646,8 @@ def solve_arrays(body_a, body_b, point, normal, depth, position, velocity, angul
     for i in range(n):
         if involved[i] and moving[i]:
             count += 1
-    which = np.empty(count, dtype=np.int64)
-    inertia = np.zeros((n, 9))
+    which = which_all[:count]
+    inertia[:] = 0.0
     count = 0
     for i in range(n):
         if involved[i] and moving[i]:
@@ -686,11 +701,10 @@ def solve_arrays(body_a, body_b, point, normal, depth, position, velocity, angul
 
     # Position correction (35) on pseudo-velocities (displacements, rotation vectors), normal
     # rows only, towards position_fraction of the penetration beyond the slop.
-    q = np.zeros((n, 6))
-    p_lam = np.zeros((m, 3))
+    q[:] = 0.0
+    p_lam[:] = 0.0
     p_done = 0
     if p_iterations > 0:
-        p_target = np.empty(m)
         fraction, slop = float(settings[POSITION_FRACTION]), float(settings[SLOP])
         pressed = False
         for s in range(m):
@@ -720,4 +734,5 @@ def solve_arrays(body_a, body_b, point, normal, depth, position, velocity, angul
             out_tangent_impulse[k, c] = (l1 * float(rows[s, T1 + D + c])
                                          + l2 * float(rows[s, T2 + D + c]))
         out_position_impulse[k] = p_lam[s, 0]
+    keep_alive(own_f, own_i, own_b)
     return colours, v_done, p_done

@@ -46,6 +46,7 @@ import numpy as np
 from rb_sim_ros.contact import broad_phase as bp, narrow_kernels as nk, solver_kernels as sk
 from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.core import jit, step_kernel as K
+from rb_sim_ros.core.jit import borrowed  # noqa: F401 (world_of, a generated source, calls it)
 from rb_sim_ros.core.jit import compile_for, generated_kernel, inline_kernel, kernel
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
@@ -262,9 +263,12 @@ record_outputs = generated_kernel(globals(), 'record_outputs', _READ_SOURCE, inl
 
 
 def _world_source() -> str:
-    fields = ', '.join(f'w.{group}.{name}' for group, names in GROUPS for name in names)
+    fields = ', '.join(f'borrowed(w.{group}.{name})' for group, names in GROUPS
+                       for name in names)
     return ('def world_of(w):\n'
-            '    """The World (a named tuple) of a record\'s arrays: read once, on entry."""\n'
+            '    """The World (a named tuple) of a record\'s arrays, read once, on entry, and\n'
+            '    borrowed (jit.borrowed): the record owns them for the whole call, and no\n'
+            '    reference count of them is taken as the step passes them round."""\n'
             f'    return World({fields})\n')
 
 

@@ -46,10 +46,10 @@ import threading
 os.environ.setdefault('NUMBA_DISABLE_INTEL_SVML', '1')
 
 import numba  # noqa: E402
-from numba.core import caching, errors, types  # noqa: E402
+from numba.core import caching, cgutils, errors, types  # noqa: E402
 from numba.core.dispatcher import Dispatcher  # noqa: E402
 from numba.core.registry import cpu_target  # noqa: E402
-from numba.extending import overload  # noqa: E402
+from numba.extending import intrinsic, overload  # noqa: E402
 
 PACKAGE = Path(__file__).resolve().parent.parent
 # The layers whose modules hold kernels: the text of every module in them is the cache's stamp.
@@ -120,6 +120,50 @@ def entry_point(function, *args):
     if not isinstance(function, Dispatcher):
         return function
     return function.compile(tuple(numba.typeof(a) for a in args))
+
+
+def borrowed(array):
+    """``array`` itself, seen by compiled code as a view that does not own it: the same data,
+    shape, strides and type, without its reference count (numba's meminfo). Every array a
+    kernel binds to a name, passes to a call or takes from a container is counted up and down
+    again, each count an atomic instruction: in a world's step those counts took more time
+    than its arithmetic (a ball rolling on a plane: 57% of a step, bench/contact_step_bench.py).
+    The counts of a borrowed array cost a test of a null pointer. Only for an array that its
+    owner keeps alive for as long as the view is used, and that is never stored into a
+    container that outlives the call: the arrays of the record a world step is handed, for
+    that call (``world_step.world_of``). The interpreted tier returns ``array``."""
+    return array
+
+
+@intrinsic
+def _borrowed(typingctx, array):
+    if not isinstance(array, types.Array):
+        return None
+
+    def codegen(context, builder, signature, args):
+        view = context.make_array(array)(context, builder, value=args[0])
+        view.meminfo = cgutils.get_null_value(view.meminfo.type)
+        view.parent = cgutils.get_null_value(view.parent.type)
+        return view._getvalue()
+    return array(array), codegen
+
+
+@overload(borrowed, jit_options=dict(fastmath=False, error_model='python'))
+def _borrowed_overload(array):
+    if isinstance(array, types.Array):
+        return lambda array: _borrowed(array)
+    return None
+
+
+def keep_alive(*arrays) -> None:
+    """Nothing, but a use of ``arrays`` where it is called: numba frees an array after its last
+    use in a function, so a function that works on ``borrowed`` views of arrays it made calls
+    this after the views' last use."""
+
+
+@overload(keep_alive, jit_options=dict(fastmath=False, error_model='python'))
+def _keep_alive_overload(*arrays):
+    return lambda *arrays: None
 
 
 def made_global(space: dict, name: str, make):
