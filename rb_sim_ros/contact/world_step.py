@@ -46,8 +46,8 @@ import numpy as np
 from rb_sim_ros.contact import broad_phase as bp, narrow_kernels as nk, solver_kernels as sk
 from rb_sim_ros.contact import world_kernels as wk
 from rb_sim_ros.core import jit, step_kernel as K
-from rb_sim_ros.core.jit import borrowed  # noqa: F401 (world_of, a generated source, calls it)
-from rb_sim_ros.core.jit import compile_for, generated_kernel, inline_kernel, kernel
+from rb_sim_ros.core.jit import borrowed, compile_for, generated_kernel, inline_kernel
+from rb_sim_ros.core.jit import keep_alive, kernel
 
 # Warm-start keys pack (collider a, collider b, feature) into one int64; features are < 2^12.
 FEATURE_BITS = 12
@@ -296,6 +296,15 @@ def _world_steps_of(family, tests, name):
         w.status[S_KIND] = OK
         w.status[S_STEPS_DONE] = 0
         collided = False  # a contact pass ran in this call
+        # The arrays of a contact pass that stay in it, carved from three made for the call
+        # (grown as a pass needs) and borrowed (jit.borrowed): three allocations a call where
+        # a pass made twenty-five, and no reference count of them taken as the stages pass
+        # them round. Those the call leaves in its outputs (the contacts, impulses) are its
+        # own. Kept alive to the end of the call (jit.keep_alive). They start empty, as empty
+        # views of the record's arrays of their types, which cost no allocation.
+        own_f, own_i, own_b = w.energy[:0], w.rows[:0], w.asleep[:0]
+        static = np.empty(w.cbody.shape[0], dtype=np.bool_)
+        awake = np.empty(w.dyn.shape[0], dtype=np.int64)
         while w.status[S_STEPS_DONE] < n:
             # The first step (or the first after a teleport) collides before it integrates: the
             # contacts of the starting state, so that a speculative contact already holds for
@@ -328,7 +337,6 @@ def _world_steps_of(family, tests, name):
                 collided = True
                 continue
             w.status[S_QUIET] = 0
-            static = np.empty(nc, dtype=np.bool_)
             crowded = False
             while True:
                 # x, R, v, omega and margins of the bodies; colliders placed (step 2's start).
@@ -390,7 +398,6 @@ def _world_steps_of(family, tests, name):
                 collided = True
                 break
             # Planes: the awake moving colliders only.
-            awake = np.empty(w.dyn.shape[0], dtype=np.int64)
             count = 0
             for k in range(w.dyn.shape[0]):
                 if not w.asleep[w.cbody[w.dyn[k]]]:
@@ -422,19 +429,44 @@ def _world_steps_of(family, tests, name):
                             any_asleep and _all_asleep(w.asleep, nb))
                 collided = True
                 continue
-            pair_a = np.empty(p1 + p2, dtype=np.int64)
-            pair_b = np.empty(p1 + p2, dtype=np.int64)
-            margins = np.empty(p1 + p2)
+            p = p1 + p2
+            rows = p * nk.MAX_CONTACTS_PER_PAIR
+            nn = nb + 1
+            if own_f.shape[0] < p + 21 * nn + 10 * rows:
+                own_f = np.empty(2 * (p + 21 * nn + 10 * rows))
+            if own_i.shape[0] < 2 * p + 5 * rows + nb:
+                own_i = np.empty(2 * (2 * p + 5 * rows + nb), dtype=np.int64)
+            if own_b.shape[0] < nn + nb:
+                own_b = np.empty(2 * (nn + nb), dtype=np.bool_)
+            fs, ints, flags = borrowed(own_f), borrowed(own_i), borrowed(own_b)
+            pair_a, pair_b = ints[:p], ints[p:2 * p]
+            at = 2 * p
+            feature, source = ints[at:at + rows], ints[at + rows:at + 2 * rows]
+            at += 2 * rows
+            body_a, body_b = ints[at:at + rows], ints[at + rows:at + 2 * rows]
+            keys = ints[at + 2 * rows:at + 3 * rows]
+            write = ints[at + 3 * rows:at + 3 * rows + nb]
+            margins = fs[:p]
+            inv_inertia = fs[p:p + 9 * nn].reshape((nn, 9))
+            v1 = fs[p + 9 * nn:p + 12 * nn].reshape((nn, 3))
+            w1 = fs[p + 12 * nn:p + 15 * nn].reshape((nn, 3))
+            disp = fs[p + 15 * nn:p + 18 * nn].reshape((nn, 3))
+            turn = fs[p + 18 * nn:p + 21 * nn].reshape((nn, 3))
+            at = p + 21 * nn
+            warm_n, e, mu = fs[at:at + rows], fs[at + rows:at + 2 * rows], fs[
+                at + 2 * rows:at + 3 * rows]
+            p_impulse = fs[at + 3 * rows:at + 4 * rows]
+            warm_t = fs[at + 4 * rows:at + 7 * rows].reshape((rows, 3))
+            tangent = fs[at + 7 * rows:at + 10 * rows].reshape((rows, 3))
+            touched, bad = flags[:nn], flags[nn:nn + nb]
             for k in range(p1):
                 pair_a[k], pair_b[k] = pairs[k, 0], pairs[k, 1]
                 margins[k] = w.margin[w.cbody[pairs[k, 0]]] + w.margin[w.cbody[pairs[k, 1]]]
             for k in range(p2):
                 pair_a[p1 + k], pair_b[p1 + k] = plane_pairs[k, 0], nc + plane_pairs[k, 1]
                 margins[p1 + k] = w.margin[w.cbody[plane_pairs[k, 0]]]
-            rows = (p1 + p2) * nk.MAX_CONTACTS_PER_PAIR
             point, normal = np.empty((rows, 3)), np.empty((rows, 3))
             depth = np.empty(rows)
-            feature, source = np.empty(rows, dtype=np.int64), np.empty(rows, dtype=np.int64)
             m = nk.collide_pairs_of(tests, pair_a, pair_b, w.kinds, w.geoms, w.pool, w.centres,
                                     w.rotations, margins, point, normal, depth, feature, source)
             point, normal, depth = point[:m], normal[:m], depth[:m]
@@ -452,9 +484,7 @@ def _world_steps_of(family, tests, name):
                 break
             ca = np.empty(m, dtype=np.int64)
             cbb = np.empty(m, dtype=np.int64)
-            body_a = np.empty(m, dtype=np.int64)
-            body_b = np.empty(m, dtype=np.int64)
-            keys = np.empty(m, dtype=np.int64)
+            body_a, body_b, keys = body_a[:m], body_b[:m], keys[:m]
             total = max(nc + planes, 1)
             for k in range(m):
                 ca[k], cbb[k] = pair_a[source[k]], pair_b[source[k]]
@@ -473,14 +503,16 @@ def _world_steps_of(family, tests, name):
                 collided = True
                 continue
             # 4. The solve: the bodies (the last slot static), warm start, materials.
-            inv_inertia = np.zeros((nb + 1, 9))
+            inv_inertia[:] = 0.0
             for k in range(nb):
                 _inverse_inertia_world(w.rows, w.params, w.state, k, inv_inertia)
-            warm_n, warm_t = np.zeros(m), np.zeros((m, 3))
+            warm_n, warm_t = warm_n[:m], warm_t[:m]
+            warm_n[:] = 0.0
+            warm_t[:] = 0.0
             use_warm = w.config[C_WARM_START] != 0.0 and warm_keys.shape[0] > 0
             if use_warm:
                 _match(keys, warm_keys, warm_normal, warm_tangent, warm_n, warm_t)
-            e, mu = np.empty(m), np.empty(m)
+            e, mu = e[:m], mu[:m]
             for k in range(m):
                 if w.config[C_MATERIALS] != 0.0:
                     fa, fb = float(w.friction[ca[k]]), float(w.friction[cbb[k]])
@@ -489,11 +521,7 @@ def _world_steps_of(family, tests, name):
                     mu[k] = min(mean, max(fa, fb))
                 else:
                     e[k], mu[k] = w.settings[sk.RESTITUTION], w.settings[sk.FRICTION]
-            nn = nb + 1
-            v1, w1 = np.empty((nn, 3)), np.empty((nn, 3))
-            disp, turn = np.empty((nn, 3)), np.empty((nn, 3))
-            tangent, p_impulse = np.empty((m, 3)), np.empty(m)
-            touched = np.empty(nn, dtype=np.bool_)
+            tangent, p_impulse = tangent[:m], p_impulse[:m]
             colours, v_iter, p_iter = sk.solve_arrays(
                 body_a, body_b, point, normal, depth, w.x, w.v, w.w, w.inverse_mass, inv_inertia,
                 w.settings, warm_n, warm_t, use_warm, e, mu, v1, w1, disp, turn, impulse, tangent,
@@ -506,7 +534,6 @@ def _world_steps_of(family, tests, name):
                 warm_keys, warm_normal, warm_tangent = _store_warm(
                     nb, w.cbody, w.plane_normals.shape[0], w.asleep, keys, impulse, tangent,
                     warm_keys, warm_normal, warm_tangent)
-            write = np.empty(nb, dtype=np.int64)
             count = 0
             n_touched = 0
             for k in range(nb):
@@ -515,7 +542,8 @@ def _world_steps_of(family, tests, name):
                     if not spared[k]:
                         write[count] = k
                         count += 1
-            bad = np.zeros(count, dtype=np.bool_)
+            bad = bad[:count]
+            bad[:] = False
             wk.write_contacts(w.state, w.params, w.rows, w.q, w.has_q, write[:count], w.x, w.rot,
                               v1, w1, disp, turn, float(w.config[C_MIN_TURN]), bad)
             for k in range(count):
@@ -542,6 +570,7 @@ def _world_steps_of(family, tests, name):
             if w.status[S_KIND] != OK:
                 break
             w.status[S_UNCHECKED] = 0
+        keep_alive(own_f, own_i, own_b)
         w.status[S_TURNED] = _turned(w.step_rows, w.state, w.warn_sq)
         out.warm_keys = warm_keys
         out.warm_normal, out.warm_tangent = warm_normal, warm_tangent
