@@ -203,16 +203,25 @@ class Probe:
     # sent then is lost (seen on a loaded machine). A call that changes state is resent only
     # when its caller says a second one does no harm (``resend=True``, e.g. one more step of
     # a loop that steps until something is seen). A client is made once for each service and
-    # kept: once a reply has come the match is made and no later call can lose one.
+    # kept: once a reply has come the match is made and no later call can lose one. A new
+    # client waits SETTLE_NEW_CLIENT once ready before its first call, for the server to match
+    # its reply reader: the server waits only briefly for that match, and under load a reply
+    # was lost so ('failed to send response (timeout)' in the node's log).
     RESEND_READS_AFTER = 20.0
+    SETTLE_NEW_CLIENT = 1.0
 
     def call(self, srv_type, name: str, request, timeout: float = 300.0,
              resend: bool | None = None):
         key = (srv_type, name)
         client = self._clients.get(key)
-        if client is None:
+        new = client is None
+        if new:
             client = self._clients[key] = self.node.create_client(srv_type, name)
         self.wait_for(client.service_is_ready, timeout, f'service {name}')
+        if new:
+            settled = time.monotonic() + self.SETTLE_NEW_CLIENT
+            while time.monotonic() < settled:
+                self.executor.spin_once(timeout_sec=0.02)
         end = time.monotonic() + timeout
         future = client.call_async(request)
         if srv_type.__name__.startswith('Get') if resend is None else resend:
