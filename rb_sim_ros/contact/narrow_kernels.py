@@ -64,8 +64,8 @@ from rb_sim_ros.contact.contact_geometry import (apply as _apply, apply_t as _ap
                                                  unit as _unit, write as _write,
                                                  write_at_most_four as _write_four)
 from rb_sim_ros.contact.shapes.base import GEOM_WIDTH, HALF_LENGTH, HX, HY, HZ, NORMAL, RADIUS
-from rb_sim_ros.core.jit import (generated_kernel, inline_kernel, kernel, literal_entry,
-                                 literal_gate, made_global)
+from rb_sim_ros.core.jit import (borrowed, generated_kernel, inline_kernel, keep_alive, kernel,
+                                 literal_entry, literal_gate, made_global)
 
 KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE, KIND_CYLINDER, KIND_HULL = (
     shapes.sphere.KIND, shapes.capsule.KIND, shapes.box.KIND, shapes.plane.KIND,
@@ -1067,11 +1067,15 @@ def _collide_pairs_for(tests, name):
             i, j = int(pair_a[k]), int(pair_b[k])
             if i < 0 or i >= colliders or j < 0 or j >= colliders:
                 raise ValueError('collide_pairs: a collider index out of range')
-        # The two colliders' rows are copied into arrays made once: a row view (geoms[i]) handed
-        # to a call costs numba two reference counts, more than the copy.
-        geom_a, geom_b = np.empty(GEOM_WIDTH), np.empty(GEOM_WIDTH)
-        centre_a, centre_b = np.empty(3), np.empty(3)
-        rot_a, rot_b = np.empty(9), np.empty(9)
+        # The two colliders' rows are copied into views of one array made once, borrowed
+        # (jit.borrowed): a pair's test then counts no reference of them (a row view of an
+        # owned array, geoms[i], would cost two atomic counts at each call).
+        own = np.empty(2 * GEOM_WIDTH + 24)
+        rows_of = borrowed(own)
+        geom_a, geom_b = rows_of[:GEOM_WIDTH], rows_of[GEOM_WIDTH:2 * GEOM_WIDTH]
+        at = 2 * GEOM_WIDTH
+        centre_a, centre_b = rows_of[at:at + 3], rows_of[at + 3:at + 6]
+        rot_a, rot_b = rows_of[at + 6:at + 15], rows_of[at + 15:at + 24]
         total = int(0)
         for k in range(n_pairs):
             i, j = int(pair_a[k]), int(pair_b[k])
@@ -1087,6 +1091,7 @@ def _collide_pairs_for(tests, name):
             for row in range(total, total + count):
                 source[row] = k
             total += count
+        keep_alive(own)
         return total
 
     collide_pairs.__name__ = collide_pairs.__qualname__ = name

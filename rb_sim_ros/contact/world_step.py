@@ -467,8 +467,10 @@ def _world_steps_of(family, tests, name):
                 margins[p1 + k] = w.margin[w.cbody[plane_pairs[k, 0]]]
             point, normal = np.empty((rows, 3)), np.empty((rows, 3))
             depth = np.empty(rows)
+            # (their owners outlive the call: borrowed, a pair's test counts no reference)
             m = nk.collide_pairs_of(tests, pair_a, pair_b, w.kinds, w.geoms, w.pool, w.centres,
-                                    w.rotations, margins, point, normal, depth, feature, source)
+                                    w.rotations, margins, borrowed(point), borrowed(normal),
+                                    borrowed(depth), feature, source)
             point, normal, depth = point[:m], normal[:m], depth[:m]
             stats = w.stats
             for k in range(8):
