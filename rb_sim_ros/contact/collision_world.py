@@ -351,7 +351,9 @@ class CollisionWorld:
                 tuple((w[c] - dw[c]) * inv for c in range(3)))
 
     def last_contacts(self) -> list[WorldContact]:
-        """The contacts of the last step (speculative ones too), in solver order. Not while
+        """The contacts of the last step (speculative ones too), in solver order, then those of
+        sleepers (between two, or one and the static world), kept as their last pass found them
+        while they sleep (no pass finds them then; nothing of them moves). Not while
         another thread steps the world (the step replaces the arrays read here; the node reads
         them after its step, in the same thread)."""
         if not self._collided:
@@ -633,15 +635,18 @@ class CollisionWorld:
         if self._asleep.any() and not old.warm_start and not recheck:
             # A delete, without warm starts: no record says what rested on the body: wake all.
             self._wake(np.arange(len(self._asleep)), step_count)
-        old_keys, old_normal, old_tangent = old._current_outputs()[:3]
+        old_outputs = old._current_outputs()
+        position = {cid: i for i, cid in enumerate(self.colliders.ids)}
+        mapping = np.array([position.get(cid, -1) for cid in old.colliders.ids],
+                           dtype=np.int64)
+        if old._collided:
+            self._carry_sleeping_contacts(old_outputs[3:], mapping)
+        old_keys, old_normal, old_tangent = old_outputs[:3]
         if not len(old_keys):
             return
         # Warm starts keyed by (collider a, collider b, feature): renumbered, the pairs of a
         # deleted collider dropped, sorted again (in the same order: both numberings follow
         # the bodies' order, which a spawn or a delete keeps).
-        position = {cid: i for i, cid in enumerate(self.colliders.ids)}
-        mapping = np.array([position.get(cid, -1) for cid in old.colliders.ids],
-                           dtype=np.int64)
         old_total = max(len(old.colliders.ids), 1)
         total = max(len(self.colliders.ids), 1)
         keys = old_keys
@@ -661,6 +666,32 @@ class CollisionWorld:
         touched = np.unique(self._cbody[gone[gone < len(self._cbody)]])
         if len(touched):
             self._wake(touched, step_count)
+
+    def _carry_sleeping_contacts(self, contacts: tuple, mapping: np.ndarray) -> None:
+        """The old world's last contacts (point, normal, depth, impulse, collider a, b) between
+        bodies that still sleep here (or one and the static world), renumbered by ``mapping``
+        (old collider index -> new, -1: deleted): the step keeps such contacts for reads and
+        markers while they sleep (world_step), and a spawn or a delete elsewhere must not
+        make them vanish."""
+        point, normal, depth, impulse, ca, cbb = contacts
+        if not len(ca):
+            return
+        a, b = mapping[ca], mapping[cbb]
+        nc, nb = len(self._cbody), len(self._asleep) - 1
+        body = np.append(self._cbody, nb)  # (the static slot for every plane)
+
+        def sleeps(c):
+            owner = body[np.minimum(np.where(c < 0, 0, c), nc)]
+            return (owner == nb) | self._asleep[owner]
+        keep = (a >= 0) & (b >= 0) & sleeps(a) & sleeps(b)
+        keep &= ~((body[np.minimum(np.maximum(a, 0), nc)] == nb)
+                  & (body[np.minimum(np.maximum(b, 0), nc)] == nb))
+        if not keep.any():
+            return
+        self._pull()
+        self._outputs = self._outputs[:3] + tuple(
+            np.ascontiguousarray(x[keep]) for x in (point, normal, depth, impulse, a, b))
+        self._status[ws.S_COLLIDED] = 1
 
     @property
     def sleeping(self) -> list[str]:

@@ -331,13 +331,15 @@ def _world_steps_of(family, tests, name):
                 # are: no body has moved since, so that pass would find what it found (no pair:
                 # sleepers pair like static colliders, and none is awake) and leave what it
                 # left (its placed colliders, and the warm starts, all of sleepers).
-                point, normal, depth = point[:0], normal[:0], depth[:0]
-                impulse, ca, cbb = impulse[:0], ca[:0], cbb[:0]
+                # (its contacts, all kept ones of sleepers, stay as they are)
                 _found_none(w.status, w.stats, w.energy, w.slow_steps, w.asleep, nb, 0, 0, True)
                 collided = True
                 continue
             w.status[S_QUIET] = 0
             crowded = False
+            # the last pass's contacts: those between sleepers are kept (below)
+            was_point, was_normal, was_depth = point, normal, depth
+            was_impulse, was_ca, was_cbb = impulse, ca, cbb
             while True:
                 # x, R, v, omega and margins of the bodies; colliders placed (step 2's start).
                 wk.read_bodies(w.state, w.rows, w.q, w.has_q, w.x, w.rot, w.v, w.w)
@@ -397,6 +399,10 @@ def _world_steps_of(family, tests, name):
                 ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
                 collided = True
                 break
+            # The last pass's contacts between sleepers (or a sleeper and the static world): no
+            # pass finds them while they sleep (they pair like static colliders), and nothing
+            # of them has moved, so they are kept for reads and markers, after this pass's own.
+            keep = _kept(nb, w.cbody, w.asleep, was_ca, was_cbb, any_asleep)
             # Planes: the awake moving colliders only.
             count = 0
             for k in range(w.dyn.shape[0]):
@@ -425,6 +431,9 @@ def _world_steps_of(family, tests, name):
                 else:
                     warm_keys = warm_keys[:0]
                     warm_normal, warm_tangent = warm_normal[:0], warm_tangent[:0]
+                point, normal, depth, impulse, ca, cbb = _with_kept(
+                    point, normal, depth, impulse, ca, cbb, keep, was_point, was_normal,
+                    was_depth, was_impulse, was_ca, was_cbb)
                 _found_none(w.status, w.stats, w.energy, w.slow_steps, w.asleep, nb, 0, 0,
                             any_asleep and _all_asleep(w.asleep, nb))
                 collided = True
@@ -502,6 +511,9 @@ def _world_steps_of(family, tests, name):
                     np.zeros((0, 3)), warm_keys, warm_normal, warm_tangent)
                 _found_none(w.status, w.stats, w.energy, w.slow_steps, w.asleep, nb, p1, p2,
                             False)
+                point, normal, depth, impulse, ca, cbb = _with_kept(
+                    point, normal, depth, impulse, ca, cbb, keep, was_point, was_normal,
+                    was_depth, was_impulse, was_ca, was_cbb)
                 collided = True
                 continue
             # 4. The solve: the bodies (the last slot static), warm start, materials.
@@ -568,6 +580,9 @@ def _world_steps_of(family, tests, name):
             stats[ACTIVE], stats[TOUCHED] = active, n_touched
             stats[COLOURS], stats[V_ITER], stats[P_ITER] = colours, v_iter, p_iter
             _finish_stats(w.asleep, w.stats, nb)
+            point, normal, depth, impulse, ca, cbb = _with_kept(
+                point, normal, depth, impulse, ca, cbb, keep, was_point, was_normal, was_depth,
+                was_impulse, was_ca, was_cbb)
             collided = True
             if w.status[S_KIND] != OK:
                 break
@@ -917,6 +932,48 @@ def _match(keys, old_keys, old_normal, old_tangent, normal, tangent):
             normal[k] = old_normal[pos]
             for c in range(3):
                 tangent[k, c] = old_tangent[pos, c]
+
+
+@inline_kernel
+def _kept(nb, cbody, asleep, ca, cbb, any_asleep):
+    """The indices of the contacts (collider pairs ca, cbb; cbb >= C a plane) between two
+    sleepers or a sleeper and the static world; none when no body sleeps."""
+    nc = cbody.shape[0]
+    keep = np.empty(ca.shape[0] if any_asleep else 0, dtype=np.int64)
+    kept = 0
+    for k in range(keep.shape[0]):
+        body_a = cbody[ca[k]] if ca[k] < nc else nb
+        body_b = cbody[cbb[k]] if cbb[k] < nc else nb
+        if ((body_a == nb or asleep[body_a]) and (body_b == nb or asleep[body_b])
+                and not (body_a == nb and body_b == nb)):
+            keep[kept] = k
+            kept += 1
+    return keep[:kept]
+
+
+@inline_kernel
+def _with_kept(point, normal, depth, impulse, ca, cbb, keep, was_point, was_normal, was_depth,
+               was_impulse, was_ca, was_cbb):
+    """A pass's contacts, then the kept ones (``keep``, indices into the was_ arrays); the
+    pass's own arrays when none is kept."""
+    kept = keep.shape[0]
+    if kept == 0:
+        return point, normal, depth, impulse, ca, cbb
+    m = ca.shape[0]
+    all_point, all_normal = np.empty((m + kept, 3)), np.empty((m + kept, 3))
+    all_depth, all_impulse = np.empty(m + kept), np.empty(m + kept)
+    all_ca, all_cbb = np.empty(m + kept, dtype=np.int64), np.empty(m + kept, dtype=np.int64)
+    for k in range(m + kept):
+        j = k if k < m else keep[k - m]
+        mine = k < m
+        for c in range(3):
+            all_point[k, c] = point[j, c] if mine else was_point[j, c]
+            all_normal[k, c] = normal[j, c] if mine else was_normal[j, c]
+        all_depth[k] = depth[j] if mine else was_depth[j]
+        all_impulse[k] = impulse[j] if mine else was_impulse[j]
+        all_ca[k] = ca[j] if mine else was_ca[j]
+        all_cbb[k] = cbb[j] if mine else was_cbb[j]
+    return all_point, all_normal, all_depth, all_impulse, all_ca, all_cbb
 
 
 @inline_kernel

@@ -395,7 +395,8 @@ def test_a_world_asleep_skips_its_pass_and_leaves_what_the_pass_would(monkeypatc
     # a skipped pass found nothing and solved nothing (the sleepers hold their rest)
     sleeping, (last, _), energy, contacts = moments['asleep 3 steps on'][:4]
     assert last == {**{k: 0 for k in last}, 'sleeping': 3} and energy == (0.0, 0.0)
-    assert contacts == []
+    # and kept the sleepers' contacts as they were (issue 33: markers show a resting pile)
+    assert contacts and contacts == moments['asleep'][3]
     assert moments['b teleported where it was'][0] == ['c']
     woken_a = moments['b teleported where it was'][4][0]
     assert woken_a[0] == 'a' and woken_a[4] == ((0.0,) * 3, (0.0,) * 3)
@@ -436,3 +437,41 @@ def test_a_world_that_slept_takes_over_a_sleeping_run_and_places_its_colliders_a
         world.set_state('bottom', State((3.0, 0.0, 0.1)))
         world.step(1000)
         assert world.state('top').position[2] == pytest.approx(0.1, abs=1e-3)
+
+
+def _seen(contacts):
+    return [(c.a, c.b, c.point.tolist(), c.normal.tolist(), c.depth, c.normal_impulse)
+            for c in contacts]
+
+
+def test_a_sleeping_stack_keeps_its_contacts_for_reads_and_markers_across_a_spawn_and_a_delete():
+    """Contacts of sleepers stay in last_contacts (which collision_markers draws) while they
+    sleep, though no pass finds them: those of the stack's last pass, as they were. Their
+    impulses still carry the stack (statics: the ground's normal impulses on it sum to its
+    weight times dt). A body spawned far away (the world rebuilt) leaves them; deleting the
+    top box drops its contact and wakes the box under it, which then finds its own again."""
+    bodies = [_cube(f'box{i}', (0.0, 0.0, 0.1 + 0.2 * i)) for i in range(3)]
+    world = collision_world(bodies, DT, G, planes=GROUND,
+                            contact=ContactSettings(friction=0.5))
+    for _ in range(3000):
+        world.step(1)
+        if sorted(world.sleeping) == STACK:
+            break
+    assert sorted(world.sleeping) == STACK
+    before = _seen(world.last_contacts())
+    world.step(500)
+    assert world.last_stats.contacts == 0 and world.last_stats.pairs_tested == 0
+    assert _seen(world.last_contacts()) == before and len(before) >= 12  # 4 a face, 3 faces
+    ground = sum(c.normal_impulse for c in world.last_contacts() if c.b == '')
+    assert ground == pytest.approx(3 * 1.0 * 9.81 * DT, rel=1e-3)
+    far = _cube('far', (50.0, 0.0, 5.0))
+    spawned = rebuilt(world, bodies + [far], False, G)
+    assert _seen(spawned.last_contacts()) == before
+    spawned.step(1)  # the new body falls; the sleepers' contacts stay
+    assert [c for c in _seen(spawned.last_contacts()) if 'far' not in c[:2]] == before
+    deleted = rebuilt(world, bodies[:2], False, G)
+    pairs = {(c[0], c[1]) for c in _seen(deleted.last_contacts())}
+    assert ('box1', 'box2') not in pairs and ('box2', 'box1') not in pairs
+    deleted.step(1)
+    assert 'box1' not in deleted.sleeping
+    assert any('box1' in (c.a, c.b) for c in deleted.last_contacts())

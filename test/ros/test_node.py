@@ -521,11 +521,11 @@ def test_malformed_ros_arguments_exit_with_a_message(start_sim):
 
 def test_colliding_bodies_land_and_are_drawn(start_sim, probe, tmp_path):
     """A ball dropped on the ground comes to rest on it, and the markers show it there with
-    its contact point on the ground; after sleep_time at rest it sleeps (/diagnostics). Any
-    marker message received counts (a loaded probe may skip some, and the contact goes once
-    the ball sleeps). The node starts paused and runs once a step has drawn markers to the
-    probe: on a loaded machine discovery took longer than the fall and the 2 s of rest, and
-    the probe saw only the sleeping ball, without a contact."""
+    its contact point on the ground; after sleep_time at rest it sleeps (/diagnostics), and
+    the markers still show its contact (kept while it sleeps). Any marker message received
+    counts (a loaded probe may skip some). The node starts paused and runs once a step has
+    drawn markers to the probe: on a loaded machine discovery took longer than the fall and
+    the 2 s of rest, and the probe saw only the sleeping ball."""
     from diagnostic_msgs.msg import DiagnosticArray
     from visualization_msgs.msg import MarkerArray
     scene = tmp_path / 'scene.yaml'
@@ -560,6 +560,9 @@ def test_colliding_bodies_land_and_are_drawn(start_sim, probe, tmp_path):
     probe.wait_for(lambda: any(v.key == 'sleeping_bodies' and v.value == '1'
                                for d in diagnostics for s in d.status for v in s.values),
                    what='the ball asleep in /diagnostics')
+    seen = len(markers)
+    probe.wait_for(lambda: any(drawn_resting(m) for m in list(markers)[seen:]),
+                   what='the sleeping ball drawn with its contact')
 
 
 def test_a_wrench_at_a_named_point_acts_there(start_sim, probe, tmp_path):
