@@ -639,14 +639,18 @@ class CollisionWorld:
         position = {cid: i for i, cid in enumerate(self.colliders.ids)}
         mapping = np.array([position.get(cid, -1) for cid in old.colliders.ids],
                            dtype=np.int64)
-        if old._collided:
-            self._carry_sleeping_contacts(old_outputs[3:], mapping)
         old_keys, old_normal, old_tangent = old_outputs[:3]
-        if not len(old_keys):
-            return
-        # Warm starts keyed by (collider a, collider b, feature): renumbered, the pairs of a
-        # deleted collider dropped, sorted again (in the same order: both numberings follow
-        # the bodies' order, which a spawn or a delete keeps).
+        if len(old_keys):
+            self._carry_warm_starts(old, old_keys, old_normal, old_tangent, mapping,
+                                    step_count)
+        if old._collided:  # (after the wakes: only those still asleep keep theirs)
+            self._carry_sleeping_contacts(old_outputs[3:], mapping)
+
+    def _carry_warm_starts(self, old, old_keys, old_normal, old_tangent, mapping,
+                           step_count) -> None:
+        """``old``'s warm starts, here: keyed by (collider a, collider b, feature), renumbered
+        by ``mapping``, the pairs of a deleted collider dropped, sorted again (in the same
+        order: both numberings follow the bodies' order, which a spawn or a delete keeps)."""
         old_total = max(len(old.colliders.ids), 1)
         total = max(len(self.colliders.ids), 1)
         keys = old_keys

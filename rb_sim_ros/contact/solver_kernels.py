@@ -598,6 +598,7 @@ def solve_arrays(body_a, body_b, point, normal, depth, position, velocity, angul
                 out_displacement[i, c] = 0.0
                 out_rotation[i, c] = 0.0
             out_touched[i] = False
+        keep_alive(own_f, own_i, own_b)  # (u0 is a view of own_f: numba frees it after this)
         return 0, 0, 0
     # Colour, then the rows in colour order: slot s holds contact order[s].
     colours = _colour(body_a, body_b, moving, colour)

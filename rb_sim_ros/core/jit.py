@@ -130,8 +130,11 @@ def borrowed(array):
     than its arithmetic (a ball rolling on a plane: 57% of a step, bench/contact_step_bench.py).
     The counts of a borrowed array cost a test of a null pointer. Only for an array that its
     owner keeps alive for as long as the view is used, and that is never stored into a
-    container that outlives the call: the arrays of the record a world step is handed, for
-    that call (``world_step.world_of``). The interpreted tier returns ``array``."""
+    container that outlives the call, nor returned: the arrays of the record a world step is
+    handed, for that call (``world_step.world_of``), and scratch a kernel carves from arrays
+    it made, whose owners it passes to ``keep_alive`` on every path after the views' last use
+    (numba frees an array after its owner's last use on each path: an early return too).
+    The interpreted tier returns ``array``."""
     return array
 
 
