@@ -151,6 +151,7 @@ def test_the_standard_api_drives_the_simulator(start_sim, probe, tmp_path, insta
     # (ready is its services: feedback sent before its topic matched would be lost)
     probe.wait_for(lambda: probe.node.count_publishers('/simulate_steps/_action/feedback'),
                    what="the action's feedback topic")
+    probe.settle()  # (and for the server to match our feedback reader: a CI run lost it all)
     feedback = []
     goal = client.send_goal_async(SimulateSteps.Goal(steps=45),
                                   feedback_callback=lambda m: feedback.append(m.feedback))

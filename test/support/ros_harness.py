@@ -219,9 +219,7 @@ class Probe:
             client = self._clients[key] = self.node.create_client(srv_type, name)
         self.wait_for(client.service_is_ready, timeout, f'service {name}')
         if new:
-            settled = time.monotonic() + self.SETTLE_NEW_CLIENT
-            while time.monotonic() < settled:
-                self.executor.spin_once(timeout_sec=0.02)
+            self.settle()
         end = time.monotonic() + timeout
         future = client.call_async(request)
         if srv_type.__name__.startswith('Get') if resend is None else resend:
@@ -239,6 +237,13 @@ class Probe:
                     future = client.call_async(request)
         self.wait_for(future.done, max(end - time.monotonic(), 0.0), f'response of {name}')
         return future.result()
+
+    def settle(self) -> None:
+        """Spin SETTLE_NEW_CLIENT: for the other side to match what this side has just
+        seen (a service's reply reader, an action's feedback subscription)."""
+        settled = time.monotonic() + self.SETTLE_NEW_CLIENT
+        while time.monotonic() < settled:
+            self.executor.spin_once(timeout_sec=0.02)
 
     def publisher(self, msg_type, topic: str, subscribers: int = 1):
         """A publisher, returned once ``subscribers`` subscriptions have matched it."""
