@@ -683,13 +683,10 @@ class CollisionWorld:
         a, b = mapping[ca], mapping[cbb]
         nc, nb = len(self._cbody), len(self._asleep) - 1
         body = np.append(self._cbody, nb)  # (the static slot for every plane)
-
-        def sleeps(c):
-            owner = body[np.minimum(np.where(c < 0, 0, c), nc)]
-            return (owner == nb) | self._asleep[owner]
-        keep = (a >= 0) & (b >= 0) & sleeps(a) & sleeps(b)
-        keep &= ~((body[np.minimum(np.maximum(a, 0), nc)] == nb)
-                  & (body[np.minimum(np.maximum(b, 0), nc)] == nb))
+        owner_a, owner_b = body[np.clip(a, 0, nc)], body[np.clip(b, 0, nc)]
+        static_a, static_b = owner_a == nb, owner_b == nb
+        keep = ((a >= 0) & (b >= 0) & (static_a | self._asleep[owner_a])
+                & (static_b | self._asleep[owner_b]) & ~(static_a & static_b))
         if not keep.any():
             return
         self._pull()
