@@ -33,7 +33,7 @@ the settings' RESTITUTION and FRICTION (``contact_solver.solve`` fills the array
 when no materials are given).
 
 How. The contacts are coloured in contact order (``_colour``: no moving body in two
-contacts of one colour; greedy while a body has at most COLOUR_SCAN, linear in all) and
+contacts of one colour; greedy while a body has at most COLOUR_SCAN, O(1) a contact) and
 stored colour by colour as rows (``_rows``: for the normal and the two tangents, the
 Jacobian and the change of velocity per unit impulse). Gauss-Seidel then visits them in that
 order, one after the other: the visit order is the colouring's, so the
@@ -110,66 +110,63 @@ def tangent_basis(n0, n1, n2):
     return (c0, c1, c2, n1 * c2 - n2 * c1, n2 * c0 - n0 * c2, n0 * c1 - n1 * c0)
 
 
+# The colours a body's contacts hold, as bits: HELD_WORDS words of HELD_BITS (63: an int64's
+# bits but its sign, so no shift makes a negative number). A contact whose bodies have at most
+# COLOUR_SCAN earlier contacts each sees at most 2 COLOUR_SCAN colours held, so the lowest
+# free one is at most 2 COLOUR_SCAN: inside the words, whatever higher colours are held.
+HELD_BITS = 63
+HELD_WORDS = (2 * COLOUR_SCAN) // HELD_BITS + 1
+_ALL_HELD = (1 << HELD_BITS) - 1
+
+
 @kernel
 def _colour(body_a, body_b, moving, colour):
     """Colouring in contact order: no moving body in two contacts of one colour (static bodies
     may repeat within a colour; they never move). Writes ``colour`` (M,), returns the number
     of colours. A contact whose moving bodies have at most COLOUR_SCAN earlier contacts each
-    gets the lowest colour none of those has (greedy: the earlier contacts of each moving body
-    are listed once, in contact order, and the colours they hold stamped into ``seen`` with
-    the contact's index); past that, the colour after the highest its bodies hold. So a
-    contact costs at most 2 COLOUR_SCAN, and M contacts O(M), however many one body has (the
-    greedy colouring alone cost d^2 / 2 for a body in d contacts: 122,500 made an 18 s step);
-    below the bound the colours are the greedy ones."""
+    gets the lowest colour none of those has (greedy: the colours each body's contacts hold
+    are kept as bits, ``held``, and the lowest free one is the lowest bit clear in both
+    bodies' words); past that, the colour after the highest its bodies hold. So a contact
+    costs O(1), and M contacts O(M), however many one body has (the greedy colouring by a
+    scan of each body's earlier contacts cost d^2 / 2 for a body in d contacts: 122,500
+    made an 18 s step)."""
     m, n = body_a.shape[0], moving.shape[0]
-    start = np.zeros(n + 1, dtype=np.int64)
-    for k in range(m):
-        a, b = int(body_a[k]), int(body_b[k])
-        if moving[a]:
-            start[a + 1] += 1
-        if moving[b]:
-            start[b + 1] += 1
-    for i in range(n):
-        start[i + 1] += start[i]
-    fill = start.copy()  # fill[i] - start[i]: the contacts of body i coloured so far
-    listed = np.empty(int(start[n]), dtype=np.int64)
-    for k in range(m):
-        a, b = int(body_a[k]), int(body_b[k])
-        if moving[a]:
-            listed[fill[a]] = k
-            fill[a] += 1
-        if moving[b]:
-            listed[fill[b]] = k
-            fill[b] += 1
-    fill[:] = start
+    earlier = np.zeros(n, dtype=np.int64)  # the contacts of each body coloured so far
     top = np.full(n, -1, dtype=np.int64)  # the highest colour of each body's contacts so far
-    seen = np.full(m + 1, -1, dtype=np.int64)
+    held = np.zeros((n, HELD_WORDS), dtype=np.int64)
     count = 0
     for k in range(m):
         a, b = int(body_a[k]), int(body_b[k])
-        few = True
-        for body in (a, b):
-            if moving[body] and fill[body] - start[body] > COLOUR_SCAN:
-                few = False
+        move_a, move_b = bool(moving[a]), bool(moving[b])
+        few = not ((move_a and earlier[a] > COLOUR_SCAN) or (move_b and earlier[b] > COLOUR_SCAN))
+        c = 0
         if few:
-            for body in (a, b):
-                if moving[body]:
-                    for j in range(int(start[body]), int(fill[body])):
-                        seen[colour[int(listed[j])]] = k
-            c = 0
-            while seen[c] == k:
-                c += 1
+            for word in range(HELD_WORDS):
+                bits = 0
+                if move_a:
+                    bits |= held[a, word]
+                if move_b:
+                    bits |= held[b, word]
+                if bits != _ALL_HELD:
+                    c = word * HELD_BITS
+                    while bits & 1:
+                        bits >>= 1
+                        c += 1
+                    break
         else:
-            c = 0
-            for body in (a, b):
-                if moving[body] and top[body] + 1 > c:
-                    c = top[body] + 1
+            if move_a and top[a] + 1 > c:
+                c = top[a] + 1
+            if move_b and top[b] + 1 > c:
+                c = top[b] + 1
         colour[k] = c
+        word, bit = c // HELD_BITS, c % HELD_BITS
         for body in (a, b):
             if moving[body]:
-                fill[body] += 1
+                earlier[body] += 1
                 if c > top[body]:
                     top[body] = c
+                if word < HELD_WORDS:
+                    held[body, word] |= 1 << bit
         if c + 1 > count:
             count = c + 1
     return count

@@ -181,6 +181,77 @@ def test_colouring_is_proper_and_greedy_while_bodies_have_few_contacts(seed):
         assert colour.tolist() == _greedy(body_a.tolist(), body_b.tolist(), moving.tolist())
 
 
+@pytest.mark.parametrize('first', [0, 10, 23, 40])
+def test_colouring_stays_greedy_past_the_first_word_of_held_colours(first):
+    # Body 1 pressed by the static body 0 ``first`` times (colours 0 ..), body 2 by body 3,
+    # then 1 by 2 until 1 holds 0 .. 62 (solver_kernels.HELD_BITS: the first word of the bits
+    # of the colours a body holds), and once more: the greedy colours go past 62 while no
+    # body has more than COLOUR_SCAN contacts.
+    held = solver_kernels.HELD_BITS
+    pairs = [(1, 0)] * first + [(2, 3)] * (first // 2) + [(1, 2)] * (held - first + 1)
+    body_a = np.array([a for a, _ in pairs], dtype=np.int64)
+    body_b = np.array([b for _, b in pairs], dtype=np.int64)
+    moving = np.array([False, True, True, True])
+    colour = np.empty(len(pairs), dtype=np.int64)
+    count = solver_kernels._colour(body_a, body_b, moving, colour)
+    degree = np.bincount(np.concatenate([body_a, body_b]), minlength=4)
+    assert degree[moving].max() <= solver_kernels.COLOUR_SCAN
+    assert colour.tolist() == _greedy(body_a.tolist(), body_b.tolist(), moving.tolist())
+    assert count == colour.max() + 1 == held + 1
+
+
+def test_colouring_finds_the_highest_free_colour_a_few_contacts_can_leave():
+    """Bodies 1 and 3 each pressed by the static body 0 COLOUR_SCAN times (colours 0 .. 63),
+    body 2 then by body 3 as often (64 .., past the scan: one after the highest), and 1 by 2:
+    both have COLOUR_SCAN earlier contacts (few), holding 0 .. 127 between them, so the
+    colour is 128, in the last of the words of held colours."""
+    scan = solver_kernels.COLOUR_SCAN
+    pairs = [(1, 0)] * scan + [(3, 0)] * scan + [(2, 3)] * scan + [(1, 2)]
+    body_a = np.array([a for a, _ in pairs], dtype=np.int64)
+    body_b = np.array([b for _, b in pairs], dtype=np.int64)
+    colour = np.empty(len(pairs), dtype=np.int64)
+    count = solver_kernels._colour(body_a, body_b, np.array([False, True, True, True]), colour)
+    assert colour[-1] == 2 * scan and count == 2 * scan + 1
+    assert colour[2 * scan:3 * scan].tolist() == list(range(scan, 2 * scan))
+
+
+def _reference_colours(body_a, body_b, moving, scan):
+    """The colouring's rule, written plainly: the lowest colour no earlier contact of its
+    moving bodies holds while each has at most ``scan`` earlier contacts, else one after the
+    highest they hold."""
+    held = [set() for _ in moving]
+    out = []
+    for a, b in zip(body_a, body_b):
+        mine = [x for x in (a, b) if moving[x]]
+        if all(len(held[x]) <= scan for x in mine):
+            used = set().union(*(held[x] for x in mine))
+            c = 0
+            while c in used:
+                c += 1
+        else:
+            c = max((max(held[x], default=-1) + 1 for x in mine), default=0)
+        out.append(c)
+        for x in mine:
+            held[x].add(c)
+    return out
+
+
+@pytest.mark.parametrize('seed', range(4))
+def test_colouring_follows_its_rule_where_bodies_pass_the_scan(seed):
+    # 3 to 5 bodies, 200 to 400 contacts: degrees cross COLOUR_SCAN during the run
+    rng = np.random.default_rng(100 + seed)
+    n = int(rng.integers(3, 6))
+    m = int(rng.integers(200, 400))
+    moving = rng.random(n) < 0.85
+    moving[0] = True
+    body_a = rng.integers(0, n, m)
+    body_b = (body_a + rng.integers(1, n, m)) % n
+    colour = np.empty(m, dtype=np.int64)
+    solver_kernels._colour(body_a.astype(np.int64), body_b.astype(np.int64), moving, colour)
+    assert colour.tolist() == _reference_colours(body_a.tolist(), body_b.tolist(),
+                                                 moving.tolist(), solver_kernels.COLOUR_SCAN)
+
+
 # -- N01: colliders piled up at run time: the step refuses, with the reason --------------------
 
 def test_more_pairs_than_the_broad_phase_bound_stop_the_step_with_the_reason():
