@@ -49,7 +49,7 @@ from rb_sim_ros.contact.contact_geometry import (apply as _apply, apply_t as _ap
                                                  put as _put, TINY_LENGTH,
                                                  write_at_most_four as _write_four)
 from rb_sim_ros.contact.shapes.base import NORMAL
-from rb_sim_ros.core.jit import inline_kernel, kernel
+from rb_sim_ros.core.jit import inline_kernel, kernel, stack_empty
 
 # GJK stops when the distance can shrink by no more than this fraction of its square (a
 # curved core converges linearly) or after GJK_ITERATIONS support points.
@@ -67,6 +67,9 @@ TOUCH_RELATIVE = 1e-10
 # bent the polytope), keeping the last good face.
 EPA_VERTICES = 64
 EPA_FACES = 2 * EPA_VERTICES - 4
+EPA_EDGES = 3 * EPA_FACES  # the horizon's room (each face's three edges)
+# The most points of a core's face (a global of this module: jit.stack_empty takes constants)
+CORE_FACE = shapes.CORE_FACE_CAPACITY
 EPA_RELATIVE = 1e-11
 # Clipping buffers: a convex face of at most 9 points clipped by at most 9 planes stays
 # within 18 points. A clip at most doubles a polygon (each edge keeps its start and adds at
@@ -291,13 +294,13 @@ def _gjk(ka, ga, ca, ra, kb, gb, cb, rb, pool, W, PA, PB, lam, beyond):
     n = 0
     size2 = 0.0
     vv = math.inf
-    W_back = np.empty((4, 3))
-    PA_back = np.empty((4, 3))
-    PB_back = np.empty((4, 3))
-    lam_back = np.empty(4)
-    idx = np.empty(4, dtype=np.int64)
-    weights = np.empty(4)
-    scratch = np.empty((4, 9))
+    W_back = stack_empty(4, 3, np.float64)
+    PA_back = stack_empty(4, 3, np.float64)
+    PB_back = stack_empty(4, 3, np.float64)
+    lam_back = stack_empty(4, 0, np.float64)
+    idx = stack_empty(4, 0, np.int64)
+    weights = stack_empty(4, 0, np.float64)
+    scratch = stack_empty(4, 9, np.float64)
     for _ in range(GJK_ITERATIONS):
         _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, pool, -vx, -vy, -vz, n, W, PA, PB)
         wx, wy, wz = float(W[n, 0]), float(W[n, 1]), float(W[n, 2])
@@ -433,15 +436,16 @@ def _epa(ka, ga, ca, ra, kb, gb, cb, rb, pool, W, PA, PB, size2):
     """EPA from the tetrahedron W[:4], PA, PB (the origin in it): (ok, nx, ny, nz, depth, a, b)
     with n the normal (A to B) of the face of A - B nearest the origin, depth its distance and
     a, b the cores' points there (barycentric on the face)."""
-    V = np.empty((EPA_VERTICES, 3))
-    VA = np.empty((EPA_VERTICES, 3))
-    VB = np.empty((EPA_VERTICES, 3))
-    FV = np.empty((EPA_FACES, 3), dtype=np.int64)
-    FN = np.empty((EPA_FACES, 3))
-    FD = np.empty(EPA_FACES)
-    alive = np.zeros(EPA_FACES, dtype=np.bool_)
-    edges = np.empty((3 * EPA_FACES, 2), dtype=np.int64)
-    stack = np.empty(EPA_FACES, dtype=np.int64)
+    V = stack_empty(EPA_VERTICES, 3, np.float64)
+    VA = stack_empty(EPA_VERTICES, 3, np.float64)
+    VB = stack_empty(EPA_VERTICES, 3, np.float64)
+    FV = stack_empty(EPA_FACES, 3, np.int64)
+    FN = stack_empty(EPA_FACES, 3, np.float64)
+    FD = stack_empty(EPA_FACES, 0, np.float64)
+    alive = stack_empty(EPA_FACES, 0, np.bool_)
+    alive[:] = False
+    edges = stack_empty(EPA_EDGES, 2, np.int64)
+    stack = stack_empty(EPA_FACES, 0, np.int64)
     for m in range(4):
         for q in range(3):
             V[m, q], VA[m, q], VB[m, q] = W[m, q], PA[m, q], PB[m, q]
@@ -590,10 +594,10 @@ def _manifold(ref, nref, inc, inc_tags, ninc, ux, uy, uz, margin, deepest, sign,
     not touch flat (an edge or a rim does): -1. No depth is more than ``deepest`` (the
     overlap of the shapes along u: no point of them overlaps more). Returns the count, or -1
     when the clip fails (then the caller writes the single contact)."""
-    poly = np.empty((CLIP_ROOM, 3))
-    tags = np.empty(CLIP_ROOM, dtype=np.int64)
-    other = np.empty((CLIP_ROOM, 3))
-    other_tags = np.empty(CLIP_ROOM, dtype=np.int64)
+    poly = stack_empty(CLIP_ROOM, 3, np.float64)
+    tags = stack_empty(CLIP_ROOM, 0, np.int64)
+    other = stack_empty(CLIP_ROOM, 3, np.float64)
+    other_tags = stack_empty(CLIP_ROOM, 0, np.int64)
     for m in range(ninc):
         poly[m, 0], poly[m, 1], poly[m, 2] = inc[m, 0], inc[m, 1], inc[m, 2]
         tags[m] = inc_tags[m]
@@ -675,7 +679,7 @@ def _manifold(ref, nref, inc, inc_tags, ninc, ux, uy, uz, margin, deepest, sign,
             poly[m, 0], poly[m, 1], poly[m, 2] = other[m, 0], other[m, 1], other[m, 2]
             tags[m] = other_tags[m]
     # each point's depth below the reference: along u to its plane (or to its line)
-    depths = np.empty(CLIP_ROOM)
+    depths = stack_empty(CLIP_ROOM, 0, np.float64)
     kept = 0
     rx, ry, rz = float(ref[0, 0]), float(ref[0, 1]), float(ref[0, 2])
     for m in range(count):
@@ -784,10 +788,10 @@ def convex_pair(ka, ga, ca, rota, kb, gb, cb, rotb, pool, margin, point, normal,
                 row):
     """The contacts of two solid shapes (see the module doc) within ``margin``: written from
     ``row``; their count (0 to 4)."""
-    W = np.empty((4, 3))
-    PA = np.empty((4, 3))
-    PB = np.empty((4, 3))
-    lam = np.empty(4)
+    W = stack_empty(4, 3, np.float64)
+    PA = stack_empty(4, 3, np.float64)
+    PB = stack_empty(4, 3, np.float64)
+    lam = stack_empty(4, 0, np.float64)
     rad_a = shapes.core_radius_of(ka, ga)
     rad_b = shapes.core_radius_of(kb, gb)
     n, overlap, size2 = _gjk(ka, ga, ca, rota, kb, gb, cb, rotb, pool, W, PA, PB, lam,
@@ -830,10 +834,10 @@ def convex_pair(ka, ga, ca, rota, kb, gb, cb, rotb, pool, margin, point, normal,
     if deepest < -margin:
         return 0
     # the faces: A's along n, B's along -n, each on its rounded surface
-    face_a = np.empty((shapes.CORE_FACE_CAPACITY, 3))
-    tags_a = np.empty(shapes.CORE_FACE_CAPACITY, dtype=np.int64)
-    face_b = np.empty((shapes.CORE_FACE_CAPACITY, 3))
-    tags_b = np.empty(shapes.CORE_FACE_CAPACITY, dtype=np.int64)
+    face_a = stack_empty(CORE_FACE, 3, np.float64)
+    tags_a = stack_empty(CORE_FACE, 0, np.int64)
+    face_b = stack_empty(CORE_FACE, 3, np.float64)
+    tags_b = stack_empty(CORE_FACE, 0, np.int64)
     na = _world_face(ka, ga, ca, rota, pool, nx, ny, nz, rad_a, face_a, tags_a)
     nb = _world_face(kb, gb, cb, rotb, pool, -nx, -ny, -nz, rad_b, face_b, tags_b)
     count = -1  # (a point against anything: the one contact of the closest points is exact)
@@ -860,11 +864,11 @@ def convex_plane(kind, geom, centre, rot, pool, p, n, margin, point, normal, dep
     nx, ny, nz = float(n[NORMAL]), float(n[NORMAL + 1]), float(n[NORMAL + 2])
     px, py, pz = float(p[0]), float(p[1]), float(p[2])
     radius = shapes.core_radius_of(kind, geom)
-    face = np.empty((shapes.CORE_FACE_CAPACITY, 3))
-    tags = np.empty(shapes.CORE_FACE_CAPACITY, dtype=np.int64)
+    face = stack_empty(CORE_FACE, 3, np.float64)
+    tags = stack_empty(CORE_FACE, 0, np.int64)
     count = _world_face(kind, geom, centre, rot, pool, -nx, -ny, -nz, radius, face, tags)
     kept = 0
-    depths = np.empty(shapes.CORE_FACE_CAPACITY)
+    depths = stack_empty(CORE_FACE, 0, np.float64)
     for m in range(count):
         vx, vy, vz = float(face[m, 0]), float(face[m, 1]), float(face[m, 2])
         s = (vx - px) * nx + (vy - py) * ny + (vz - pz) * nz

@@ -64,8 +64,8 @@ from rb_sim_ros.contact.contact_geometry import (apply as _apply, apply_t as _ap
                                                  unit as _unit, write as _write,
                                                  write_at_most_four as _write_four)
 from rb_sim_ros.contact.shapes.base import GEOM_WIDTH, HALF_LENGTH, HX, HY, HZ, NORMAL, RADIUS
-from rb_sim_ros.core.jit import (borrowed, generated_kernel, inline_kernel, keep_alive, kernel,
-                                 literal_entry, literal_gate, made_global)
+from rb_sim_ros.core.jit import (generated_kernel, inline_kernel, kernel, literal_entry,
+                                 literal_gate, made_global, stack_empty)
 
 KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE, KIND_CYLINDER, KIND_HULL = (
     shapes.sphere.KIND, shapes.capsule.KIND, shapes.box.KIND, shapes.plane.KIND,
@@ -91,6 +91,8 @@ SEGMENT_TINY = 1e-30
 # each crossing edge has one end strictly outside (O of them, 2 edges each) and one strictly
 # inside, so X <= min(2 O, 2 I) and I + X <= n + n / 2. From the 4 corners: 6, 9, 13, 19.
 CLIP_CAPACITY = 19
+# The copies of a pair's two rows collide_pairs hands its test: geoms, centres, rotations.
+ROW_COPIES = 2 * GEOM_WIDTH + 24
 
 
 # -- small helpers -----------------------------------------------------------------------------
@@ -308,7 +310,7 @@ def segment_box_distance(p0x, p0y, p0z, dx, dy, dz, hx, hy, hz):
     p0 = (p0x, p0y, p0z)
     d = (dx, dy, dz)
     half = (hx, hy, hz)
-    breaks = np.empty(8)
+    breaks = stack_empty(8, 0, np.float64)
     breaks[0], breaks[1] = 0.0, 1.0
     count = 2
     for i in range(3):
@@ -605,10 +607,10 @@ def _face_contacts(cr, rotr, gr, axis, ci, roti, gi, margin, sign,
     ux, uy, uz = _column(roti, k2)
     w = float(gi[HX + k2])
     e2x, e2y, e2z = w * ux, w * uy, w * uz
-    poly = np.empty((CLIP_CAPACITY, 3))
-    tags = np.empty(CLIP_CAPACITY, dtype=np.int64)
-    other = np.empty((CLIP_CAPACITY, 3))
-    other_tags = np.empty(CLIP_CAPACITY, dtype=np.int64)
+    poly = stack_empty(CLIP_CAPACITY, 3, np.float64)
+    tags = stack_empty(CLIP_CAPACITY, 0, np.int64)
+    other = stack_empty(CLIP_CAPACITY, 3, np.float64)
+    other_tags = stack_empty(CLIP_CAPACITY, 0, np.int64)
     for m in range(4):                 # corners o + e1 + e2, o - e1 + e2, o - e1 - e2, o + e1 - e2
         s1 = 1.0 if m == 0 or m == 3 else -1.0
         s2 = 1.0 if m < 2 else -1.0
@@ -634,7 +636,7 @@ def _face_contacts(cr, rotr, gr, axis, ci, roti, gi, margin, sign,
             return 0
     # poly[:count] now holds the clipped face; keep the points within the margin, in other.
     face_offset = nx * crx + ny * cry + nz * crz + float(gr[HX + axis])
-    depths = np.empty(CLIP_CAPACITY)
+    depths = stack_empty(CLIP_CAPACITY, 0, np.float64)
     kept = int(0)
     for m in range(count):
         px, py, pz = float(poly[m, 0]), float(poly[m, 1]), float(poly[m, 2])
@@ -678,8 +680,8 @@ def _box_box(ca, rota, ga, cb, rotb, gb, margin, point, normal, depth, feature, 
     dx, dy, dz = float(cb[0]) - cax, float(cb[1]) - cay, float(cb[2]) - caz
     ha = (float(ga[HX]), float(ga[HY]), float(ga[HZ]))
     hb = (float(gb[HX]), float(gb[HY]), float(gb[HZ]))
-    cm = np.empty(9)
-    am = np.empty(9)
+    cm = stack_empty(9, 0, np.float64)
+    am = stack_empty(9, 0, np.float64)
     for i in range(3):
         for j in range(3):
             v = (float(rota[i]) * float(rotb[j]) + float(rota[3 + i]) * float(rotb[3 + j])
@@ -1067,11 +1069,10 @@ def _collide_pairs_for(tests, name):
             i, j = int(pair_a[k]), int(pair_b[k])
             if i < 0 or i >= colliders or j < 0 or j >= colliders:
                 raise ValueError('collide_pairs: a collider index out of range')
-        # The two colliders' rows are copied into views of one array made once, borrowed
-        # (jit.borrowed): a pair's test then counts no reference of them (a row view of an
-        # owned array, geoms[i], would cost two atomic counts at each call).
-        own = np.empty(2 * GEOM_WIDTH + 24)
-        rows_of = borrowed(own)
+        # The two colliders' rows are copied into views of one array on the stack
+        # (jit.stack_empty): a pair's test then counts no reference of them (a row view of
+        # an owned array, geoms[i], would cost two atomic counts at each call).
+        rows_of = stack_empty(ROW_COPIES, 0, np.float64)
         geom_a, geom_b = rows_of[:GEOM_WIDTH], rows_of[GEOM_WIDTH:2 * GEOM_WIDTH]
         at = 2 * GEOM_WIDTH
         centre_a, centre_b = rows_of[at:at + 3], rows_of[at + 3:at + 6]
@@ -1091,7 +1092,6 @@ def _collide_pairs_for(tests, name):
             for row in range(total, total + count):
                 source[row] = k
             total += count
-        keep_alive(own)
         return total
 
     collide_pairs.__name__ = collide_pairs.__qualname__ = name

@@ -50,6 +50,7 @@ from numba.core import caching, cgutils, errors, types  # noqa: E402
 from numba.core.dispatcher import Dispatcher  # noqa: E402
 from numba.core.registry import cpu_target  # noqa: E402
 from numba.extending import intrinsic, overload  # noqa: E402
+import numpy as np  # noqa: E402
 
 PACKAGE = Path(__file__).resolve().parent.parent
 # The layers whose modules hold kernels: the text of every module in them is the cache's stamp.
@@ -156,6 +157,60 @@ def _borrowed_overload(array):
     if isinstance(array, types.Array):
         return lambda array: _borrowed(array)
     return None
+
+
+def stack_empty(rows, width, dtype):
+    """``np.empty(rows)`` (``width`` 0) or ``np.empty((rows, width))`` of ``dtype``
+    (np.float64, np.int64 or np.bool_), ``rows`` and ``width`` int constants (globals or
+    literals). Compiled, the array lives in the stack frame of the function that calls this
+    (or of the kernel an inline kernel calling it is inlined into): no allocation, no
+    reference count (a null meminfo, as ``borrowed``), made once per call of that function
+    even when written in a loop. For small scratch arrays a contact test makes per pair: a
+    pile's step made a thousand, malloc and free among its heaviest costs. The array must not
+    outlive the call: never returned, stored in a container, or kept from one iteration of a
+    loop to the next (each iteration gets the same memory). Uninitialised, as np.empty."""
+    return np.empty(rows if width == 0 else (rows, width), dtype=dtype)
+
+
+@intrinsic(prefer_literal=True)
+def _stack_empty(typingctx, rows, width, dtype):
+    if not (isinstance(rows, types.IntegerLiteral) and isinstance(width, types.IntegerLiteral)
+            and isinstance(dtype, types.NumberClass | types.DType)):
+        return None
+    n_rows, n_width = rows.literal_value, width.literal_value
+    if n_rows <= 0 or n_width < 0:
+        return None
+    kind = dtype.dtype
+    result = types.Array(kind, 1 if n_width == 0 else 2, 'C')
+
+    def codegen(context, builder, signature, args):
+        element = context.get_data_type(kind)
+        size = context.get_abi_sizeof(element)
+        count = n_rows * max(n_width, 1)
+        data = cgutils.alloca_once(builder, element, size=count)  # the entry block: once
+        shape = [n_rows] if n_width == 0 else [n_rows, n_width]
+        strides = [size] if n_width == 0 else [n_width * size, size]
+        array = context.make_array(result)(context, builder)
+        context.populate_array(
+            array, data=data,
+            shape=cgutils.pack_array(builder, [context.get_constant(types.intp, v)
+                                               for v in shape]),
+            strides=cgutils.pack_array(builder, [context.get_constant(types.intp, v)
+                                                 for v in strides]),
+            itemsize=context.get_constant(types.intp, size), meminfo=None)
+        return array._getvalue()
+    return result(rows, width, dtype), codegen
+
+
+# inline='always': numba inlines this into its caller's IR, so that the alloca is in the
+# caller's frame (a function of its own would hand back memory of a frame that has ended:
+# right only while LLVM happened to inline it; NUMBA_OPT=0 read garbage).
+@overload(stack_empty, prefer_literal=True, inline='always',
+          jit_options=dict(fastmath=False, error_model='python'))
+def _stack_empty_overload(rows, width, dtype):
+    if not (isinstance(rows, types.IntegerLiteral) and isinstance(width, types.IntegerLiteral)):
+        raise errors.TypingError('stack_empty: rows and width must be int constants')
+    return lambda rows, width, dtype: _stack_empty(rows, width, dtype)
 
 
 def keep_alive(*arrays) -> None:

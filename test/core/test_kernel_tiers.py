@@ -5,7 +5,9 @@ compiled again, and a run goes on with the bits of an all-compiled one; nothing 
 the process meanwhile."""
 
 import ast
+import os
 from pathlib import Path
+import subprocess
 import sys
 
 from numba.core import event
@@ -250,3 +252,93 @@ def test_a_borrowed_view_is_its_array_in_either_tier():
         assert run(a, 3.0) == expected.sum()
         assert np.array_equal(a, expected)
         assert np.array_equal(base[:, 1::2], np.arange(24.0).reshape(4, 6)[:, 1::2])
+
+
+ROOM = 19
+
+
+def _sums_of_stack_arrays(x, rounds):
+    """Fills stack arrays of each kind (one made in a loop, refilled each round) and returns
+    their sums with their shapes and strides, and the dtypes' kinds."""
+    a = jit.stack_empty(ROOM, 3, np.float64)
+    b = jit.stack_empty(4, 0, np.int64)
+    c = jit.stack_empty(5, 0, np.bool_)
+    looped = 0.0
+    for r in range(rounds):
+        t = jit.stack_empty(7, 0, np.float64)
+        for i in range(7):
+            t[i] = x * i + r
+        for i in range(7):
+            looped += t[i]
+    for i in range(ROOM):
+        for j in range(3):
+            a[i, j] = x * i + j
+    for i in range(4):
+        b[i] = 3 * i
+    c[:] = False
+    c[2] = True
+    return (a.sum(), a.shape, a.strides, b.sum(), b.shape, b.strides, c.sum(), c.shape,
+            looped)
+
+
+def test_a_stack_array_is_np_empty_in_either_tier():
+    """jit.stack_empty: compiled, an array of the shape, strides and dtype np.empty gives,
+    that holds what is written to it; interpreted, np.empty itself."""
+    import numba
+    compiled = numba.njit(_sums_of_stack_arrays)(2.0, 3)
+    expected = _sums_of_stack_arrays(2.0, 3)
+    assert compiled == expected
+    assert expected == (3 * sum(2.0 * i for i in range(ROOM)) + ROOM * 3, (ROOM, 3), (24, 8),
+                        18, (4,), (8,), 1, (5,), 3 * sum(2.0 * i for i in range(7)) + 7 * 3)
+
+
+def test_a_stack_array_lives_in_its_callers_frame_unoptimised_too():
+    """Compiled without LLVM's inlining (NUMBA_OPT=0, in a process of its own), the arrays
+    still hold what was written: their memory is the calling function's frame, not that of
+    a helper that has returned."""
+    code = """if True:
+        import numba
+        import numpy as np
+        from rb_sim_ros.core import jit
+
+        def filled():
+            a = jit.stack_empty(19, 3, np.float64)
+            b = jit.stack_empty(19, 3, np.float64)
+            for i in range(19):
+                for j in range(3):
+                    a[i, j], b[i, j] = 1.0, 2.0 * i
+            return a.sum(), b.sum()
+        print(*numba.njit(filled)())
+    """
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         env={**os.environ, 'NUMBA_OPT': '0'}, timeout=600)
+    assert out.returncode == 0, out.stderr
+    assert [float(v) for v in out.stdout.split()] == [57.0, 3.0 * 2.0 * sum(range(19))]
+
+
+def test_stack_arrays_allocate_nothing_compiled():
+    """The same function allocates one array per np.empty and none per jit.stack_empty
+    (numba's allocation count, NUMBA_NRT_STATS, in a process of its own)."""
+    code = """if True:
+        import numba, numpy as np
+        from numba.core.runtime import rtsys
+        from rb_sim_ros.core import jit
+
+        def made(stack):
+            a = jit.stack_empty(19, 3, np.float64) if stack else np.empty((19, 3))
+            b = jit.stack_empty(4, 0, np.int64) if stack else np.empty(4, dtype=np.int64)
+            a[0, 0], b[0] = 1.0, 2
+            return a[0, 0] + b[0]
+        f = numba.njit(made)
+        for stack in (True, False):
+            f(stack)
+            before = rtsys.get_allocation_stats().alloc
+            f(stack)
+            print(rtsys.get_allocation_stats().alloc - before)
+    """
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         env={**os.environ, 'NUMBA_NRT_STATS': '1'},
+                         timeout=600)
+    assert out.returncode == 0, out.stderr
+    # stack: nothing; np.empty: both branches are compiled, the two arrays of the one taken
+    assert out.stdout.split() == ['0', '2']
