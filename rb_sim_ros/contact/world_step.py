@@ -924,10 +924,33 @@ def _check_solve(status, flagged_bodies, energy, gain_tolerance, rows, state, pa
 
 @kernel
 def _match(keys, old_keys, old_normal, old_tangent, normal, tangent):
-    """Impulses of the previous step's contacts with the same keys (0 for new ones)."""
+    """Impulses of the previous step's contacts with the same keys (0 for new ones): the
+    first of old_keys (sorted) not below each key (np.searchsorted's), found by galloping
+    from the last one found. The keys come pair after pair in the broad phase's order, so
+    the next is mostly a step or two away; a binary search over all of them mispredicted
+    its way through 5% of a 100-box pile's step."""
     count = old_keys.shape[0]
+    hint = 0
     for k in range(keys.shape[0]):
-        pos = np.searchsorted(old_keys, keys[k])
+        key = keys[k]
+        if hint < count and old_keys[hint] < key:  # the first not below key is past hint
+            bound = 1
+            while hint + bound < count and old_keys[hint + bound] < key:
+                bound *= 2
+            lo, hi = hint + bound // 2 + 1, min(hint + bound, count)
+        else:  # at hint or before it
+            bound = 1
+            while hint - bound >= 0 and old_keys[hint - bound] >= key:
+                bound *= 2
+            lo, hi = max(hint - bound + 1, 0), hint - bound // 2
+        while lo < hi:  # the first of [lo, hi) not below key, or hi
+            mid = (lo + hi) // 2
+            if old_keys[mid] < key:
+                lo = mid + 1
+            else:
+                hi = mid
+        pos = lo
+        hint = pos
         if pos < count and old_keys[pos] == keys[k]:
             normal[k] = old_normal[pos]
             for c in range(3):

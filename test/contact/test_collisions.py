@@ -190,6 +190,36 @@ def test_warm_starts_are_the_last_steps_impulses_only():
     assert flights > 100 and landings >= 2  # both phases met, each more than once
 
 
+@pytest.mark.parametrize('seed', range(4))
+def test_warm_starts_are_matched_to_the_first_equal_key_as_a_binary_search_finds_it(seed):
+    """world_step._match gallops from the last key found: it must find, for every key, what
+    np.searchsorted finds (the first old key not below it) and take that one's impulses,
+    for keys in any order, repeated old keys, keys before and past them all; compiled and
+    interpreted."""
+    import numba
+    from rb_sim_ros.contact import world_step as ws
+    match = getattr(ws._match, 'py_func', ws._match)
+    rng = np.random.default_rng(seed)
+    for trial in range(300):
+        old = np.sort(rng.integers(0, 80, int(rng.integers(0, 60)))).astype(np.int64)
+        keys = rng.integers(-5, 90, int(rng.integers(0, 60))).astype(np.int64)
+        if trial % 2:
+            keys = np.sort(keys)
+        old_normal, old_tangent = rng.random(len(old)), rng.random((len(old), 3))
+        at = np.searchsorted(old, keys)
+        found = (at < len(old)) & (old[np.minimum(at, len(old) - 1)] == keys if len(old)
+                                   else np.zeros(len(keys), dtype=bool))
+        expected_n = np.where(found, old_normal[np.minimum(at, len(old) - 1)] if len(old)
+                              else 0.0, 0.0)
+        for run in (match, numba.njit(match)):
+            normal, tangent = np.zeros(len(keys)), np.zeros((len(keys), 3))
+            run(keys, old, old_normal, old_tangent, normal, tangent)
+            assert np.array_equal(normal, expected_n)
+            for k in range(len(keys)):
+                assert np.array_equal(tangent[k], old_tangent[at[k]] if found[k]
+                                      else np.zeros(3))
+
+
 def test_a_step_in_flight_reports_no_contact_and_no_solve():
     """What a user reads of the last step is that step's: in flight after a bounce (a pass
     that finds no pair) no contact, no count of the solve and no solve energy, not the
