@@ -173,8 +173,8 @@ def _colour(body_a, body_b, moving, colour):
 
 
 @kernel
-def _rows(order, body_a, body_b, point, normal, position, inverse_mass, inverse_inertia,
-          friction, rows, slot_a, slot_b):
+def _rows(order, body_a, body_b, point, normal, depth, position, inverse_mass,
+          inverse_inertia, friction, rows, slot_a, slot_b):
     """Fill ``rows`` (M, ROWS_WIDTH) and the bodies ``slot_a``, ``slot_b`` (M,) of each slot s,
     the contact ``order[s]`` (see the layout above)."""
     k_pair = np.empty(4)
@@ -190,12 +190,24 @@ def _rows(order, body_a, body_b, point, normal, position, inverse_mass, inverse_
                          pz - float(position[a, 2]))
         rbx, rby, rbz = (px - float(position[b, 0]), py - float(position[b, 1]),
                          pz - float(position[b, 2]))
+        # The tangent rows hold a moving body against a static one at the moving body's own
+        # surface, depth / 2 from p along the normal (p is the middle of the overlap): no-slip
+        # there, so a ball rolls at v = omega R, not omega (R - depth / 2). Between two moving
+        # bodies the rows stay at p (one point for both: their angular momentum is kept).
+        half = 0.5 * float(depth[k])
+        sax, say, saz = rax, ray, raz
+        sbx, sby, sbz = rbx, rby, rbz
+        if float(inverse_mass[b]) == 0.0:
+            sax, say, saz = rax + half * nx, ray + half * ny, raz + half * nz
+        elif float(inverse_mass[a]) == 0.0:
+            sbx, sby, sbz = rbx - half * nx, rby - half * ny, rbz - half * nz
         for r in range(3):
             o = r * ROW
             if r == 0:
                 dx, dy, dz = nx, ny, nz
             elif r == 1:
                 dx, dy, dz = t1x, t1y, t1z
+                rax, ray, raz, rbx, rby, rbz = sax, say, saz, sbx, sby, sbz
             else:
                 dx, dy, dz = t2x, t2y, t2z
             rows[s, o + D], rows[s, o + D + 1], rows[s, o + D + 2] = dx, dy, dz
@@ -609,7 +621,7 @@ def solve_arrays(body_a, body_b, point, normal, depth, position, velocity, angul
         s = int(first[colour[k]])
         first[colour[k]] += 1
         order[s], slot_of[k] = k, s
-    _rows(order, body_a, body_b, point, normal, position, inverse_mass, inverse_inertia,
+    _rows(order, body_a, body_b, point, normal, depth, position, inverse_mass, inverse_inertia,
           friction, rows, slot_a, slot_b)
     largest_mu = 0.0
     for k in range(m):
