@@ -145,19 +145,8 @@ def test_colouring_work_grows_linearly_with_one_bodys_contacts():
 
 def _greedy(body_a, body_b, moving):
     """The reference: each contact the lowest colour no earlier contact of its moving bodies
-    has."""
-    held = [set() for _ in moving]
-    out = []
-    for a, b in zip(body_a, body_b):
-        used = (held[a] if moving[a] else set()) | (held[b] if moving[b] else set())
-        c = 0
-        while c in used:
-            c += 1
-        out.append(c)
-        for x in (a, b):
-            if moving[x]:
-                held[x].add(c)
-    return out
+    has (the colouring's rule with no scan bound)."""
+    return _reference_colours(body_a, body_b, moving, math.inf)
 
 
 @pytest.mark.parametrize('seed', range(6))
