@@ -18,6 +18,10 @@ through its module's ``core_point`` (the core's farthest point along a direction
 * overlapping cores: EPA (the expanding polytope) from GJK's last simplex gives the shortest
   way out, the face of the Minkowski difference A - B nearest the origin: its normal n and its
   distance d (the depth of the cores), the closest points from its barycentric coordinates;
+and where either core is curved (``shapes.CURVED``: an ellipsoid), the normal refined
+(``_refine``): EPA's polytope and GJK's simplices only approach a curved Minkowski difference
+(an ellipsoid's contact point was 2-3 mm off at a 1 cm overlap), so n is moved to where the
+reach of A - B along n is least, which is the depth (or minus the distance) of the cores;
 then the manifold: the face of A facing n and the face of B facing -n (``core_face``); the
 larger is the reference, the other (the incident face) is clipped to its sides
 (Sutherland-Hodgman on the planes through its edges, or the ends of a segment), and each
@@ -71,6 +75,15 @@ EPA_EDGES = 3 * EPA_FACES  # the horizon's room (each face's three edges)
 # The most points of a core's face (a global of this module: jit.stack_empty takes constants)
 CORE_FACE = shapes.CORE_FACE_CAPACITY
 EPA_RELATIVE = 1e-11
+# The refinement of a curved pair's normal (``_refine``): at most REFINE_STEPS Newton steps,
+# each turning n by at most REFINE_TURN (rad), its curvature by central differences of
+# REFINE_DELTA (rad); it stops at a turn below REFINE_STOP (rad) or where neither the reach
+# falls nor, within REFINE_ROUNDING of the size of the points, its slope.
+REFINE_STEPS = 8
+REFINE_TURN = 0.5
+REFINE_DELTA = 1e-4
+REFINE_STOP = 1e-12
+REFINE_ROUNDING = 1e-15
 # Clipping buffers: a convex face of at most 9 points clipped by at most 9 planes stays
 # within 18 points. A clip at most doubles a polygon (each edge keeps its start and adds at
 # most one crossing), so one of more than CLIP_ROOM / 2 points (rounding) is not clipped
@@ -108,6 +121,107 @@ def _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, pool, dx, dy, dz, k, W, PA, PB):
     PA[k, 0], PA[k, 1], PA[k, 2] = ax, ay, az
     PB[k, 0], PB[k, 1], PB[k, 2] = bx, by, bz
     W[k, 0], W[k, 1], W[k, 2] = ax - bx, ay - by, az - bz
+
+
+@inline_kernel
+def _pair_support(ka, ga, ca, ra, kb, gb, cb, rb, pool, nx, ny, nz):
+    """A's core point along n, B's along -n (world): (ax, ay, az, bx, by, bz)."""
+    ax, ay, az = _support(ka, ga, ca, ra, pool, nx, ny, nz)
+    bx, by, bz = _support(kb, gb, cb, rb, pool, -nx, -ny, -nz)
+    return ax, ay, az, bx, by, bz
+
+
+@inline_kernel
+def _turn(ka, ga, ca, ra, kb, gb, cb, rb, pool, nx, ny, nz, tx, ty, tz):
+    """How the farthest point of A - B moves as n turns towards t: (s(n + e t) - s(n - e t))
+    / 2 e, e = REFINE_DELTA."""
+    e = REFINE_DELTA
+    px, py, pz, qx, qy, qz = _pair_support(ka, ga, ca, ra, kb, gb, cb, rb, pool, nx + e * tx,
+                                           ny + e * ty, nz + e * tz)
+    ux, uy, uz, vx, vy, vz = _pair_support(ka, ga, ca, ra, kb, gb, cb, rb, pool, nx - e * tx,
+                                           ny - e * ty, nz - e * tz)
+    k = 0.5 / e
+    return (((px - qx) - (ux - vx)) * k, ((py - qy) - (uy - vy)) * k,
+            ((pz - qz) - (uz - vz)) * k)
+
+
+@kernel
+def _refine(ka, ga, ca, ra, kb, gb, cb, rb, pool, curved_a, curved_b, nx, ny, nz, depth, ax,
+            ay, az, bx, by, bz):
+    """The normal of a pair with a curved core, from GJK's or EPA's (n, depth, a, b): the unit
+    n where f(n), the reach of A - B along n (the farthest point s(n) = a(n) - b(-n) of the
+    cores' supports, f = s . n), is least; its least value is the cores' depth (overlapping)
+    or minus their distance (apart), and there s(n) lies along n. Newton's method on the unit
+    sphere: in the plane of t1, t2 square to n, the step d solves H d = -g, g = (s . t1,
+    s . t2), H = (ti . J tj) - f I with J the turn of s with n (``_turn``, made symmetric);
+    a step is taken only where H is positive definite and f falls (or, where f is flat to
+    rounding, g shrinks). Returns (n, f, a, b) as
+    they stand after the last step taken, with a, b the contact points on the cores: a
+    curved core's own support, the other's point the reach f back along n from it (a flat
+    face's support is any of its corners); GJK's or EPA's, unchanged, if no step was."""
+    cx, cy, cz, dx, dy, dz = _pair_support(ka, ga, ca, ra, kb, gb, cb, rb, pool, nx, ny, nz)
+    f = (cx - dx) * nx + (cy - dy) * ny + (cz - dz) * nz
+    moved = False
+    for _ in range(REFINE_STEPS):
+        sx, sy, sz = cx - dx, cy - dy, cz - dz
+        # t1 = n x e for the world axis e least aligned with n, t2 = n x t1
+        mx, my, mz = abs(nx), abs(ny), abs(nz)
+        if mx <= my and mx <= mz:
+            t1x, t1y, t1z = 0.0, nz, -ny
+        elif my <= mz:
+            t1x, t1y, t1z = -nz, 0.0, nx
+        else:
+            t1x, t1y, t1z = ny, -nx, 0.0
+        size = math.sqrt(t1x * t1x + t1y * t1y + t1z * t1z)
+        if not size > TINY_LENGTH:
+            break
+        t1x, t1y, t1z = t1x / size, t1y / size, t1z / size
+        t2x, t2y, t2z = ny * t1z - nz * t1y, nz * t1x - nx * t1z, nx * t1y - ny * t1x
+        g1 = sx * t1x + sy * t1y + sz * t1z
+        g2 = sx * t2x + sy * t2y + sz * t2z
+        px, py, pz = _turn(ka, ga, ca, ra, kb, gb, cb, rb, pool, nx, ny, nz, t1x, t1y, t1z)
+        qx, qy, qz = _turn(ka, ga, ca, ra, kb, gb, cb, rb, pool, nx, ny, nz, t2x, t2y, t2z)
+        h11 = px * t1x + py * t1y + pz * t1z - f
+        h22 = qx * t2x + qy * t2y + qz * t2z - f
+        h12 = 0.5 * ((px * t2x + py * t2y + pz * t2z) + (qx * t1x + qy * t1y + qz * t1z))
+        det = h11 * h22 - h12 * h12
+        if not (h11 > 0.0 and det > 0.0):
+            break
+        d1 = (h12 * g2 - h22 * g1) / det
+        d2 = (h12 * g1 - h11 * g2) / det
+        turn = math.sqrt(d1 * d1 + d2 * d2)
+        if not turn <= REFINE_TURN:  # (a nan turn too)
+            if not turn > 0.0:
+                break
+            d1, d2 = d1 * (REFINE_TURN / turn), d2 * (REFINE_TURN / turn)
+        mx, my, mz = nx + d1 * t1x + d2 * t2x, ny + d1 * t1y + d2 * t2y, nz + d1 * t1z + d2 * t2z
+        size = math.sqrt(mx * mx + my * my + mz * mz)
+        mx, my, mz = mx / size, my / size, mz / size
+        ux, uy, uz, vx, vy, vz = _pair_support(ka, ga, ca, ra, kb, gb, cb, rb, pool, mx, my, mz)
+        wx, wy, wz = ux - vx, uy - vy, uz - vz
+        reach = wx * mx + wy * my + wz * mz
+        if not reach < f:
+            # f is flat at its least (it falls by H d^2 / 2, below its rounding once the turn
+            # is below about 1e-8): a step is also taken where f stays within its rounding
+            # and the part of s square to n (f's slope, g) shrinks
+            ex, ey, ez = wx - reach * mx, wy - reach * my, wz - reach * mz
+            scale = (abs(cx) + abs(cy) + abs(cz) + abs(dx) + abs(dy) + abs(dz)
+                     + abs(ux) + abs(uy) + abs(uz) + abs(vx) + abs(vy) + abs(vz))
+            if not (reach <= f + REFINE_ROUNDING * scale
+                    and ex * ex + ey * ey + ez * ez < g1 * g1 + g2 * g2):
+                break
+        nx, ny, nz, f = mx, my, mz, reach
+        cx, cy, cz, dx, dy, dz = ux, uy, uz, vx, vy, vz
+        moved = True
+        if turn <= REFINE_STOP:
+            break
+    if not moved:
+        return nx, ny, nz, depth, ax, ay, az, bx, by, bz
+    if not curved_a:  # B's point is its own, A's the reach back along n from it
+        cx, cy, cz = dx + f * nx, dy + f * ny, dz + f * nz
+    elif not curved_b:
+        dx, dy, dz = cx - f * nx, cy - f * ny, cz - f * nz
+    return nx, ny, nz, f, cx, cy, cz, dx, dy, dz
 
 
 @inline_kernel
@@ -830,6 +944,11 @@ def convex_pair(ka, ga, ca, rota, kb, gb, cb, rotb, pool, margin, point, normal,
         ax, ay, az = _support(ka, ga, ca, rota, pool, nx, ny, nz)
         bx, by, bz = _support(kb, gb, cb, rotb, pool, -nx, -ny, -nz)
         core_depth = (ax - bx) * nx + (ay - by) * ny + (az - bz) * nz
+    curved_a, curved_b = shapes.CURVED[ka], shapes.CURVED[kb]
+    if curved_a or curved_b:
+        nx, ny, nz, core_depth, ax, ay, az, bx, by, bz = _refine(
+            ka, ga, ca, rota, kb, gb, cb, rotb, pool, curved_a, curved_b, nx, ny, nz, core_depth,
+            ax, ay, az, bx, by, bz)
     deepest = core_depth + rad_a + rad_b
     if deepest < -margin:
         return 0

@@ -146,11 +146,13 @@ def test_every_row_of_the_pair_table_is_reached_in_both_orders():
             def key(c):
                 return tuple(c.point)
             forward, backward = sorted(forward, key=key), sorted(backward, key=key)
+        # (a curved pair's normal is Newton's, each way, to within a few roundings)
+        close = 1e-14 if shapes.CURVED[low] else 1e-15
         for f, g in zip(forward, backward):
-            assert f.depth == pytest.approx(g.depth, abs=1e-15) and f.depth > 0.0, what
+            assert f.depth == pytest.approx(g.depth, abs=close) and f.depth > 0.0, what
             assert low == high or (f.depth == g.depth and f.feature == g.feature), what
-            np.testing.assert_allclose(f.point, g.point, rtol=0, atol=1e-15)
-            np.testing.assert_allclose(f.normal, -g.normal, rtol=0, atol=1e-15)
+            np.testing.assert_allclose(f.point, g.point, rtol=0, atol=close)
+            np.testing.assert_allclose(f.normal, -g.normal, rtol=0, atol=close)
         pool = shapes.Pool()
         arrays_a = nph.shape_arrays(a, *pose_a, pool)
         arrays_b = nph.shape_arrays(b, *pose_b, pool)

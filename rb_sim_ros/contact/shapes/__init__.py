@@ -26,7 +26,9 @@ and nothing else needs to know more of it:
   ``core_radius(geom)``; ``core_point(geom, pool, l0, l1, l2)`` the core's farthest point along a
   direction in its axes, and ``core_face(geom, pool, l0, l1, l2, out, tags)`` the core's points
   facing that way, in order round the face (a polygon, a segment, a point) with their
-  features, read through ``core_point_of`` and the like.
+  features, read through ``core_point_of`` and the like; and, optional, ``CURVED = True``
+  when the core's farthest point turns with every direction (no face, edge or corner: an
+  ellipsoid's), which the convex narrow phase reads through ``CURVED`` to refine its normal.
 
 The contact tests of each pair of kinds are rows of ``narrow_kernels.PAIR_TESTS``. A new kind
 is a module here, its place in ``KINDS``, and its rows there (docs/collisions.md).
@@ -129,6 +131,9 @@ def _core_source(name: str, args: str, absent: str, doc: str) -> str:
     lines.append(f'    return {absent}')
     return '\n'.join(lines) + '\n'
 
+
+# Whether each kind's core is curved (by number): its module's CURVED, else False.
+CURVED = tuple(bool(getattr(m, 'CURVED', False)) for m in KINDS)
 
 core_radius_of = generated_kernel(globals(), 'core_radius_of', _core_source(
     'core_radius', 'geom', 'math.nan', 'The rounding (m) of the core of a shape of ``kind``.'))
