@@ -67,9 +67,9 @@ from rb_sim_ros.contact.shapes.base import GEOM_WIDTH, HALF_LENGTH, HX, HY, HZ, 
 from rb_sim_ros.core.jit import (generated_kernel, inline_kernel, kernel, literal_entry,
                                  literal_gate, made_global, stack_empty)
 
-KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE, KIND_CYLINDER, KIND_HULL = (
+KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE, KIND_CYLINDER, KIND_HULL, KIND_ELLIPSOID = (
     shapes.sphere.KIND, shapes.capsule.KIND, shapes.box.KIND, shapes.plane.KIND,
-    shapes.cylinder.KIND, shapes.hull.KIND)
+    shapes.cylinder.KIND, shapes.hull.KIND, shapes.ellipsoid.KIND)
 # The most contacts of one pair: capsule-box, its nearest point and 8 candidates (2 ends, 6
 # face crossings) on the same face. (Box-plane 8 vertices, box-box 4, capsule-capsule 2.)
 MAX_CONTACTS_PER_PAIR = 9
@@ -960,6 +960,13 @@ PAIR_TESTS = (
     (KIND_PLANE, KIND_HULL, _plane_row(KIND_HULL)),
     (KIND_CYLINDER, KIND_HULL, _convex_row(KIND_CYLINDER, KIND_HULL)),
     (KIND_HULL, KIND_HULL, _convex_row(KIND_HULL, KIND_HULL)),
+    (KIND_SPHERE, KIND_ELLIPSOID, _convex_row(KIND_SPHERE, KIND_ELLIPSOID)),
+    (KIND_CAPSULE, KIND_ELLIPSOID, _convex_row(KIND_CAPSULE, KIND_ELLIPSOID)),
+    (KIND_BOX, KIND_ELLIPSOID, _convex_row(KIND_BOX, KIND_ELLIPSOID)),
+    (KIND_PLANE, KIND_ELLIPSOID, _plane_row(KIND_ELLIPSOID)),
+    (KIND_CYLINDER, KIND_ELLIPSOID, _convex_row(KIND_CYLINDER, KIND_ELLIPSOID)),
+    (KIND_HULL, KIND_ELLIPSOID, _convex_row(KIND_HULL, KIND_ELLIPSOID)),
+    (KIND_ELLIPSOID, KIND_ELLIPSOID, _convex_row(KIND_ELLIPSOID, KIND_ELLIPSOID)),
 )
 PAIR_KINDS = tuple((low, high) for low, high, _ in PAIR_TESTS)
 PAIR_BIT = {pair: 1 << i for i, pair in enumerate(PAIR_KINDS)}

@@ -32,8 +32,10 @@ EXAMPLES = {
                                         [-0.2, 0.25, -0.1], [-0.1, 0.0, 0.4],
                                         [0.2, 0.2, 0.2]],
              'orientation': [0.0, 0.0, 0.3826834323650898, 0.9238795325112867]},
+    'ellipsoid': {'type': 'ellipsoid', 'radii': [0.3, 0.2, 0.15], 'position': [0.0, 0.0, 0.1],
+                  'orientation': [0.0, 0.3826834323650898, 0.0, 0.9238795325112867]},
 }
-SOLIDS = ('sphere', 'capsule', 'box', 'cylinder', 'hull')
+SOLIDS = ('sphere', 'capsule', 'box', 'cylinder', 'hull', 'ellipsoid')
 Z_UP = np.array([0.0, 0.0, 1.0])
 
 
@@ -50,7 +52,7 @@ def test_every_kind_keeps_the_protocol_and_reads_back_as_written():
         row = shapes.packed(shape, np.eye(3), shapes.Pool())
         assert row.shape == (nk.GEOM_WIDTH,) and np.all(np.isfinite(row))
     # the ranks of the recordings: a new kind comes last
-    assert shapes.NAMES == ('sphere', 'capsule', 'box', 'plane', 'cylinder', 'hull')
+    assert shapes.NAMES == ('sphere', 'capsule', 'box', 'plane', 'cylinder', 'hull', 'ellipsoid')
 
 
 def _reach(shape, rotation, direction) -> float:
@@ -68,6 +70,10 @@ def _reach(shape, rotation, direction) -> float:
         return abs(float(axis @ d)) * shape.half_length + shape.radius * across
     if shape.kind == 'hull':
         return max(float(rotation @ np.array(p) @ d) for p in shape.points)
+    if shape.kind == 'ellipsoid':  # the point of (x/a)^2 + ... = 1 whose normal is d
+        local = rotation.T @ d * np.array(shape.radii) ** 2
+        point = rotation @ (local / math.sqrt(float(local @ (rotation.T @ d))))
+        return float(point @ d)
     hx, hy, hz = shape.half_extents
     corners = [rotation @ np.array([sx * hx, sy * hy, sz * hz])
                for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]

@@ -3,7 +3,8 @@
 """The table of shape kinds: one module each, and what the rest of the contact layer reads
 of a kind only through this table (as MuJoCo's geom types index its collision table).
 
-A kind's module (``sphere``, ``capsule``, ``box``, ``plane``, ``cylinder``, ``hull``) holds,
+A kind's module (``sphere``, ``capsule``, ``box``, ``plane``, ``cylinder``, ``hull``,
+``ellipsoid``) holds,
 and nothing else needs to know more of it:
 
 * ``NAME`` (a scene file's ``type``) and ``KIND``, its number: its index in ``KINDS`` and its
@@ -41,13 +42,13 @@ from typing import Any, Union
 
 import numpy as np
 
-from rb_sim_ros.contact.shapes import box, capsule, cylinder, hull, plane, sphere
+from rb_sim_ros.contact.shapes import box, capsule, cylinder, ellipsoid, hull, plane, sphere
 from rb_sim_ros.contact.shapes.base import FACE_CAPACITY, GEOM_WIDTH, IDENTITY_XYZW, ORIGIN, Pool
 from rb_sim_ros.core.jit import generated_kernel
 from rb_sim_ros.core.rigid_body import short
 
 # In narrow-phase rank order: a kind's number is its index.
-KINDS = (sphere, capsule, box, plane, cylinder, hull)
+KINDS = (sphere, capsule, box, plane, cylinder, hull, ellipsoid)
 for _number, _module in enumerate(KINDS):
     if _module.KIND != _number:
         raise ImportError(f'shape kind {_module.NAME!r}: KIND {_module.KIND} is not its place '
@@ -60,7 +61,7 @@ SHAPE_TYPES = tuple(m.VALUE for m in KINDS)
 Shape = Union[SHAPE_TYPES]  # type: ignore[valid-type]
 
 Sphere, Capsule, Box, Plane = sphere.Sphere, capsule.Capsule, box.Box, plane.Plane
-Cylinder, Hull = cylinder.Cylinder, hull.Hull
+Cylinder, Hull, Ellipsoid = cylinder.Cylinder, hull.Hull, ellipsoid.Ellipsoid
 
 
 def is_shape(value: Any) -> bool:
