@@ -418,6 +418,16 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
               f"executor instead: {one['periods_per_s'] / ex['periods_per_s']:.2f}x)"))
     q.append((figs, lockstep, 'are identical in every field'
               if all(lock['identical'].values()) else 'are not all identical'))
+
+    cradles = load('cradle_bench', folder)['cradles']
+    for balls in ('3', '5'):
+        for engine in ('rb_sim_ros', 'MuJoCo, elastic (solref -1e6 -1e-6)'):
+            r = cradles[balls][engine]
+            q.append((coll, '#Impacts: chains of touching bodies',
+                      f'({", ".join(f"{x:.3f}" for x in r["velocities"])})'))
+    elastic = cradles['5']['MuJoCo, elastic (solref -1e6 -1e-6)']
+    q.append((coll, '#Impacts: chains of touching bodies',
+              f'gaining {100 * elastic["energy_change"]:.0f}% of the energy'))
     return q
 
 

@@ -21,7 +21,10 @@ the normal velocity: -e (v_rel . n before) for an impact (approach faster than t
 threshold, e > 0), 0 for a resting or sliding contact, and -gap/dt for a speculative one (a
 gap that the bodies may close in one step, but not more: no tunnelling); never above
 -(v_rel . n before),
-so a contact that was separating does no positive work.
+so a contact that was separating does no positive work. A step with an impact first passes
+it from pair to pair of bodies as the sequence of ideal pairwise collisions would (the
+impact pass, ``solver_kernels._impacts``; docs/collisions.md, "Impacts"): a chain of touching
+bodies transmits it, and a contact pushed there keeps its bounce as its target.
 
 Energy: the velocity pass never adds kinetic energy. Where Newton's law with friction (Kane's
 paradox), simultaneous contacts or an unfinished warm start would, the result is blended with

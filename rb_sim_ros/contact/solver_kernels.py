@@ -66,6 +66,11 @@ SLOP, POSITION_FRACTION, BOUNCE_THRESHOLD, TOLERANCE = 5, 6, 7, 8
 ROLLING_RESISTANCE, TORSIONAL_FRICTION = 9, 10
 SETTINGS_WIDTH = 11
 
+# The impact pass (``_impacts``): at most IMPACT_SWEEPS sweeps over the pairs, and
+# IMPACT_ITERATIONS Gauss-Seidel iterations over a pair's contacts at each visit.
+IMPACT_SWEEPS = 64
+IMPACT_ITERATIONS = 10
+
 # Relative gain of kinetic energy above which a velocity solve is taken to have created energy
 # (rounding of the solve is ~1e-15 relative).
 ENERGY_TOLERANCE = 1e-9
@@ -287,6 +292,121 @@ def _targets(rows, order, slot_a, slot_b, u0, depth, restitution, dt, bounce_thr
         # body closes a speculative gap and stops on the surface, not where the gap began.
         bounce = vn0 < -bounce_threshold and vn0 < floor and e > 0.0
         target[s] = -e * vn0 if bounce else floor
+
+
+@kernel
+def _normal_velocity(rows, s, u, a, b):
+    """v_rel . n of slot s's contact at the velocities u (N, 6) of its bodies a, b, summed as
+    in _targets."""
+    dx, dy, dz = float(rows[s, D]), float(rows[s, D + 1]), float(rows[s, D + 2])
+    return (-dx * float(u[a, 0]) - dy * float(u[a, 1]) - dz * float(u[a, 2])
+            + float(rows[s, GA]) * float(u[a, 3]) + float(rows[s, GA + 1]) * float(u[a, 4])
+            + float(rows[s, GA + 2]) * float(u[a, 5])
+            + dx * float(u[b, 0]) + dy * float(u[b, 1]) + dz * float(u[b, 2])
+            + float(rows[s, GB]) * float(u[b, 3]) + float(rows[s, GB + 1]) * float(u[b, 4])
+            + float(rows[s, GB + 2]) * float(u[b, 5]))
+
+
+@kernel
+def _push(rows, s, u, a, b, dn):
+    """u += dn M^-1 J_n^T: the normal impulse dn (N s) at slot s's contact, on a and b."""
+    ma, mb = float(rows[s, MASS_A]), float(rows[s, MASS_B])
+    dx, dy, dz = float(rows[s, D]), float(rows[s, D + 1]), float(rows[s, D + 2])
+    u[a, 0] = float(u[a, 0]) + dn * (-ma * dx)
+    u[a, 1] = float(u[a, 1]) + dn * (-ma * dy)
+    u[a, 2] = float(u[a, 2]) + dn * (-ma * dz)
+    u[a, 3] = float(u[a, 3]) + dn * float(rows[s, HA])
+    u[a, 4] = float(u[a, 4]) + dn * float(rows[s, HA + 1])
+    u[a, 5] = float(u[a, 5]) + dn * float(rows[s, HA + 2])
+    u[b, 0] = float(u[b, 0]) + dn * (mb * dx)
+    u[b, 1] = float(u[b, 1]) + dn * (mb * dy)
+    u[b, 2] = float(u[b, 2]) + dn * (mb * dz)
+    u[b, 3] = float(u[b, 3]) + dn * float(rows[s, HB])
+    u[b, 4] = float(u[b, 4]) + dn * float(rows[s, HB + 1])
+    u[b, 5] = float(u[b, 5]) + dn * float(rows[s, HB + 2])
+
+
+@kernel
+def _closing(gap, dt):
+    """The normal velocity that closes a gap (depth < 0) within the step, gap / dt; 0 for
+    an overlap."""
+    if gap < 0.0:
+        return gap / dt
+    return 0.0
+
+
+@kernel
+def _impacts(rows, body_a, body_b, slot_of, slot_a, slot_b, depth, restitution, dt,
+             bounce_threshold, u, lam, target, plastic, pushed):
+    """Simultaneous impacts as the sequence of pairwise ones (docs/collisions.md, "Impacts"):
+    sweeps over the pairs of bodies in contact order (a pair's contacts are consecutive); a
+    pair one of whose contacts approaches as an impact (faster than the bounce threshold and
+    than its gap closes, e > 0) collides alone: Gauss-Seidel over its own contacts' normal
+    rows (IMPACT_ITERATIONS), each towards -e v_n at the visit's start (an impact) or its
+    gap's closing (the others), with impulses that only push, summed from 0 at each visit.
+    So an impact passes down a chain of touching bodies one collision after another (a
+    cradle's last ball leaves with the first's velocity), while a body landing on several
+    points of one other (a box on its face) bounces from all of them at once. Until a sweep
+    finds no impact, at most IMPACT_SWEEPS. The impulses are added to ``lam`` (normal) and
+    ``u``; the normal ``target`` of the Gauss-Seidel after it (by slot) becomes, for a contact
+    pushed here, its normal velocity now (no less than its gap's closing), so that the solve
+    keeps the bounce, and for the others their ``plastic`` one. ``pushed`` (2 M) is room: the
+    impulse of each contact, in contact order, summed over the visits, then this visit's.
+    Returns the sweeps run."""
+    m = body_a.shape[0]
+    for k in range(2 * m):
+        pushed[k] = 0.0
+    sweeps = 0
+    while sweeps < IMPACT_SWEEPS:
+        sweeps += 1
+        struck = False
+        k = 0
+        while k < m:
+            pa, pb = int(body_a[k]), int(body_b[k])
+            end = k + 1
+            while end < m and int(body_a[end]) == pa and int(body_b[end]) == pb:
+                end += 1
+            impact = False
+            for j in range(k, end):
+                s = int(slot_of[j])
+                vn = _normal_velocity(rows, s, u, int(slot_a[s]), int(slot_b[s]))
+                closing = _closing(float(depth[j]), dt)
+                e = float(restitution[j])
+                if e > 0.0 and vn < -bounce_threshold and vn < closing:
+                    impact = True
+                    target[s] = -e * vn
+                else:
+                    target[s] = closing
+            if impact:
+                struck = True
+                for j in range(k, end):
+                    pushed[m + j] = 0.0
+                for _ in range(IMPACT_ITERATIONS):
+                    for j in range(k, end):
+                        s = int(slot_of[j])
+                        a, b = int(slot_a[s]), int(slot_b[s])
+                        vn = _normal_velocity(rows, s, u, a, b)
+                        have = float(pushed[m + j])
+                        new = have + (float(target[s]) - vn) * float(rows[s, INVERSE_K])
+                        if new < 0.0:
+                            new = 0.0
+                        pushed[m + j] = new
+                        _push(rows, s, u, a, b, new - have)
+                for j in range(k, end):
+                    pushed[j] = float(pushed[j]) + float(pushed[m + j])
+            k = end
+        if not struck:
+            break
+    for k in range(m):
+        s = int(slot_of[k])
+        if float(pushed[k]) > 0.0:
+            lam[s, 0] = float(lam[s, 0]) + float(pushed[k])
+            vn = _normal_velocity(rows, s, u, int(slot_a[s]), int(slot_b[s]))
+            closing = _closing(float(depth[k]), dt)
+            target[s] = vn if vn > closing else closing
+        else:
+            target[s] = plastic[s]
+    return sweeps
 
 
 @kernel
@@ -640,6 +760,14 @@ def solve_arrays(body_a, body_b, point, normal, depth, position, velocity, angul
     if use_warm:
         _warm_start(rows, slot_a, slot_b, slot_of, warm_normal, warm_tangent, with_friction,
                     u, lam)
+    impacts = False
+    for s in range(m):
+        if target[s] != plastic[s]:
+            impacts = True
+    if impacts:  # a bounce: passed on from pair to pair first
+        _impacts(rows, body_a, body_b, slot_of, slot_a, slot_b, depth, restitution, dt,
+                 float(settings[BOUNCE_THRESHOLD]), u, lam, target, plastic,
+                 np.empty(2 * m))
     v_done = _gauss_seidel(rows, slot_a, slot_b, u, lam, target, v_iterations, with_friction,
                            tolerance)
     if mu_r > 0.0 or mu_t > 0.0:

@@ -137,7 +137,7 @@ def test_collision_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
     """Their checks: both engines' heaps stay in the box and agree; the collision tests'
     scenarios stay within the bounds their tests assert; a resting floor of boxes stays put in
     every engine and all of it falls asleep; a drop wakes only what it hits; a cylinder
-    rolls, rights itself and rests in both engines."""
+    rolls, rights itself and rests in both engines; a cradle passes its impact on."""
     collision = _quick('collision_bench', tmp_path)
     like = collision['mujoco']['PGS, 10 iterations']
     assert like['max_iterations'] == 10 and collision['rb_sim_ros']['iterations'] <= 10
@@ -159,6 +159,9 @@ def test_collision_benchmarks_pass_their_checks_in_quick_mode(tmp_path):
     pile = _quick('hull_pile_bench', tmp_path)  # every hull in the bin in both engines
     assert pile['hulls'] == 16 and set(pile['seconds_per_step']) == {'rb_sim_ros',
                                                                      'MuJoCo Newton'}
+    cradle = _quick('cradle_bench', tmp_path)  # ours within 2% of the ideal sequence
+    assert set(cradle['cradles']['3']) == {'rb_sim_ros', 'MuJoCo, elastic (solref -1e6 -1e-6)',
+                                           'MuJoCo, default (solref 0.02 1)'}
 
 
 @pytest.mark.slow  # a benchmark
