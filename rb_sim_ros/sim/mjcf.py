@@ -30,7 +30,7 @@ and a repeated one gets ``_2``, ``_3``.
 
 Refused, each with one line naming the file, the body or geom and the reason: other joints
 (hinge, slide, ball: an articulated model is not one rigid body), other geom types
-(ellipsoid, height field, SDF), a moving body without mass, any file but an
+(height field, SDF), a moving body without mass, any file but an
 ``include`` or a mesh (no texture, height field or skin file is read), a mesh file outside
 the model's folder, of another format or too large, an include outside the model's folder
 (absolute, climbing with ``..``, or through a link; MuJoCo reads includes from the model's
@@ -51,6 +51,7 @@ import xml.etree.ElementTree as ElementTree
 import numpy as np
 
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Cylinder, Hull, Plane, Sphere
+from rb_sim_ros.contact.shapes import Ellipsoid
 from rb_sim_ros.core import so3
 from rb_sim_ros.sim import meshes
 from rb_sim_ros.sim.bodies import body_at, BodySpec, combined
@@ -351,6 +352,9 @@ def _collider(path, model, mujoco, g, rot, pos, moving) -> Any:
         if kind == types.mjGEOM_CYLINDER:
             return Cylinder(size[0], 2.0 * size[1], position=at, orientation_xyzw=quat,
                             friction=friction)
+        if kind == types.mjGEOM_ELLIPSOID:
+            return Ellipsoid(tuple(size[:3]), position=at, orientation_xyzw=quat,
+                             friction=friction)
         if kind == types.mjGEOM_MESH:  # the hull of its vertices, as MuJoCo collides it
             mesh = int(model.geom_dataid[g])
             start, count = int(model.mesh_vertadr[mesh]), int(model.mesh_vertnum[mesh])
@@ -366,5 +370,5 @@ def _collider(path, model, mujoco, g, rot, pos, moving) -> Any:
     except ValueError as e:
         raise ModelError(f'{where}: {e}') from None
     name = str(types(kind)).split('_')[-1].lower()
-    raise ModelError(f'{where}: a {name} geom: only sphere, capsule, box, cylinder, mesh (given '
-                     'by its vertices) and plane collide here')
+    raise ModelError(f'{where}: a {name} geom: only sphere, capsule, box, cylinder, ellipsoid, '
+                     'mesh (given by its vertices) and plane collide here')

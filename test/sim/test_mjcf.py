@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from rb_sim_ros.contact.collision_shapes import Box, Capsule, Plane, Sphere
+from rb_sim_ros.contact.shapes import Ellipsoid
 from rb_sim_ros.core import so3
 from rb_sim_ros.sim import scene as scenes
 from rb_sim_ros.sim.mjcf import ModelError, ros_name, WORLD_BODY
@@ -152,8 +153,6 @@ def test_a_dropped_body_lands_where_mujocos_lands(tmp_path, geom, rest, near):
 @pytest.mark.parametrize('world, match', [
     ('<body name="arm"><joint name="elbow" type="hinge"/><geom size="0.1"/></body>',
      "body 'arm': joint 'elbow' is a hinge joint: only free joints"),
-    ('<body name="egg" pos="0 0 1"><freejoint/><geom name="shell" type="ellipsoid" '
-     'size="0.1 0.2 0.3"/></body>', "geom 'shell': a ellipsoid geom: only sphere, capsule"),
     ('<body name="slab" pos="0 0 1"><freejoint/><geom type="box" size="1 1 1" mass="1"/>'
      '<geom name="ground" type="plane" size="1 1 1"/></body>',
      'plane only allowed in static bodies'),  # (MuJoCo's compiler says it first)
@@ -168,6 +167,27 @@ def test_what_cannot_be_one_rigid_body_is_refused_in_one_line(tmp_path, world, m
     with pytest.raises(SceneError, match=match) as e:
         load_scene(path)
     assert '\n' not in str(e.value) and str(e.value).startswith(path)
+
+
+def test_an_ellipsoid_geom_is_an_ellipsoid_collider_where_mujoco_puts_it(tmp_path):
+    """Its semi-axes MuJoCo's size, its friction, and its place and turn in the body MuJoCo's
+    (read from the compiled model)."""
+    text = _mjcf('<body name="egg" pos="0 0 1" quat="0.9 0.1 0.3 0.2"><freejoint/>'
+                 '<geom name="shell" type="ellipsoid" size="0.1 0.2 0.3" pos="0.1 0 0" '
+                 'euler="0.3 0 0" friction="0.7"/></body>')
+    (egg,) = load_scene(_write(tmp_path, text)).bodies
+    (shell,) = egg.colliders
+    assert isinstance(shell, Ellipsoid) and shell.radii == (0.1, 0.2, 0.3)
+    assert shell.friction == pytest.approx(0.7)
+    model = mujoco.MjModel.from_xml_string(text)
+    # where MuJoCo puts it in its body, in our body's frame (the centre of mass, the body's
+    # axes: the geom is all the body, so its centre is the geom's)
+    np.testing.assert_allclose(shell.position, model.geom_pos[0] - model.body_ipos[1],
+                               atol=1e-12)
+    ours = so3.matrix_from_quaternion_xyzw(shell.orientation_xyzw)
+    theirs = np.zeros(9)
+    mujoco.mju_quat2Mat(theirs, model.geom_quat[0])
+    np.testing.assert_allclose(ours, theirs.reshape(3, 3), atol=1e-12)
 
 
 def test_files_outside_the_models_folder_are_never_read(tmp_path):
