@@ -67,9 +67,14 @@ ROLLING_RESISTANCE, TORSIONAL_FRICTION = 9, 10
 SETTINGS_WIDTH = 11
 
 # The impact pass (``_impacts``): at most IMPACT_SWEEPS sweeps over the pairs, and
-# IMPACT_ITERATIONS Gauss-Seidel iterations over a pair's contacts at each visit.
+# IMPACT_ITERATIONS Gauss-Seidel iterations over a pair's contacts at each visit (it fails,
+# and the step's contacts are solved at once, where either runs out).
 IMPACT_SWEEPS = 64
-IMPACT_ITERATIONS = 10
+IMPACT_ITERATIONS = 30
+# A visit has settled when an iteration changes no contact's velocity by more than the
+# solve's tolerance, or than IMPACT_SETTLE (m/s) where that is below it (a tolerance of 0
+# would never be met: rounding).
+IMPACT_SETTLE = 1e-9
 
 # Relative gain of kinetic energy above which a velocity solve is taken to have created energy
 # (rounding of the solve is ~1e-15 relative).
@@ -337,37 +342,64 @@ def _closing(gap, dt):
 
 @kernel
 def _impacts(rows, body_a, body_b, slot_of, slot_a, slot_b, depth, restitution, dt,
-             bounce_threshold, u, lam, target, plastic, pushed):
+             bounce_threshold, tolerance, u, lam, target, plastic):
     """Simultaneous impacts as the sequence of pairwise ones (docs/collisions.md, "Impacts"):
-    sweeps over the pairs of bodies in contact order (a pair's contacts are consecutive); a
-    pair one of whose contacts approaches as an impact (faster than the bounce threshold and
-    than its gap closes, e > 0) collides alone: Gauss-Seidel over its own contacts' normal
-    rows (IMPACT_ITERATIONS), each towards -e v_n at the visit's start (an impact) or its
-    gap's closing (the others), with impulses that only push, summed from 0 at each visit.
-    So an impact passes down a chain of touching bodies one collision after another (a
-    cradle's last ball leaves with the first's velocity), while a body landing on several
-    points of one other (a box on its face) bounces from all of them at once. Until a sweep
-    finds no impact, at most IMPACT_SWEEPS. The impulses are added to ``lam`` (normal) and
-    ``u``; the normal ``target`` of the Gauss-Seidel after it (by slot) becomes, for a contact
-    pushed here, its normal velocity now (no less than its gap's closing), so that the solve
-    keeps the bounce, and for the others their ``plastic`` one. ``pushed`` (2 M) is room: the
-    impulse of each contact, in contact order, summed over the visits, then this visit's.
-    Returns the sweeps run."""
+    sweeps over the pairs of bodies (the contacts of one pair, whichever body is named first,
+    visited together, pairs in the order of their first contact); a pair one of whose
+    contacts approaches as an impact (faster than the bounce threshold and than its gap
+    closes, e > 0) collides alone: Gauss-Seidel over its own contacts' normal rows (at most
+    IMPACT_ITERATIONS), each towards -e v_n at the visit's start (an impact) or its gap's
+    closing (the others), with impulses that only push, summed from 0 at each visit. So an
+    impact passes down a chain of touching bodies one collision after another (a cradle's
+    last ball leaves with the first's velocity), while a body landing on several points of one
+    other (a box on its face) bounces from all of them at once. Until a sweep finds no
+    impact. The impulses are added to ``lam`` (normal) and ``u``; the normal ``target`` of
+    the Gauss-Seidel after it (by slot) becomes, for a contact pushed here, its normal
+    velocity now (no less than its gap's closing), so that the solve keeps the bounce, and
+    for the others their ``plastic`` one. Where the pass fails, it leaves ``u``, ``lam`` and
+    ``target`` as they were (the simultaneous solve): a visit whose Gauss-Seidel does not
+    settle (its targets cannot all hold: a body wedged between two
+    others), or IMPACT_SWEEPS sweeps that still find an impact (``tolerance``: the solve's,
+    at least IMPACT_SETTLE). Returns the sweeps run, or
+    -1 where it failed."""
     m = body_a.shape[0]
-    for k in range(2 * m):
-        pushed[k] = 0.0
+    settle = tolerance if tolerance > IMPACT_SETTLE else IMPACT_SETTLE
+    # the pairs: contacts sorted (stably) by their unordered pair of bodies
+    top = 0
+    for k in range(m):
+        if int(body_a[k]) > top:
+            top = int(body_a[k])
+        if int(body_b[k]) > top:
+            top = int(body_b[k])
+    key = np.empty(m, dtype=np.int64)
+    for k in range(m):
+        a, b = int(body_a[k]), int(body_b[k])
+        key[k] = (a * (top + 1) + b) if a < b else (b * (top + 1) + a)
+    by_pair = np.argsort(key, kind='mergesort')
+    # what a failed pass restores
+    u_before = u.copy()
+    lam_before = np.empty(m)
+    target_before = np.empty(m)
+    for s in range(m):
+        lam_before[s] = lam[s, 0]
+        target_before[s] = target[s]
+    pushed = np.zeros(2 * m)  # by contact: the sum over visits, then this visit's
     sweeps = 0
-    while sweeps < IMPACT_SWEEPS:
+    failed = False
+    while True:
+        if sweeps == IMPACT_SWEEPS:
+            failed = True
+            break
         sweeps += 1
         struck = False
-        k = 0
-        while k < m:
-            pa, pb = int(body_a[k]), int(body_b[k])
-            end = k + 1
-            while end < m and int(body_a[end]) == pa and int(body_b[end]) == pb:
+        first = 0
+        while first < m and not failed:
+            end = first + 1
+            while end < m and key[by_pair[end]] == key[by_pair[first]]:
                 end += 1
             impact = False
-            for j in range(k, end):
+            for q in range(first, end):
+                j = int(by_pair[q])
                 s = int(slot_of[j])
                 vn = _normal_velocity(rows, s, u, int(slot_a[s]), int(slot_b[s]))
                 closing = _closing(float(depth[j]), dt)
@@ -379,10 +411,13 @@ def _impacts(rows, body_a, body_b, slot_of, slot_a, slot_b, depth, restitution, 
                     target[s] = closing
             if impact:
                 struck = True
-                for j in range(k, end):
-                    pushed[m + j] = 0.0
+                for q in range(first, end):
+                    pushed[m + int(by_pair[q])] = 0.0
+                settled = False
                 for _ in range(IMPACT_ITERATIONS):
-                    for j in range(k, end):
+                    change = 0.0
+                    for q in range(first, end):
+                        j = int(by_pair[q])
                         s = int(slot_of[j])
                         a, b = int(slot_a[s]), int(slot_b[s])
                         vn = _normal_velocity(rows, s, u, a, b)
@@ -392,11 +427,28 @@ def _impacts(rows, body_a, body_b, slot_of, slot_a, slot_b, depth, restitution, 
                             new = 0.0
                         pushed[m + j] = new
                         _push(rows, s, u, a, b, new - have)
-                for j in range(k, end):
+                        c = abs(new - have) * float(rows[s, K_NORMAL])
+                        if c > change:
+                            change = c
+                    if change <= settle:
+                        settled = True
+                        break
+                if not settled:
+                    failed = True
+                for q in range(first, end):
+                    j = int(by_pair[q])
                     pushed[j] = float(pushed[j]) + float(pushed[m + j])
-            k = end
-        if not struck:
+            first = end
+        if failed or not struck:
             break
+    if failed:
+        for i in range(u.shape[0]):
+            for c in range(6):
+                u[i, c] = u_before[i, c]
+        for s in range(m):
+            lam[s, 0] = lam_before[s]
+            target[s] = target_before[s]
+        return -1
     for k in range(m):
         s = int(slot_of[k])
         if float(pushed[k]) > 0.0:
@@ -766,8 +818,7 @@ def solve_arrays(body_a, body_b, point, normal, depth, position, velocity, angul
             impacts = True
     if impacts:  # a bounce: passed on from pair to pair first
         _impacts(rows, body_a, body_b, slot_of, slot_a, slot_b, depth, restitution, dt,
-                 float(settings[BOUNCE_THRESHOLD]), u, lam, target, plastic,
-                 np.empty(2 * m))
+                 float(settings[BOUNCE_THRESHOLD]), tolerance, u, lam, target, plastic)
     v_done = _gauss_seidel(rows, slot_a, slot_b, u, lam, target, v_iterations, with_friction,
                            tolerance)
     if mu_r > 0.0 or mu_t > 0.0:
