@@ -124,6 +124,18 @@ def _minkowski(ka, ga, ca, ra, kb, gb, cb, rb, pool, dx, dy, dz, k, W, PA, PB):
 
 
 @inline_kernel
+def _square_to(x, y, z):
+    """(x, y, z) x e for the world axis e least along it (the first on a tie): square to it,
+    not normalised, of length at least sqrt(2/3) of its own."""
+    mx, my, mz = abs(x), abs(y), abs(z)
+    if mx <= my and mx <= mz:
+        return 0.0, z, -y
+    if my <= mz:
+        return -z, 0.0, x
+    return y, -x, 0.0
+
+
+@inline_kernel
 def _pair_support(ka, ga, ca, ra, kb, gb, cb, rb, pool, nx, ny, nz):
     """A's core point along n, B's along -n (world): (ax, ay, az, bx, by, bz)."""
     ax, ay, az = _support(ka, ga, ca, ra, pool, nx, ny, nz)
@@ -165,13 +177,7 @@ def _refine(ka, ga, ca, ra, kb, gb, cb, rb, pool, curved_a, curved_b, nx, ny, nz
     for _ in range(REFINE_STEPS):
         sx, sy, sz = cx - dx, cy - dy, cz - dz
         # t1 = n x e for the world axis e least aligned with n, t2 = n x t1
-        mx, my, mz = abs(nx), abs(ny), abs(nz)
-        if mx <= my and mx <= mz:
-            t1x, t1y, t1z = 0.0, nz, -ny
-        elif my <= mz:
-            t1x, t1y, t1z = -nz, 0.0, nx
-        else:
-            t1x, t1y, t1z = ny, -nx, 0.0
+        t1x, t1y, t1z = _square_to(nx, ny, nz)
         size = math.sqrt(t1x * t1x + t1y * t1y + t1z * t1z)
         if not size > TINY_LENGTH:
             break
@@ -503,13 +509,7 @@ def _blow_up(ka, ga, ca, ra, kb, gb, cb, rb, pool, W, PA, PB, n, size2):
         ex, ey, ez = (float(W[1, 0]) - float(W[0, 0]), float(W[1, 1]) - float(W[0, 1]),
                       float(W[1, 2]) - float(W[0, 2]))
         # a direction square to the segment: e x (the axis least along e)
-        ax_, ay_, az_ = abs(ex), abs(ey), abs(ez)
-        if ax_ <= ay_ and ax_ <= az_:
-            px, py, pz = 0.0, ez, -ey
-        elif ay_ <= az_:
-            px, py, pz = -ez, 0.0, ex
-        else:
-            px, py, pz = ey, -ex, 0.0
+        px, py, pz = _square_to(ex, ey, ez)
         qx, qy, qz = ey * pz - ez * py, ez * px - ex * pz, ex * py - ey * px
         length = math.sqrt(ex * ex + ey * ey + ez * ez)
         for q in range(4):

@@ -276,14 +276,7 @@ def _targets(rows, order, slot_a, slot_b, u0, depth, restitution, dt, bounce_thr
     for s in range(rows.shape[0]):
         k = int(order[s])
         a, b = int(slot_a[s]), int(slot_b[s])
-        dx, dy, dz = float(rows[s, D]), float(rows[s, D + 1]), float(rows[s, D + 2])
-        # (28): v_rel . n = J_n . (v_a, w_a, v_b, w_b), summed as in _gauss_seidel.
-        vn0 = (-dx * float(u0[a, 0]) - dy * float(u0[a, 1]) - dz * float(u0[a, 2])
-               + float(rows[s, GA]) * float(u0[a, 3]) + float(rows[s, GA + 1]) * float(u0[a, 4])
-               + float(rows[s, GA + 2]) * float(u0[a, 5])
-               + dx * float(u0[b, 0]) + dy * float(u0[b, 1]) + dz * float(u0[b, 2])
-               + float(rows[s, GB]) * float(u0[b, 3]) + float(rows[s, GB + 1]) * float(u0[b, 4])
-               + float(rows[s, GB + 2]) * float(u0[b, 5]))
+        vn0 = _normal_velocity(rows, s, u0, a, b)
         gap = float(depth[k])
         # Speculative: close the gap -depth within the step but not more (no tunnelling); a
         # contact that was separating (vn0 > 0) may be pressed back at most at -vn0, so its
@@ -301,8 +294,8 @@ def _targets(rows, order, slot_a, slot_b, u0, depth, restitution, dt, bounce_thr
 
 @kernel
 def _normal_velocity(rows, s, u, a, b):
-    """v_rel . n of slot s's contact at the velocities u (N, 6) of its bodies a, b, summed as
-    in _targets."""
+    """(28): v_rel . n = J_n . (v_a, w_a, v_b, w_b) of slot s's contact at the velocities u
+    (N, 6) of its bodies a, b, summed as in _gauss_seidel."""
     dx, dy, dz = float(rows[s, D]), float(rows[s, D + 1]), float(rows[s, D + 2])
     return (-dx * float(u[a, 0]) - dy * float(u[a, 1]) - dz * float(u[a, 2])
             + float(rows[s, GA]) * float(u[a, 3]) + float(rows[s, GA + 1]) * float(u[a, 4])
