@@ -12,8 +12,9 @@ rest: (0, ..., 0, 1). Printed: each engine's final velocities along the row, the
 difference from the ideal (m/s), and the change of momentum and kinetic energy (relative).
 MuJoCo has no restitution: its elastic setting is a soft contact with negative ``solref``
 (stiffness 1e6, no damping), as its documentation gives for bouncing; its default contact
-(``solref`` 0.02 1, critically damped) is shown too. PyBullet and Drake are not installed here
-(the issue's figure names them; neither is in requirements-bench.txt).
+(``solref`` 0.02 1, critically damped) is shown too. PyBullet (restitution 1, no bounce
+threshold) and Drake (a discrete MultibodyPlant, compliant point contact without dissipation)
+when installed (requirements-peers.txt).
 
 Writes docs/bench/cradle_bench.json (or ``--json``; ``--quick`` writes none unless asked).
 """
@@ -35,6 +36,11 @@ from rb_sim_ros.sim.bodies import collision_world
 from rb_sim_ros.sim.simulation import BodySpec
 
 R, MASS, V0, GAP, DT, STEPS = 0.05, 0.2, 1.0, 0.02, 1e-3, 300
+# Drake's point contact stiffness (N/m): what its default makes of a ball's weight and its
+# penetration allowance (1 mm), m g / 1 mm (with no gravity here it would make none); a contact
+# then lasts pi sqrt(m / 2k) = 22 ms. Its discrete solvers dissipate more, the stiffer (at
+# 1e6 N/m two balls part at (0.44, 0.56) m/s).
+DRAKE_STIFFNESS = MASS * 9.81 / 1e-3
 INERTIA = 0.4 * MASS * R * R
 
 
@@ -76,6 +82,83 @@ def mujoco_run(count: int, solref: str) -> dict:
     return _row(qvel[:, :3], qvel[:, 3:], seconds)
 
 
+def pybullet_run(count: int) -> dict:
+    """PyBullet (Bullet's sequential impulses, as its users run it: stepSimulation in C), the
+    balls' restitution 1, no friction or damping, no bounce threshold."""
+    import pybullet as pb
+    client = pb.connect(pb.DIRECT)
+    try:
+        pb.setGravity(0.0, 0.0, 0.0, physicsClientId=client)
+        pb.setPhysicsEngineParameter(fixedTimeStep=DT, restitutionVelocityThreshold=0.0,
+                                     physicsClientId=client)
+        shape = pb.createCollisionShape(pb.GEOM_SPHERE, radius=R, physicsClientId=client)
+        ids = []
+        for x in _starts(count):
+            body = pb.createMultiBody(MASS, shape, basePosition=(x, 0.0, 0.0),
+                                      physicsClientId=client)
+            pb.changeDynamics(body, -1, restitution=1.0, lateralFriction=0.0,
+                              spinningFriction=0.0, rollingFriction=0.0, linearDamping=0.0,
+                              angularDamping=0.0, physicsClientId=client)
+            ids.append(body)
+        pb.resetBaseVelocity(ids[0], (V0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=client)
+        start = time.perf_counter()
+        for _ in range(STEPS):
+            pb.stepSimulation(physicsClientId=client)
+        seconds = time.perf_counter() - start
+        vel = [pb.getBaseVelocity(b, physicsClientId=client) for b in ids]
+    finally:
+        pb.disconnect(client)
+    return _row(np.array([v for v, _ in vel]), np.array([w for _, w in vel]), seconds)
+
+
+def drake_run(count: int) -> dict:
+    """Drake's MultibodyPlant, discrete at dt with its default contact solver (compliant
+    point contact), no Hunt-Crossley dissipation (elastic), no friction, no gravity."""
+    from pydrake.geometry import AddContactMaterial, ProximityProperties, Sphere as DSphere
+    from pydrake.math import RigidTransform
+    from pydrake.multibody.math import SpatialVelocity
+    from pydrake.multibody.plant import (AddMultibodyPlantSceneGraph, CoulombFriction,
+                                         DiscreteContactApproximation)
+    from pydrake.multibody.tree import SpatialInertia
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    builder = DiagramBuilder()
+    plant, _ = AddMultibodyPlantSceneGraph(builder, time_step=DT)
+    plant.set_discrete_contact_approximation(DiscreteContactApproximation.kTamsi)
+    bodies = []
+    for i in range(len(_starts(count))):
+        body = plant.AddRigidBody(f'b{i}', SpatialInertia.SolidSphereWithMass(MASS, R))
+        props = ProximityProperties()
+        AddContactMaterial(dissipation=0.0, point_stiffness=DRAKE_STIFFNESS,
+                           friction=CoulombFriction(0.0, 0.0), properties=props)
+        plant.RegisterCollisionGeometry(body, RigidTransform(), DSphere(R), f'c{i}', props)
+        bodies.append(body)
+    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, 0.0])
+    plant.Finalize()
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
+    for body, x in zip(bodies, _starts(count)):
+        plant.SetFreeBodyPose(context, body, RigidTransform([x, 0.0, 0.0]))
+    plant.SetFreeBodySpatialVelocity(context, bodies[0],
+                                     SpatialVelocity([0.0, 0.0, 0.0], [V0, 0.0, 0.0]))
+    simulator.Initialize()
+    start = time.perf_counter()
+    simulator.AdvanceTo(STEPS * DT)
+    seconds = time.perf_counter() - start
+    vel = [plant.EvalBodySpatialVelocityInWorld(context, b) for b in bodies]
+    return _row(np.array([v.translational() for v in vel]),
+                np.array([v.rotational() for v in vel]), seconds)
+
+
+def _installed(module: str) -> bool:
+    try:
+        __import__(module)
+    except ImportError:
+        return False
+    return True
+
+
 def _row(v: np.ndarray, w: np.ndarray, seconds: float) -> dict:
     ideal = np.zeros(len(v))
     ideal[-1] = V0
@@ -99,6 +182,16 @@ def main() -> int:
     engines = (('rb_sim_ros', ours),
                ('MuJoCo, elastic (solref -1e6 -1e-6)', lambda n: mujoco_run(n, '-1e6 -1e-6')),
                ('MuJoCo, default (solref 0.02 1)', lambda n: mujoco_run(n, '0.02 1')))
+    missing = []
+    for module, name, run in (('pybullet', 'PyBullet', pybullet_run),
+                              ('pydrake', 'Drake (point contact, no dissipation)', drake_run)):
+        if _installed(module):
+            engines += ((name, run),)
+        else:
+            missing.append(module)
+    if missing:
+        print(f"not installed, not run: {', '.join(missing)} (pip install -r "
+              'requirements-peers.txt)')
     ours(1)  # (compiled before anything is timed)
     rows: dict = {}
     print('| balls | engine | final velocities along the row (m/s) | largest error (m/s) | '

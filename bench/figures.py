@@ -425,10 +425,49 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
             r = cradles[balls][engine]
             q.append((coll, '#Impacts: chains of touching bodies',
                       f'({", ".join(f"{x:.3f}" for x in r["velocities"])})'))
+    for engine in ('PyBullet', 'Drake (point contact, no dissipation)'):
+        r = cradles['3'][engine]
+        q.append((coll, '#Impacts: chains of touching bodies',
+                  f'({", ".join(f"{x:.3f}" for x in r["velocities"])})'))
+    drake = cradles['3']['Drake (point contact, no dissipation)']
+    q.append((coll, '#Impacts: chains of touching bodies',
+              f'losing {-100 * drake["energy_change"]:.0f}% of the energy'))
     elastic = cradles['5']['MuJoCo, elastic (solref -1e6 -1e-6)']
     q.append((coll, '#Impacts: chains of touching bodies',
               f'gaining {100 * elastic["energy_change"]:.0f}% of the energy'))
+
+    ccd = load('ccd_bench', folder)
+    for key, text in ccd_cells(ccd).items():
+        q.append((coll, '#Continuous collision: the swept test', text))
+    tun, gh, cost = ccd['tunnelling'], ccd['ghosts'], ccd['cost']
+    for anchor, text in (
+            ('1 cm wall held in all', f"held in all {tun['cases']} orientations drawn"),
+            ('1 cm wall held in all', f"the discrete method let {tun['passed']['discrete']} "
+             'through'),
+            ('fast skimming runs', f"no ghost stop in {gh['cases']} fast skimming runs"),
+            ('fast skimming runs', f"({gh['stopped_without']} without the swept test)"),
+            ('fast skimming runs', f"x{cost['heap']['ratio']:.3f}"),
+            ("the collision demo's.", f"x{cost['demo']['ratio']:.3f}")):
+        q.append((figs, anchor, text))
     return q
+
+
+def ccd_cells(ccd: dict) -> dict[str, str]:
+    """The cells of docs/collisions.md's table of bench/ccd_bench.py, by what they say."""
+    tun, gh = ccd['tunnelling'], ccd['ghosts']
+    cells = {
+        'plates': f"{tun['passed']['default']} of {tun['cases']}",
+        'plates_discrete': f"{tun['passed']['discrete']} of {tun['cases']} (discrete method)",
+        'ghosts': f"{gh['stopped_with_sweep']} of {gh['cases']}",
+        'ghosts_without': f"{gh['stopped_without']} of {gh['cases']} (speculative contacts "
+                          'alone)'}
+    for name, digits in (('heap', 2), ('demo', 4)):
+        c = ccd['cost'][name]
+        cells[name] = (f"{c['seconds_per_step_with'] * 1e3:.{digits}f} (x{c['ratio']:.3f}; "
+                       f"{c['pairs_swept']:,} pairs swept, {c['contacts_missed']} contacts "
+                       'missed)')
+        cells[name + '_without'] = f"{c['seconds_per_step_without'] * 1e3:.{digits}f}"
+    return cells
 
 
 def section(text: str, title: str) -> str:

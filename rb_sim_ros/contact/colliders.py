@@ -37,12 +37,14 @@ MAX_COLLIDERS = 64
 class Owner:
     """A body that carries colliders: ``name``, ``shapes`` (of ``collision_shapes``, in its
     frame), and either ``row``, its row of the world's BodyStore (a moving body), or ``pose``,
-    its fixed state in the world (a static body)."""
+    its fixed state in the world (a static body). ``continuous``: a moving body's speculative
+    contacts are swept along its path when it is fast (``ContactSettings.continuous_speed``)."""
 
     name: str
     shapes: tuple
     row: int | None = None
     pose: State | None = None
+    continuous: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -55,6 +57,9 @@ class Owner:
         for i, c in enumerate(self.shapes):
             if not is_shape(c):
                 raise ValueError(f"owner '{self.name}': shapes[{i}] is not a shape: {c!r}")
+        if not isinstance(self.continuous, bool):
+            raise ValueError(f"owner '{self.name}': continuous must be true or false, got "
+                             f'{self.continuous!r}')
         if (self.row is None) == (self.pose is None):
             raise ValueError(f"owner '{self.name}': give a row (moving) or a pose (static), "
                              'not both or neither')
@@ -106,6 +111,7 @@ class ColliderSet:
         self.owners, self.planes = owners, planes
         self.moving = tuple(o for o in owners if o.moving)
         self.rows = np.array([o.row for o in self.moving], dtype=np.int64)
+        self.continuous = np.array([o.continuous for o in self.moving], dtype=bool)
         nb = len(self.moving)
         body_of = {o.name: i for i, o in enumerate(self.moving)}
         # Colliders (not planes) as (shape, owner index, moving body or nb, position and
@@ -170,6 +176,16 @@ class ColliderSet:
                 r = float(np.linalg.norm(position)) + shape.bounding_radius
                 reach[body] = max(reach[body], r)
         self.reach = reach
+        # How far a turn about the centre of mass can move each moving body's colliders'
+        # surfaces: a ball's centre moves, its surface does not move relative to it (the swept
+        # test's bound: a spinning ball closes on nothing).
+        turn_reach = np.zeros(nb)
+        for shape, _, body, position, _ in colliders:
+            if body < nb:
+                r = float(np.linalg.norm(position)) + (
+                    0.0 if shape.kind == 'sphere' else shape.bounding_radius)
+                turn_reach[body] = max(turn_reach[body], r)
+        self.turn_reach = turn_reach
         # Placed in the world (centres, rotations as 9 row-major values): a static collider
         # where it is, a moving one at the origin until the first step places it; then the
         # planes (a plane's centre: a point of it).

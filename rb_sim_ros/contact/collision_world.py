@@ -92,7 +92,10 @@ class StepStats:
     ``seconds`` of the step (``{'step': s}``: the stages run in one compiled call, so they are
     not timed apart; statistics only). ``CollisionWorld.totals`` sums them over the
     steps taken (but for ``colours`` and ``sleeping``, which it leaves at 0: read them in
-    ``last_stats``)."""
+    ``last_stats``). ``swept``: pairs of the last step whose paths the swept test followed,
+    ``missed``: contacts it found their paths to miss, not solved, ``solves``: how many times
+    the step solved (more than once when the test brought contacts back; docs/collisions.md,
+    "Continuous collision"; last step only)."""
 
     candidate_pairs: int = 0
     plane_pairs: int = 0
@@ -104,6 +107,9 @@ class StepStats:
     velocity_iterations: int = 0
     position_iterations: int = 0
     seconds: dict[str, float] = field(default_factory=dict)
+    swept: int = 0
+    missed: int = 0
+    solves: int = 0
 
     @property
     def pairs_tested(self) -> int:
@@ -198,6 +204,7 @@ class CollisionWorld:
         self.dt = store.dt
         self.settings = contact.solver_settings(self.dt)
         self.speculative, self.warm_start = contact.speculative, contact.warm_start
+        self.continuous_speed = contact.continuous_speed
         sleep_time = contact.sleep_time
         # Steps a supported body must stay slow before it sleeps (0: never).
         # (at most 2^52: the kernel reads it back from a float; that is 1.4 million years at
@@ -246,6 +253,9 @@ class CollisionWorld:
         self._cstatic, self._cdyn = cs.static, cs.dynamic
         self._local_pos, self._local_rot9 = cs.local_position, cs.local_rotation9
         self._kinds, self._geoms, self._pool, self._reach = cs.kinds, cs.geoms, cs.pool, cs.reach
+        # the speed above which a body's speculative contacts are swept (inf: never)
+        self._sweep_speed = np.where(cs.continuous, self.continuous_speed, math.inf)
+        self._turn_reach = cs.turn_reach
         self._plane_normals, self._plane_points = cs.plane_normals, cs.plane_points
         # What the kernels write: the colliders' world placement and bounds (a static one's
         # as the set placed it), the planes' after them.
@@ -485,8 +495,9 @@ class CollisionWorld:
             st.state, st.spare, st.params, st.coefficients, st.work, st.status, st.taken,
             st.bad, st.clock, st.warn_sq,
             self._rows, self._q, self._has_q, self._reach, self._inverse_mass, self._step_rows,
-            self._body_of_row, self._kinds, self._geoms, self._restitution, self._friction,
-            self._pool,
+            self._body_of_row, self._sweep_speed, self._turn_reach, self._kinds, self._geoms,
+            self._restitution,
+            self._friction, self._pool,
             self._cbody, self._cowner, self._cstatic, self._cdyn, self._local_pos,
             self._local_rot9, self._plane_normals, self._plane_points,
             self._all_centres, self._all_rotations, self._lower, self._upper,
@@ -528,7 +539,8 @@ class CollisionWorld:
         self._last_stats = StepStats(
             int(s[ws.CANDIDATE_PAIRS]), int(s[ws.PLANE_PAIRS]), int(s[ws.CONTACTS]),
             int(s[ws.ACTIVE]), int(s[ws.TOUCHED]), int(s[ws.SLEEPING]), int(s[ws.COLOURS]),
-            int(s[ws.V_ITER]), int(s[ws.P_ITER]), {'step': self._call_seconds})
+            int(s[ws.V_ITER]), int(s[ws.P_ITER]), {'step': self._call_seconds},
+            int(s[ws.SWEPT]), int(s[ws.MISSED]), int(s[ws.SOLVES]))
         # The kernel counts since construction; the totals add what the calls added.
         counts = s[8:8 + ws.P_ITER + 1].copy()
         added = counts - self._counted

@@ -9,7 +9,7 @@ from dataclasses import dataclass, fields
 from typing import Any
 
 from rb_sim_ros.contact import contact_solver
-from rb_sim_ros.core.rigid_body import non_negative
+from rb_sim_ros.core.rigid_body import is_number, non_negative, short
 
 
 # The masses (kg) and principal moments (kg m^2) of a moving body with colliders: the contact
@@ -37,7 +37,10 @@ class ContactSettings:
     approaches slower than bounce_threshold (m/s) do not bounce (keep it above |g| dt);
     tolerance (m/s): a Gauss-Seidel pass stops after an iteration that changed no contact's
     velocity by more (the position pass: by more than tolerance dt, in m); speculative
-    contacts keep fast bodies from tunnelling; warm_start: each solve starts from the
+    contacts keep fast bodies from tunnelling, and those of a body moving faster than
+    continuous_speed (m/s, |v| + |omega| rho; inf: none, 0: every body's) are swept along its
+    path through the step, so that a contact its path misses does not stop it (continuous
+    collision, docs/collisions.md); warm_start: each solve starts from the
     impulses of the same contacts at the step before. A body pressed by a contact whose
     points all move slower than sleep_speed (m/s) for sleep_time (s) sleeps, at rest and at
     no cost, until an awake body comes near, its wrench changes or it is teleported
@@ -56,6 +59,7 @@ class ContactSettings:
     bounce_threshold: float = 0.1
     tolerance: float = 1e-6
     speculative: bool = True
+    continuous_speed: float = 1.0
     warm_start: bool = True
     sleep_time: float = 0.5
     sleep_speed: float = 1e-3
@@ -69,6 +73,11 @@ class ContactSettings:
                 raise ValueError(f'{name} must be true or false, got {flag!r}')
         for name in ('sleep_time', 'sleep_speed'):
             non_negative(name, getattr(self, name))
+        speed = self.continuous_speed
+        if not (is_number(speed) and speed >= 0.0):  # (inf: no body is swept)
+            raise ValueError(f'continuous_speed must be a number >= 0 (m/s; .inf: none), got '
+                             f'{short(speed)}')
+        object.__setattr__(self, 'continuous_speed', float(speed))
         for name in ('velocity_iterations', 'position_iterations'):
             value = getattr(self, name)
             if (not isinstance(value, int) or isinstance(value, bool)

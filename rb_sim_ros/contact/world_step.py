@@ -94,7 +94,14 @@ ENERGY_WIDTH = 11
 # -- w.stats (int64): [0:8] the last step's, [8:16] the totals --------------------------------
 CANDIDATE_PAIRS, PLANE_PAIRS, CONTACTS, ACTIVE, TOUCHED, V_ITER, P_ITER, COLOURS = range(8)
 SLEEPING = 16
-STATS_WIDTH = 17
+# the last step's pairs swept, contacts not solved because their pair's paths missed, and
+# solves (more than one when the swept test brought contacts back)
+SWEPT, MISSED, SOLVES = 17, 18, 19
+STATS_WIDTH = 20
+# The most solves a step makes while the swept test brings back contacts the solve turned
+# towards each other (docs/collisions.md, "Continuous collision"); the last one solves every
+# contact found, as a step without the test does.
+SWEEP_ROUNDS = 4
 
 # The typed containers a world's step is handed, each a group of arrays that live and change
 # together: the moving bodies' store (``core.stepper.BodyStore``: the step kernel's rows and
@@ -108,8 +115,11 @@ STORE = ('state', 'spare', 'params', 'coefficients', 'work', 'kstatus', 'taken',
 COLLIDERS = (
     # moving bodies with colliders: their store rows, Q of a non-principal body frame, reach
     # (m), 1 / m; the store rows of every moving body, ascending, and of each row its index
-    # among the moving bodies with colliders (-1 without: it never sleeps)
-    'rows', 'q', 'has_q', 'reach', 'inverse_mass', 'step_rows', 'body_of_row',
+    # among the moving bodies with colliders (-1 without: it never sleeps); the speed (m/s)
+    # above which a body's speculative contacts are swept (inf: never), and how far a turn can
+    # move its colliders' surfaces (m; a ball at its centre of mass: 0)
+    'rows', 'q', 'has_q', 'reach', 'inverse_mass', 'step_rows', 'body_of_row', 'sweep_speed',
+    'turn_reach',
     # colliders (C) then planes (P): kinds, geoms, materials; the data of variable size that
     # kinds read at offsets in their geoms (a hull's vertices and faces)
     'kinds', 'geoms', 'restitution', 'friction', 'pool',
@@ -304,6 +314,7 @@ def _world_steps_of(family, tests, name):
         # views of the record's arrays of their types, which cost no allocation.
         own_f, own_i, own_b = w.energy[:0], w.rows[:0], w.asleep[:0]
         static = np.empty(w.cbody.shape[0], dtype=np.bool_)
+        fast = np.empty(w.rows.shape[0] + 1, dtype=np.bool_)
         awake = np.empty(w.dyn.shape[0], dtype=np.int64)
         while w.status[S_STEPS_DONE] < n:
             # The first step (or the first after a teleport) collides before it integrates: the
@@ -484,6 +495,7 @@ def _world_steps_of(family, tests, name):
             stats = w.stats
             for k in range(8):
                 stats[k] = 0
+            stats[SWEPT] = stats[MISSED] = stats[SOLVES] = 0
             stats[CANDIDATE_PAIRS], stats[PLANE_PAIRS], stats[CONTACTS] = p1, p2, m
             if m > MAX_CONTACTS:  # more than the solve's bound: refused, and due again
                 w.status[S_KIND], w.status[S_ERROR_STEP] = CROWDED, step
@@ -536,14 +548,78 @@ def _world_steps_of(family, tests, name):
                 else:
                     e[k], mu[k] = w.settings[sk.RESTITUTION], w.settings[sk.FRICTION]
             tangent, p_impulse = tangent[:m], p_impulse[:m]
-            colours, v_iter, p_iter = sk.solve_arrays(
-                body_a, body_b, point, normal, depth, w.x, w.v, w.w, w.inverse_mass, inv_inertia,
-                w.settings, warm_n, warm_t, use_warm, e, mu, v1, w1, disp, turn, impulse, tangent,
-                p_impulse, touched)
+            source = source[:m]
+            # The swept test (docs/collisions.md, "Continuous collision"): the pairs of fast
+            # bodies whose contacts are all gaps, one closing within the step at the bodies'
+            # velocities, are advanced along their straight-line paths through the step; those
+            # that miss are not solved (no ghost stop). After a solve,
+            # the missed pairs of bodies it changed are swept again at their new velocities,
+            # and solved with the rest if they now meet (SWEEP_ROUNDS solves at most).
+            live = m
+            swept = solves = 0
+            pair_state = w.rows[:0]
+            tau, gap0 = w.energy[:0], w.energy[:0]
+            if w.config[C_SPECULATIVE] != 0.0 and wk.fast_bodies(w.v, w.w, w.turn_reach,
+                                                                 w.sweep_speed, w.asleep, nb,
+                                                                 fast):
+                pair_state = np.empty(p, dtype=np.int64)
+                tau, gap0 = np.zeros(p), np.empty(p)
+                swept = wk.sweep_candidates(point, normal, depth, source, w.cbody, pair_a,
+                                            pair_b, nc, nb, w.x, w.v, w.w, fast,
+                                            float(w.config[C_DT]), pair_state, gap0)
+            pending = swept
+            vel, ang = w.v, w.w
+            rounds = 0
+            while True:
+                if pending:
+                    pending = wk.sweep_start(normal, depth, source, pair_state, tau, gap0,
+                                             pair_a, pair_b, w.cbody, nc, nb, vel, ang,
+                                             w.turn_reach, float(w.config[C_G]),
+                                             float(w.config[C_DT]),
+                                             w.kinds, w.geoms, w.pool, w.centres, w.rotations)
+                if pending:
+                    _sweep(tests, pending, pair_state, tau, gap0, pair_a, pair_b, w.cbody, nc,
+                           nb, w.x, vel, ang, w.turn_reach, float(w.config[C_G]),
+                           float(w.config[C_DT]), w.centres, w.rotations, w.kinds, w.geoms,
+                           w.pool)
+                if swept:
+                    order = np.empty(m, dtype=np.int64)
+                    was = live
+                    live = wk.live_first(pair_state, source, order)
+                    if rounds > 0 and live == was:
+                        break  # none came back: the last solve stands
+                    if live < m:
+                        point, normal, depth = point[order], normal[order], depth[order]
+                        ca, cbb, keys = ca[order], cbb[order], keys[order]
+                        body_a, body_b, source = body_a[order], body_b[order], source[order]
+                        warm_n, warm_t = warm_n[order], warm_t[order]
+                        e, mu = e[order], mu[order]
+                solves += 1
+                colours, v_iter, p_iter = sk.solve_arrays(
+                    body_a[:live], body_b[:live], point[:live], normal[:live], depth[:live], w.x,
+                    w.v, w.w, w.inverse_mass, inv_inertia, w.settings, warm_n[:live],
+                    warm_t[:live], use_warm, e[:live], mu[:live], v1, w1, disp, turn,
+                    impulse[:live], tangent[:live], p_impulse[:live], touched)
+                if live == m:
+                    break
+                impulse[live:] = 0.0
+                tangent[live:] = 0.0
+                p_impulse[live:] = 0.0
+                pending = wk.sweep_again(pair_state, tau, pair_a, pair_b, w.cbody, nc, nb, v1,
+                                         w1, w.v, w.w)
+                if pending == 0:
+                    break
+                rounds += 1
+                vel, ang = v1, w1
+                if rounds == SWEEP_ROUNDS - 1:  # the last solve: every contact
+                    pair_state[:] = wk.SOLVED
+                    pending = 0
+            stats = w.stats
+            stats[SWEPT], stats[MISSED], stats[SOLVES] = swept, m - live, solves
             # 5. Checks, warm start kept, write-back, sleeping.
             spared = _check_solve(w.status, w.flagged, w.energy, float(w.config[C_GAIN_TOLERANCE]),
-                                  w.rows, w.state, w.params, w.inverse_mass, w.v, w.w, nb, body_a,
-                                  body_b, v1, w1, disp, turn, step)
+                                  w.rows, w.state, w.params, w.inverse_mass, w.v, w.w, nb,
+                                  body_a[:live], body_b[:live], v1, w1, disp, turn, step)
             if w.config[C_WARM_START] != 0.0:
                 warm_keys, warm_normal, warm_tangent = _store_warm(
                     nb, w.cbody, w.plane_normals.shape[0], w.asleep, keys, impulse, tangent,
@@ -745,6 +821,47 @@ def entry_point(name, record):
 
 
 @inline_kernel
+def _sweep(tests, pending, state, tau, gap0, pair_a, pair_b, cbody, nc, nb, x, v, w, reach, g,
+           dt, centres, rotations, kinds, geoms, pool):
+    """The swept test of the ``pending`` pairs that are PENDING in ``state`` (P,), at the
+    bodies' velocities v, w (world_kernels.sweep_place, sweep_advance): rounds of conservative
+    advancement, each one call of the narrow phase (the contact tests ``tests``) for all the
+    pairs still pending, until none is (at most SWEEP_STEPS)."""
+    which = np.empty(pending, dtype=np.int64)
+    kinds2 = np.empty(2 * pending, dtype=np.int64)
+    geoms2 = np.empty((2 * pending, geoms.shape[1]))
+    centres2, rotations2 = np.empty((2 * pending, 3)), np.empty((2 * pending, 9))
+    pa2 = np.empty(pending, dtype=np.int64)
+    pb2 = np.empty(pending, dtype=np.int64)
+    for u in range(pending):
+        pa2[u], pb2[u] = 2 * u, 2 * u + 1
+    margins2 = np.empty(pending)
+    count = 0
+    for k in range(state.shape[0]):   # the pending pairs, listed once
+        if state[k] == wk.PENDING:
+            which[count] = k
+            count += 1
+    rows = pending * nk.MAX_CONTACTS_PER_PAIR
+    point2, normal2 = np.empty((rows, 3)), np.empty((rows, 3))
+    depth2 = np.empty(rows)
+    feature2 = np.empty(rows, dtype=np.int64)
+    source2 = np.empty(rows, dtype=np.int64)
+    for step in range(wk.SWEEP_STEPS):
+        count = wk.sweep_place(state, tau, gap0, pair_a, pair_b, cbody, nc, nb, x, v, w, reach, g,
+                               dt, centres, rotations, kinds, geoms, which, count, kinds2,
+                               geoms2, centres2, rotations2, margins2)
+        if count == 0:
+            return
+        found = nk.collide_pairs_of(tests, pa2[:count], pb2[:count], kinds2[:2 * count],
+                                    geoms2[:2 * count], pool, centres2[:2 * count],
+                                    rotations2[:2 * count], margins2[:count], point2, normal2,
+                                    depth2, feature2, source2)
+        wk.sweep_advance(count, which, found, source2, normal2, depth2, state, tau, gap0, pair_a,
+                         pair_b, cbody, nc, nb, v, w, reach, g, dt, step == wk.SWEEP_STEPS - 1,
+                         kinds2, geoms2, pool, centres2, rotations2)
+
+
+@inline_kernel
 def _turned(rows, state, warn_sq):
     """1 if one of the store rows ``rows`` turns faster than its warn_sq (|omega|^2, rad^2/s^2)
     allows, or nearly (the check in Python sums the squares its own way), else 0."""
@@ -811,6 +928,7 @@ def _found_none(status, stats, energy, slow_steps, asleep, nb, p1, p2, quiet):
     step (``S_QUIET``). Its caller empties the last contacts."""
     for k in range(8):
         stats[k] = 0
+    stats[SWEPT] = stats[MISSED] = stats[SOLVES] = 0
     stats[CANDIDATE_PAIRS], stats[PLANE_PAIRS] = p1, p2
     energy[SOLVE_BEFORE] = energy[SOLVE_AFTER] = 0.0
     for k in range(nb):

@@ -40,6 +40,8 @@ class BodySpec:
     ``collision_shapes`` in the body frame (a Plane only on a static body); a scene in which no
     moving body has one skips collision detection entirely. points: named application points
     ((name, (x, y, z)) pairs, m, body frame): a wrench sent in a point's frame acts there.
+    continuous: when the body is fast, its speculative contacts are swept along its path, so
+    that one it would pass does not stop it (``ContactSettings.continuous_speed``).
     """
 
     name: str = 'body'
@@ -54,6 +56,7 @@ class BodySpec:
     static: bool = False
     colliders: tuple = ()
     points: tuple = ()
+    continuous: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not _NAME.match(self.name):
@@ -70,8 +73,9 @@ class BodySpec:
             object.__setattr__(self, name, finite_floats(name, getattr(self, name), size))
         for name in ('linear_damping', 'angular_damping'):
             object.__setattr__(self, name, rate(name, getattr(self, name)))
-        if not isinstance(self.static, bool):
-            raise ValueError(f'static must be true or false, got {self.static!r}')
+        for name in ('static', 'continuous'):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f'{name} must be true or false, got {getattr(self, name)!r}')
         object.__setattr__(self, 'colliders', tuple(self.colliders))
         for i, c in enumerate(self.colliders):
             if not is_shape(c):
@@ -197,7 +201,8 @@ def colliders_of(bodies: Sequence[BodySpec], steppers: dict[str, Stepper],
     """The colliders of ``bodies`` (a moving one as the row of its Stepper in ``steppers``,
     a static one at its initial pose) and the world's ``planes``."""
     return ColliderSet([Owner(b.name, b.colliders, pose=b.initial_state()) if b.static else
-                        Owner(b.name, b.colliders, row=steppers[b.name].row)
+                        Owner(b.name, b.colliders, row=steppers[b.name].row,
+                              continuous=b.continuous)
                         for b in bodies if b.colliders], planes)
 
 

@@ -6,8 +6,9 @@
     contact: {restitution: 0.3, friction: 0.6}   # optional; simulation.ContactSettings fields
                                         # (also velocity_iterations, position_iterations,
                                         #  slop, position_fraction, bounce_threshold,
-                                        #  speculative, sleep_time, sleep_speed,
-                                        #  rolling_resistance, torsional_friction)
+                                        #  speculative, continuous_speed, sleep_time,
+                                        #  sleep_speed, rolling_resistance,
+                                        #  torsional_friction)
     bodies:
       - name: satellite                 # topics satellite/wrench, satellite/pose, ...
         mass: 120.0                     # kg, with inertia (kg m^2): 3 moments or a 3x3 tensor
@@ -31,6 +32,8 @@
           - {type: sphere, radius: 0.06, position: [0, 0, 0.18], restitution: 0.9}
           - {type: box, size: [0.1, 0.1, 0.1], position: [0, 0, -0.18],
              orientation: [0, 0, 0.3826834, 0.9238795]}
+        continuous: true                # default: when fast, its speculative contacts are
+                                        # swept along its path (contact: continuous_speed)
       - name: ground
         static: true                    # never moves, costs nothing, infinite mass
         colliders: [{type: plane, normal: [0, 0, 1], offset: 0}]   # the plane z = 0
@@ -81,7 +84,7 @@ TOP_KEYS = {'gravity', 'contact', 'bodies', 'integrator', 'templates'}
 BODY_KEYS = {'name', 'mass', 'inertia', 'shape', 'size', 'radius', 'length', 'density',
              'file', 'scale', 'decompose', 'position', 'orientation', 'linear_velocity',
              'angular_velocity', 'linear_damping', 'angular_damping', 'static', 'colliders',
-             'points'}
+             'points', 'continuous'}
 SHAPES = {'box': {'size'}, 'sphere': {'radius'}, 'cylinder': {'radius', 'length'}}
 # a body's own shape from a mesh file: its parts' hulls (sim/meshes.py)
 MESH = 'mesh'
@@ -276,6 +279,10 @@ def _body(path: str, index: int, data: Any, where: str = '') -> BodySpec:
     if not isinstance(static, bool):
         _fail(where, 'static', f'must be true or false, got {_show(static)}')
     kwargs['static'] = static
+    continuous = data.get('continuous', True)
+    if not isinstance(continuous, bool):
+        _fail(where, 'continuous', f'must be true or false, got {_show(continuous)}')
+    kwargs['continuous'] = continuous
     shape = data.get('shape')
     dims: dict[str, Any] = {}
     roots = _roots(path)
@@ -483,6 +490,8 @@ def _contact(path: str, data: Any) -> ContactSettings:
                     or not 0 <= value <= MAX_ITERATIONS):
                 _fail(where, key, f'must be an integer in [0, {MAX_ITERATIONS}], '
                       f'got {_show(value)}')
+            values[key] = value
+        elif key == 'continuous_speed' and value == math.inf:  # .inf: no body swept
             values[key] = value
         else:
             values[key] = _number(where, key, value)

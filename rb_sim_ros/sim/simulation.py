@@ -12,6 +12,7 @@ events at the same steps reproduce a run bit for bit, whatever the scheduling wa
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
+import math
 from typing import Any, Union
 
 import numpy as np
@@ -100,6 +101,8 @@ class Config:
         out = {k: plain(v) for k, v in self.__dict__.items() if k not in ('bodies', 'contact')}
         out['bodies'] = [body_to_dict(b) for b in self.bodies]
         out['contact'] = dict(self.contact.__dict__)
+        if out['contact']['continuous_speed'] == math.inf:  # (JSON has no infinity)
+            out['contact']['continuous_speed'] = None
         return out
 
     @classmethod
@@ -109,8 +112,13 @@ class Config:
             raise ValueError(f'unknown configuration keys {sorted(unknown)}')
         data = dict(data)
         bodies = [body_from_dict(b) for b in data.pop('bodies', [{}])]
-        # Recordings made before collisions existed have no 'contact': the defaults.
-        contact = ContactSettings.from_dict(data.pop('contact', {}))
+        # Recordings made before collisions existed have no 'contact': the defaults; those
+        # made before the swept test none of its speed: none swept, as they ran (and null,
+        # JSON's stand-in for infinity, is none swept too).
+        contact = data.pop('contact', {})
+        if isinstance(contact, dict) and contact.get('continuous_speed') is None:
+            contact = dict(contact, continuous_speed=math.inf)
+        contact = ContactSettings.from_dict(contact)
         rest: dict[str, Any] = {k: (tuple(v) if isinstance(v, list) else v)
                                 for k, v in data.items()}
         return cls(bodies=tuple(bodies), contact=contact, **rest)

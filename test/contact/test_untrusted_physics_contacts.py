@@ -236,12 +236,17 @@ def test_the_fast_ball_among_the_crates_never_publishes_runaway_energy():
         assert all(math.isfinite(c) for part in sim.pose_twist(b.name) for c in part)
 
 
-@pytest.mark.xfail(strict=True, reason='a known energy gain of 1e-9 of the kinetic energy at '
-                   'e = 1 among deeply overlapping bodies (a CI run of the test above found it; '
-                   'the simultaneous-impact work of issue 33 is to remove it)')
-def test_a_fast_ball_into_coincident_overlapping_bodies_at_e_1_gains_no_energy():
+@pytest.mark.parametrize('continuous_speed', [
+    ContactSettings().continuous_speed,
+    pytest.param(math.inf, marks=pytest.mark.xfail(
+        strict=True, reason='a known energy gain of 8e-9 of the kinetic energy at e = 1 among '
+        'deeply overlapping bodies, when the contacts the ball passes are solved too (a CI '
+        'run of the test above found it)'))])
+def test_a_fast_ball_into_coincident_overlapping_bodies_at_e_1_gains_no_energy(continuous_speed):
     """The case the property test above found in a CI run (shrunk by Hypothesis): no gravity,
-    e = 1, mu = 0, a ball at 117 m/s into a sphere and a box whose centres coincide."""
+    e = 1, mu = 0, a ball at 117 m/s into a sphere and a box whose centres coincide. The gain
+    came from contacts of the ball's path with bodies it passes: the swept test leaves them
+    unsolved (default); without it (continuous_speed inf) the gain is still there."""
     specs = (BodySpec('ground', static=True, colliders=(Plane((0.0, 0.0, 1.0), 0.0),)),
              BodySpec('b0', mass=1.0, inertia=(0.1,) * 3, initial_position=(0.0, -1.0, 1.5),
                       colliders=(Sphere(0.5),)),
@@ -252,7 +257,8 @@ def test_a_fast_ball_into_coincident_overlapping_bodies_at_e_1_gains_no_energy()
              BodySpec('b3', mass=1.0, inertia=(1.0 / 6.0, 0.125 / 1.2, 0.125 / 1.2),
                       initial_position=(0.0, 0.0, 1.0), colliders=(Box((0.5, 1.0, 1.0)),)))
     world = collision_world(specs, 1e-3, (0.0, 0.0, 0.0),
-                            contact=ContactSettings(restitution=1.0, friction=0.0))
+                            contact=ContactSettings(restitution=1.0, friction=0.0,
+                                                    continuous_speed=continuous_speed))
     names = ['b0', 'b1', 'b2', 'b3']
     for _ in range(40):
         states = {n: world.state(n) for n in names}

@@ -2,7 +2,9 @@
 # Licensed under the Apache License, Version 2.0
 """Collisions in a Simulation: scenes with colliders, events, and what replay relies on."""
 
+from dataclasses import replace
 import json
+import math
 
 import numpy as np
 import pytest
@@ -59,10 +61,14 @@ def test_config_with_colliders_round_trips_exactly_through_json():
     again = Config.from_dict(json.loads(json.dumps(config.to_dict())))
     assert again == config
     assert again.body('rod').colliders == (Capsule(0.03, 0.4),)
-    # A recording made before collisions has no 'contact': the defaults.
+    # A recording made before collisions has no 'contact': the defaults, but for the swept
+    # test, which one made before it has no speed of: none swept, as it ran.
     old = config.to_dict()
     del old['contact']
-    assert Config.from_dict(old).contact == ContactSettings()
+    assert Config.from_dict(old).contact == ContactSettings(continuous_speed=math.inf)
+    old = config.to_dict()
+    del old['contact']['continuous_speed']
+    assert Config.from_dict(old).contact == replace(config.contact, continuous_speed=math.inf)
 
 
 def test_simulation_steps_the_collision_world_it_is_made_of():
