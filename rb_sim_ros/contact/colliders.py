@@ -183,7 +183,7 @@ class ColliderSet:
         for shape, _, body, position, _ in colliders:
             if body < nb:
                 r = float(np.linalg.norm(position)) + (
-                    0.0 if shape.kind == 'sphere' else shape.bounding_radius)
+                    0.0 if shapes.ROUND[shapes.kind_of(shape)] else shape.bounding_radius)
                 turn_reach[body] = max(turn_reach[body], r)
         self.turn_reach = turn_reach
         # Placed in the world (centres, rotations as 9 row-major values): a static collider

@@ -821,10 +821,10 @@ def entry_point(name, record):
 
 
 @inline_kernel
-def _sweep(tests, pending, state, tau, gap0, pair_a, pair_b, cbody, nc, nb, x, v, w, reach, g,
-           dt, centres, rotations, kinds, geoms, pool):
+def _sweep(tests, pending, state, tau, gap0, pair_a, pair_b, cbody, nc, nb, x, v, omega, reach,
+           g, dt, centres, rotations, kinds, geoms, pool):
     """The swept test of the ``pending`` pairs that are PENDING in ``state`` (P,), at the
-    bodies' velocities v, w (world_kernels.sweep_place, sweep_advance): rounds of conservative
+    bodies' velocities v, omega (world_kernels.sweep_place, sweep_advance): rounds of conservative
     advancement, each one call of the narrow phase (the contact tests ``tests``) for all the
     pairs still pending, until none is (at most SWEEP_STEPS)."""
     which = np.empty(pending, dtype=np.int64)
@@ -847,8 +847,8 @@ def _sweep(tests, pending, state, tau, gap0, pair_a, pair_b, cbody, nc, nb, x, v
     feature2 = np.empty(rows, dtype=np.int64)
     source2 = np.empty(rows, dtype=np.int64)
     for step in range(wk.SWEEP_STEPS):
-        count = wk.sweep_place(state, tau, gap0, pair_a, pair_b, cbody, nc, nb, x, v, w, reach, g,
-                               dt, centres, rotations, kinds, geoms, which, count, kinds2,
+        count = wk.sweep_place(state, tau, gap0, pair_a, pair_b, cbody, nc, nb, x, v, omega, reach,
+                               g, dt, centres, rotations, kinds, geoms, which, count, kinds2,
                                geoms2, centres2, rotations2, margins2)
         if count == 0:
             return
@@ -857,7 +857,8 @@ def _sweep(tests, pending, state, tau, gap0, pair_a, pair_b, cbody, nc, nb, x, v
                                     rotations2[:2 * count], margins2[:count], point2, normal2,
                                     depth2, feature2, source2)
         wk.sweep_advance(count, which, found, source2, normal2, depth2, state, tau, gap0, pair_a,
-                         pair_b, cbody, nc, nb, v, w, reach, g, dt, step == wk.SWEEP_STEPS - 1,
+                         pair_b, cbody, nc, nb, v, omega, reach, g, dt,
+                         step == wk.SWEEP_STEPS - 1,
                          kinds2, geoms2, pool, centres2, rotations2)
 
 

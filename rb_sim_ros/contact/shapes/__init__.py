@@ -29,7 +29,9 @@ and nothing else needs to know more of it:
   facing that way, in order round the face (a polygon, a segment, a point) with their
   features, read through ``core_point_of`` and the like; and, optional, ``CURVED = True``
   when the core's farthest point turns with every direction (no face, edge or corner: an
-  ellipsoid's), which the convex narrow phase reads through ``CURVED`` to refine its normal.
+  ellipsoid's), which the convex narrow phase reads through ``CURVED`` to refine its normal;
+  optional, ``ROUND = True`` when a turn about its centre leaves it as it was (a ball's), which
+  the swept test reads through ``ROUND`` (a spinning ball closes on nothing).
 
 The contact tests of each pair of kinds are rows of ``narrow_kernels.PAIR_TESTS``. A new kind
 is a module here, its place in ``KINDS``, and its rows there (docs/collisions.md).
@@ -135,6 +137,8 @@ def _core_source(name: str, args: str, absent: str, doc: str) -> str:
 
 # Whether each kind's core is curved (by number): its module's CURVED, else False.
 CURVED = tuple(bool(getattr(m, 'CURVED', False)) for m in KINDS)
+# Whether a turn about its centre leaves each kind as it was (by number): its module's ROUND.
+ROUND = tuple(bool(getattr(m, 'ROUND', False)) for m in KINDS)
 
 core_radius_of = generated_kernel(globals(), 'core_radius_of', _core_source(
     'core_radius', 'geom', 'math.nan', 'The rounding (m) of the core of a shape of ``kind``.'))

@@ -17,6 +17,7 @@ KIND = 0
 FIELDS = ('radius',)      # what a scene file gives, all of them needed
 PLACED = True             # it takes a position and an orientation in its body
 STATIC_ONLY = False
+ROUND = True              # a turn about its centre leaves it as it was
 
 
 @dataclass(frozen=True)
