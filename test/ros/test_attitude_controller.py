@@ -77,8 +77,10 @@ def test_the_controller_settles_the_body_on_its_target(start_sim, probe, ros_env
         sim.stop()
     rec = replay.load(str(f))
     target = np.array(ctl.quaternion_from_rpy(*TARGET_RPY))
+    # The first 6 s, while the controller ran: after it is stopped (a loaded machine may take
+    # seconds to end it) the body drifts with what is left of its rate.
     rows = [(o[5] * 1e-9, o[4].pose.pose.orientation) for o in rec.outputs
-            if o[2] == 'odom']
+            if o[2] == 'odom' and o[5] <= 6e9]
     t = np.array([r[0] for r in rows])
     errors = np.array([ctl.error_quaternion(target, (o.x, o.y, o.z, o.w)) for _, o in rows])
     errors *= np.sign(errors[:, 3:4])
@@ -96,6 +98,6 @@ def test_the_controller_settles_the_body_on_its_target(start_sim, probe, ros_env
           f'{overshoot:.2%} (theory {overshoot_theory:.2%})')
     assert settled_at < 1.5 * settle_theory, (settled_at, overshoot)
     assert overshoot < overshoot_theory + 0.04, (settled_at, overshoot)
-    assert angle[-1] < 0.005  # at rest on the target
+    assert t[-1] > 5.9 and angle[-1] < 0.005, (t[-1], angle[-1])  # at rest on the target
     # The run (its commands arrived when DDS delivered them) replays bit for bit.
     assert replay.verify(str(f)).identical
