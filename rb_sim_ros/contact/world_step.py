@@ -404,16 +404,17 @@ def _world_steps_of(family, tests, name):
                 w.status[S_KIND], w.status[S_ERROR_STEP] = CROWDED, step
                 w.status[S_UNCHECKED] = 1
                 w.stats[CONTACTS] = 0  # none: the narrow phase did not run
-            if w.status[S_KIND] != OK:  # a woken body failed its step: the step stops there
-                point, normal = np.zeros((0, 3)), np.zeros((0, 3))
-                depth, impulse = np.zeros(0), np.zeros(0)
-                ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-                collided = True
-                break
             # The last pass's contacts between sleepers (or a sleeper and the static world): no
             # pass finds them while they sleep (they pair like static colliders), and nothing
-            # of them has moved, so they are kept for reads and markers, after this pass's own.
+            # of them has moved, so they are kept for reads and markers, after this pass's own
+            # (and alone when the step stops here).
             keep = _kept(nb, w.cbody, w.asleep, was_ca, was_cbb, any_asleep)
+            if w.status[S_KIND] != OK:  # crowded, or a woken body failed: the step stops here
+                point, normal, depth, impulse, ca, cbb = _with_kept(
+                    point[:0], normal[:0], depth[:0], impulse[:0], ca[:0], cbb[:0], keep,
+                    was_point, was_normal, was_depth, was_impulse, was_ca, was_cbb)
+                collided = True
+                break
             # Planes: the awake moving colliders only.
             count = 0
             for k in range(w.dyn.shape[0]):
@@ -500,9 +501,9 @@ def _world_steps_of(family, tests, name):
             if m > MAX_CONTACTS:  # more than the solve's bound: refused, and due again
                 w.status[S_KIND], w.status[S_ERROR_STEP] = CROWDED, step
                 w.status[S_UNCHECKED] = 1
-                point, normal = np.zeros((0, 3)), np.zeros((0, 3))
-                depth, impulse = np.zeros(0), np.zeros(0)
-                ca, cbb = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+                point, normal, depth, impulse, ca, cbb = _with_kept(
+                    point[:0], normal[:0], depth[:0], was_impulse[:0], was_ca[:0], was_cbb[:0],
+                    keep, was_point, was_normal, was_depth, was_impulse, was_ca, was_cbb)
                 collided = True
                 break
             ca = np.empty(m, dtype=np.int64)

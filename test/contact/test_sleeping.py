@@ -5,6 +5,7 @@
 import os
 import subprocess
 import sys
+import textwrap
 
 import numpy as np
 import pytest
@@ -479,3 +480,49 @@ def test_a_sleeping_stack_keeps_its_contacts_for_reads_and_markers_across_a_spaw
     deleted.step(1)
     assert 'box1' not in deleted.sleeping
     assert any('box1' in (c.a, c.b) for c in deleted.last_contacts())
+
+
+def test_a_refused_step_keeps_the_contacts_of_the_sleepers():
+    """A step refused (more contacts than the solve's bound) leaves no contact of the awake
+    bodies, which it did not solve, but those of the sleepers stay as they were: nothing of
+    them moved. Interpreted (NUMBA_DISABLE_JIT=1, where the bound is read when the step runs),
+    with the bound at 6: three boxes asleep on the ground, two of them woken by a wrench, make
+    8 contacts."""
+    code = textwrap.dedent("""
+        from rb_sim_ros.contact import world_step
+        from rb_sim_ros.contact.collision_shapes import Box, Plane
+        from rb_sim_ros.core.rigid_body import Wrench
+        from rb_sim_ros.core.stepper import IntegrationError
+        from rb_sim_ros.sim.bodies import collision_world
+        from rb_sim_ros.sim.simulation import BodySpec, ContactSettings
+        world_step.MAX_CONTACTS = 12
+        boxes = [BodySpec(f'box{i}', 1.0, (1 / 150,) * 3, initial_position=(0.5 * i, 0, 0.1),
+                          colliders=(Box((0.2,) * 3),)) for i in range(3)]
+        world = collision_world(boxes, 0.01, (0, 0, -9.81), planes=(Plane(),),
+                                contact=ContactSettings(friction=0.5, sleep_time=0.1))
+        for _ in range(300):
+            world.step(1)
+            if len(world.sleeping) == 3:
+                break
+        seen = lambda: sorted((c.a, c.b, c.point.tolist(), c.depth, c.normal_impulse)
+                              for c in world.last_contacts())
+        before = seen()
+        print(len(world.sleeping), len(before))
+        world_step.MAX_CONTACTS = 6
+        for name in ('box1', 'box2'):
+            world.steppers[name].set_wrench(Wrench((0.0, 0.0, 1.0)))
+        try:
+            world.step(1)
+            print('stepped')
+        except IntegrationError as e:
+            print('refused' if 'MAX_CONTACTS' in str(e) else str(e))
+        print(world.sleeping, seen() == [c for c in before if c[0] == 'box0'], len(seen()))
+        """)
+    env = dict(os.environ, NUMBA_DISABLE_JIT='1')
+    run = subprocess.run([sys.executable, '-c', code], env=env, capture_output=True,
+                         text=True, timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
+    asleep, refused, after = run.stdout.strip().splitlines()
+    assert asleep == '3 12'  # all asleep, 4 contacts a box
+    assert refused == 'refused'
+    assert after == "['box0'] True 4"
