@@ -44,9 +44,9 @@ def _wrench(fx, tz):
     return w
 
 
-def _replay(installed, env, *args):
+def _replay(installed, env, *args, timeout=120):
     return subprocess.run([str(installed / 'lib' / 'rb_sim_ros' / 'replay'), *args], env=env,
-                          capture_output=True, text=True, timeout=120)
+                          capture_output=True, text=True, timeout=timeout)
 
 
 def _rosbags_count(path):
@@ -479,7 +479,9 @@ def test_a_first_start_steps_while_compiling_and_records_the_compiled_bits(
     log = sim.output()
     assert 'stepping in the interpreter' in log and 'stepping compiled from step' in log, log
     assert 'compiling in this process instead' not in log, log  # the child compiled them
-    result = _replay(installed, env, '--verify', str(f))
+    # The recording is as long as the compilation took (minutes of sim time, hundreds of
+    # thousands of messages on a loaded machine): its check gets the compilation's bound.
+    result = _replay(installed, env, '--verify', str(f), timeout=900)
     assert result.returncode == 0, result.stdout + result.stderr
     assert 'identical: every output message re-simulated bit for bit' in result.stdout
 
