@@ -449,19 +449,32 @@ def test_replay_stops_on_sigint_without_a_traceback(probe, installed, ros_env, t
 
 def test_a_first_start_steps_while_compiling_and_records_the_compiled_bits(
         probe, installed, ros_env, tmp_path):
-    """No compiled kernels in the cache (a first start from a source checkout): the collision
-    demo moves before they are compiled, stepped in the interpreter while a child process
-    compiles them; then the node goes on compiled, and the recording of both tiers replays
-    bit for bit (replay steps compiled only)."""
+    """No compiled kernels in the cache (a first start from a source checkout): two balls
+    bouncing on the ground move before their kernels are compiled, stepped in the interpreter
+    while a child process compiles them; then the node goes on compiled, and the recording of
+    both tiers replays bit for bit (replay steps compiled only). (Two contact tests, whose
+    part compiles in a minute; the scene's eight took 15 minutes of a loaded CI.)"""
     env = dict(ros_env, NUMBA_CACHE_DIR=str(tmp_path / 'cache'))  # empty: nothing compiled
+    env.pop('RB_SIM_ROS_CONTACT_TESTS', None)  # as a user's: the scene's own tests (conftest)
     f = tmp_path / 'run.mcap'
-    demo = Path(__file__).resolve().parents[2] / 'scenes' / 'collisions.yaml'
+    scene = tmp_path / 'balls.yaml'
+    scene.write_text(
+        'gravity: [0.0, 0.0, -9.81]\n'
+        'contact: {restitution: 0.9, friction: 0.5}\n'
+        'bodies:\n'
+        '  - {name: a, shape: sphere, radius: 0.1, density: 500.0, position: [0.0, 0.0, 1.0],\n'
+        '     linear_velocity: [0.5, 0.0, 0.0], colliders: shape}\n'
+        '  - {name: b, shape: sphere, radius: 0.1, density: 500.0, position: [0.6, 0.0, 1.5],\n'
+        '     colliders: shape}\n'
+        '  - name: ground\n'
+        '    static: true\n'
+        '    colliders: [{type: plane, normal: [0.0, 0.0, 1.0], offset: 0.0}]\n')
     arrivals = []  # (kind, value) in the order received: one callback thread
     probe.node.create_subscription(
         PoseArray, 'poses', lambda m: arrivals.append(('pose', stamp_ns(m.header.stamp))), 10)
     probe.node.create_subscription(DiagnosticArray, '/diagnostics', lambda m: arrivals.append(
         ('kernels', {v.key: v.value for s in m.status for v in s.values}.get('kernels'))), 10)
-    sim = ros_harness.SimProcess(installed, env, ['--ros-args', '-p', f'scene_file:={demo}',
+    sim = ros_harness.SimProcess(installed, env, ['--ros-args', '-p', f'scene_file:={scene}',
                                                   '-p', f'record:={f}'], tmp_path)
 
     def kernels():
