@@ -341,11 +341,20 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
               f'at ten steps a call ({on_plane[1]:.1f}x and {on_plane[3]:.1f}x at one)'))
     q.append((figs, '#Collisions', f'a hull on a hull {hull_ratio[("hull on a hull", "10")]:.1f}x '
               f'({hull_ratio[("hull on a hull", "1")]:.1f}x)'))
+    q.append((figs, '#Collisions', f'{hull_ratio[("pebble on terrain", "10")]:.1f}x MuJoCo on '
+              f'its height field ({hull_ratio[("pebble on terrain", "1")]:.1f}x)'))
 
-    hull_pile = load('hull_pile_bench', folder)['seconds_per_step']
-    ms = (hull_pile['rb_sim_ros'] * 1e3, hull_pile['MuJoCo Newton'] * 1e3)
+    hull_pile = load('hull_pile_bench', folder)
+    per_step = hull_pile['seconds_per_step']
+    ms = (per_step['rb_sim_ros'] * 1e3, per_step['MuJoCo Newton'] * 1e3,
+          per_step['rb_sim_ros, terrain bin'] * 1e3)
     q.append((figs, '#Collisions', f"{ms[0]:.3f} ms a step against MuJoCo's "
               f'{ms[1]:.3f}, {ms[0] / ms[1]:.2f}x'))
+    deep = hull_pile['deepest_penetration']
+    q.append((figs, '#Collisions', f'{ms[2]:.3f} ms, {ms[2] / ms[1]:.2f}x MuJoCo '
+              f"on its box walls; deepest penetration {deep['rb_sim_ros, terrain bin'] * 1e3:.2f} "
+              f"mm, {deep['rb_sim_ros'] * 1e3:.2f} in the box bin, MuJoCo's "
+              f"{deep['MuJoCo Newton'] * 1e3:.2f}"))
 
     pile = load('pile_bench', folder)
     rows, out = pile['rows'], pile['outcomes']

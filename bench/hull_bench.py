@@ -12,14 +12,17 @@ The scenes, each moving (or pressed, awake) the whole time it is timed:
 * ``pebble on the ground``: the hull of 40 points on an ellipsoid (0.15, 0.1, 0.08 m,
   seeded), dropped 2 cm turned: it settles on a face (hull-plane);
 * ``hull on a hull``: a block's hull (0.2 m cube) dropped 1 cm onto a static 1 m cube's hull
-  (hull-hull: GJK, EPA and the clipped faces every step).
+  (hull-hull: GJK, EPA and the clipped faces every step);
+* ``pebble on terrain``: the pebble dropped so on a flat floor of triangles, 10 x 10 tiles of
+  10 cm (hull-terrain: the hierarchy's walk, each triangle near it by the convex phase, the
+  inner edges); MuJoCo's the same floor as its terrain, a height field of 11 x 11 samples.
 
 Checks first (exit 1 if one fails), for both engines: the post on its side (its centre at
-0.05 m), the pebble's lowest vertex on the ground (1 mm), the block on the cube (1 mm). Then
-the time per step (median over a run's calls, best of the repeats) at one step a call and ten
-(``step(10)``, ``mj_step(m, d, 10)``), MuJoCo with its default Newton solver, dt = 1 ms, no
-sleeping on either side; ratios ours / MuJoCo. The bodies have the same mass and inertia on
-both sides (ours, from the hull, given to MuJoCo's body by ``<inertial>``).
+0.05 m), the pebble's lowest vertex on the ground or the floor (1 mm), the block on the cube
+(1 mm). Then the time per step (median over a run's calls, best of the repeats) at one step
+a call and ten (``step(10)``, ``mj_step(m, d, 10)``), MuJoCo with its default Newton solver,
+dt = 1 ms, no sleeping on either side; ratios ours / MuJoCo. The bodies have the same mass
+and inertia on both sides (ours, from the hull, given to MuJoCo's body by ``<inertial>``).
 
 Writes docs/bench/hull_bench.json (or ``--json``; ``--quick`` writes none unless asked).
 """
@@ -31,7 +34,7 @@ import sys
 import numpy as np
 
 from bench.contact_step_bench import scenes_main
-from rb_sim_ros.contact.collision_shapes import Hull, Plane
+from rb_sim_ros.contact.collision_shapes import Hull, Plane, Terrain
 from rb_sim_ros.core import so3
 from rb_sim_ros.sim.simulation import BodySpec
 
@@ -111,6 +114,19 @@ def scenes() -> dict:
                 'friction="0.5 0.005 0.0001"/>')
     cube_asset = f'<mesh name="cube" vertex="{_numbers(cube.vertices)}"/>'
     q0 = _quat(np.eye(3))
+    tiles, tile = 10, 0.1
+    xs = (np.arange(tiles + 1) - tiles / 2) * tile
+    corners = [(float(x), float(y), 0.0) for y in xs for x in xs]
+    cells = []
+    for j in range(tiles):
+        for i in range(tiles):
+            a = j * (tiles + 1) + i
+            b, c, d = a + 1, a + tiles + 1, a + tiles + 2
+            cells += [(a, b, d), (a, d, c)] if (i + j) % 2 else [(a, b, c), (b, d, c)]
+    floor = BodySpec('floor', static=True, colliders=(Terrain(corners, cells),))
+    field = (f'<hfield name="floor" nrow="{tiles + 1}" ncol="{tiles + 1}" '
+             f'size="{tiles * tile / 2} {tiles * tile / 2} 0.1 0.05"/>')
+    field_xml = '<geom type="hfield" hfield="floor" friction="0.5 0.005 0.0001"/>'
     return {
         'tipping post': (
             [body('b', post, at_post, lean)], (Plane((0, 0, 1), 0.0),), 0.0, 0.5,
@@ -122,6 +138,9 @@ def scenes() -> dict:
             [table, body('b', block, at_block, np.eye(3))], (Plane((0, 0, 1), 0.0),), 0.0,
             0.5, xml(block[3] + cube_asset, ground + cube_xml, (at_block, q0, block[4])),
             1000, {}),
+        'pebble on terrain': (
+            [floor, body('b', pebble, at_pebble, turn)], (), 0.0, 0.5,
+            xml(pebble[3] + field, field_xml, (at_pebble, _quat(turn), pebble[4])), 1000, {}),
     }
 
 
@@ -136,8 +155,8 @@ def check(name: str, world, data, scene) -> list[str]:
         for who, xx in (('rb_sim_ros', x), ('MuJoCo', qx)):
             if abs(xx[2] - POST[0] / 2) > 1e-3:
                 problems.append(f'{who}: post at {xx[2]:.4f} m, not on its side')
-    elif name == 'pebble on the ground':
-        hull = scene[0][0].colliders[0]
+    elif name in ('pebble on the ground', 'pebble on terrain'):
+        hull = next(b for b in scene[0] if b.name == 'b').colliders[0]
         for who, xx, r in (('rb_sim_ros', x, st.rotation), ('MuJoCo', qx, qr)):
             lowest = float((xx + hull.vertices @ np.asarray(r).T)[:, 2].min())
             if abs(lowest) > 1e-3:

@@ -1,7 +1,7 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-"""Collision shapes: sphere, box, capsule, cylinder on any body; infinite plane on static
-bodies only.
+"""Collision shapes: sphere, box, capsule, cylinder, hull, ellipsoid on any body; infinite
+plane and triangle-mesh terrain on static bodies only.
 
     Sphere(radius=0.1)
     Box(size=(0.4, 0.3, 0.2), position=(0.0, 0.0, 0.1))      # full edge lengths, like scene.py
@@ -43,8 +43,9 @@ from rb_sim_ros.contact.shapes.cylinder import Cylinder
 from rb_sim_ros.contact.shapes.hull import Hull
 from rb_sim_ros.contact.shapes.plane import Plane, UNIT_TOLERANCE
 from rb_sim_ros.contact.shapes.sphere import Sphere
+from rb_sim_ros.contact.shapes.terrain import Terrain
 
 __all__ = ['Box', 'BY_NAME', 'Capsule', 'Cylinder', 'Hull', 'IDENTITY_XYZW', 'is_shape',
            'KINDS', 'MAX_LENGTH', 'MIN_LENGTH', 'NAMES', 'ORIGIN', 'Plane', 'RANK', 'Shape',
-           'shape_from_dict', 'SHAPE_TYPES', 'shape_to_dict', 'Sphere', 'UNIT_TOLERANCE',
-           'world_pose']
+           'shape_from_dict', 'SHAPE_TYPES', 'shape_to_dict', 'Sphere', 'Terrain',
+           'UNIT_TOLERANCE', 'world_pose']

@@ -57,7 +57,7 @@ import math
 
 import numpy as np
 
-from rb_sim_ros.contact import convex_kernels, shapes
+from rb_sim_ros.contact import convex_kernels, shapes, terrain_kernels
 from rb_sim_ros.contact.contact_geometry import (apply as _apply, apply_t as _apply_t,
                                                  clamp as _clamp, clip as _clip,
                                                  column as _column, put as _put, TINY_LENGTH,
@@ -70,9 +70,12 @@ from rb_sim_ros.core.jit import (generated_kernel, inline_kernel, kernel, litera
 KIND_SPHERE, KIND_CAPSULE, KIND_BOX, KIND_PLANE, KIND_CYLINDER, KIND_HULL, KIND_ELLIPSOID = (
     shapes.sphere.KIND, shapes.capsule.KIND, shapes.box.KIND, shapes.plane.KIND,
     shapes.cylinder.KIND, shapes.hull.KIND, shapes.ellipsoid.KIND)
+KIND_TERRAIN = shapes.terrain.KIND
 # The most contacts of one pair: capsule-box, its nearest point and 8 candidates (2 ends, 6
 # face crossings) on the same face. (Box-plane 8 vertices, box-box 4, capsule-capsule 2.)
 MAX_CONTACTS_PER_PAIR = 9
+if terrain_kernels.WRITTEN != MAX_CONTACTS_PER_PAIR:
+    raise ImportError('terrain_kernels.WRITTEN must be narrow_kernels.MAX_CONTACTS_PER_PAIR')
 
 # Two directions whose cross product is shorter than this are parallel (no edge-edge axis).
 PARALLEL_EPS = 1e-6
@@ -937,8 +940,30 @@ def _plane_row(kind):
     return test
 
 
+@kernel
+def _pair_terrain(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool, margin,
+                  point, normal, depth, feature, start, kind):
+    """A solid kind against a terrain (``terrain_kernels.terrain_pair``), the solid first."""
+    if swap:
+        return terrain_kernels.terrain_pair(kind, geom_b, centre_b, rot_b, geom_a, centre_a,
+                                            rot_a, pool, margin, point, normal, depth, feature,
+                                            start)
+    return terrain_kernels.terrain_pair(kind, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b,
+                                        pool, margin, point, normal, depth, feature, start)
+
+
+def _terrain_row(kind):
+    """The test of the row (``kind``, terrain) of a solid kind."""
+    def test(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool, margin,
+             point, normal, depth, feature, start):
+        return _pair_terrain(tests, swap, geom_a, centre_a, rot_a, geom_b, centre_b, rot_b, pool,
+                             margin, point, normal, depth, feature, start, int(kind))
+    test.__name__ = test.__qualname__ = f'_pair_{KIND_NAMES[kind]}_terrain'
+    return test
+
+
 # (low kind, high kind, test): a row's index is its bit in a set of tests. Not plane-plane: two
-# planes are both static.
+# planes are both static (nor plane-terrain, terrain-terrain).
 PAIR_TESTS = (
     (KIND_SPHERE, KIND_SPHERE, _pair_sphere_sphere),
     (KIND_SPHERE, KIND_CAPSULE, _pair_sphere_capsule),
@@ -967,6 +992,12 @@ PAIR_TESTS = (
     (KIND_CYLINDER, KIND_ELLIPSOID, _convex_row(KIND_CYLINDER, KIND_ELLIPSOID)),
     (KIND_HULL, KIND_ELLIPSOID, _convex_row(KIND_HULL, KIND_ELLIPSOID)),
     (KIND_ELLIPSOID, KIND_ELLIPSOID, _convex_row(KIND_ELLIPSOID, KIND_ELLIPSOID)),
+    (KIND_SPHERE, KIND_TERRAIN, _terrain_row(KIND_SPHERE)),
+    (KIND_CAPSULE, KIND_TERRAIN, _terrain_row(KIND_CAPSULE)),
+    (KIND_BOX, KIND_TERRAIN, _terrain_row(KIND_BOX)),
+    (KIND_CYLINDER, KIND_TERRAIN, _terrain_row(KIND_CYLINDER)),
+    (KIND_HULL, KIND_TERRAIN, _terrain_row(KIND_HULL)),
+    (KIND_ELLIPSOID, KIND_TERRAIN, _terrain_row(KIND_ELLIPSOID)),
 )
 PAIR_KINDS = tuple((low, high) for low, high, _ in PAIR_TESTS)
 PAIR_BIT = {pair: 1 << i for i, pair in enumerate(PAIR_KINDS)}

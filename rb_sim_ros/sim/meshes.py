@@ -2,7 +2,8 @@
 # Licensed under the Apache License, Version 2.0
 """Mesh files as convex hulls: the parts of a mesh file (each connected piece of its
 surface, or each object of a file of several: the parts of a convex decomposition), each the
-points of one ``Hull`` collider, and the mass properties of the solid they make.
+points of one ``Hull`` collider, and the mass properties of the solid they make; or as a
+terrain's surface (``mesh_surface``: all its triangles).
 
 A mesh file is untrusted input: ``mesh_parts`` reads one only from under the folders it is
 allowed (``roots``: the scene file's folder), of at most MAX_BYTES, of a binary or plain-text
@@ -197,6 +198,56 @@ def _parts(name: str, data: bytes, kind: str, decompose: bool) -> list[np.ndarra
         raise
     except Exception as e:  # a parser's or its processing's error on bad bytes: any kind
         raise MeshError(f'{name}: not a readable mesh ({type(e).__name__}: '
+                        f'{short(str(e))})') from None
+
+
+def mesh_surface(name: str, roots: Sequence[Path], scale=1.0) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (V, 3) in m, the file's frame times ``scale``; triangles (T, 3) of vertex
+    indices, as the file orders their corners) of the whole surface of the mesh file ``name``
+    (every object of it, shared vertices merged): a terrain's. Read as ``mesh_parts`` reads."""
+    path = resolve(name, roots)
+    scale = _scale(name, scale)
+    shown = _shown(name)
+    try:
+        data = path.read_bytes()[:MAX_BYTES + 1]
+    except OSError as e:
+        raise MeshError(f'{shown}: cannot be read ({type(e).__name__})') from None
+    if len(data) > MAX_BYTES:
+        raise MeshError(f'{shown}: more than MAX_BYTES = {MAX_BYTES}')
+    try:
+        import trimesh
+    except ImportError:
+        raise MeshError(f'{shown}: reading mesh files needs trimesh (pip install trimesh, or '
+                        'rosdep: python3-trimesh)') from None
+    try:
+        loaded = trimesh.load(io.BytesIO(data), file_type=path.suffix.lower()[1:],
+                              process=False, resolver=None, skip_materials=True)
+        if isinstance(loaded, trimesh.Scene):
+            total = sum(len(getattr(loaded.geometry.get(loaded.graph[n][1]), 'vertices', ()))
+                        for n in loaded.graph.nodes_geometry)
+        else:
+            total = len(getattr(loaded, 'vertices', ()))
+        if total > MAX_VERTICES:
+            raise MeshError(f'{shown}: {total} vertices, more than MAX_VERTICES = '
+                            f'{MAX_VERTICES} (decimate it first)')
+        if isinstance(loaded, trimesh.Scene):
+            found = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)]
+        else:
+            found = [loaded] if isinstance(loaded, trimesh.Trimesh) else []
+        found = [m for m in found if len(m.faces)]
+        if not found:
+            raise MeshError(f'{shown}: holds no triangles')
+        mesh = trimesh.util.concatenate(found) if len(found) > 1 else found[0]
+        vertices = np.asarray(mesh.vertices, dtype=np.float64)
+        if not np.all(np.isfinite(vertices)):
+            raise MeshError(f'{shown}: a vertex is not finite')
+        mesh.merge_vertices()
+        return np.asarray(mesh.vertices, dtype=np.float64) * scale, \
+            np.asarray(mesh.faces, dtype=np.int64)
+    except MeshError:
+        raise
+    except Exception as e:  # a parser's or its processing's error on bad bytes: any kind
+        raise MeshError(f'{shown}: not a readable mesh ({type(e).__name__}: '
                         f'{short(str(e))})') from None
 
 

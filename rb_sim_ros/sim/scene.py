@@ -89,6 +89,8 @@ SHAPES = {'box': {'size'}, 'sphere': {'radius'}, 'cylinder': {'radius', 'length'
 # a body's own shape from a mesh file: its parts' hulls (sim/meshes.py)
 MESH = 'mesh'
 MESH_KEYS = {'file', 'scale', 'decompose'}
+# a terrain's triangles given inline (vertices, triangles) or read from a mesh file (file, scale)
+TERRAIN = shapes.terrain.NAME
 # a kind of shapes.KINDS, 'shape': the body's own shape (its size, mass and inertia), or
 # 'mesh': the hulls of the parts of a mesh file
 COLLIDER_TYPES = tuple(sorted(shapes.NAMES + ('shape', MESH)))
@@ -424,6 +426,22 @@ def _mesh_colliders(data: dict, roots) -> list:
     return meshes.hulls(parts, str(data['file']), **placement)
 
 
+def _terrain_from_file(data: dict, roots) -> Any:
+    """The terrain of a ``{type: terrain, file, scale, position, orientation, restitution,
+    friction}`` collider: its mesh file's whole surface."""
+    allowed = {'type', 'file', 'scale', 'position', 'orientation', 'restitution', 'friction'}
+    unknown = sorted(str(k) for k in set(data) - allowed)
+    if unknown:
+        raise ValueError(f'{TERRAIN} from a file: unknown keys {_show(unknown)} (allowed: '
+                         f'{sorted(allowed)})')
+    vertices, triangles = meshes.mesh_surface(data['file'], roots, data.get('scale', 1.0))
+    given = {k: v for k, v in data.items() if k not in ('file', 'scale')}
+    try:
+        return shape_from_dict({**given, 'vertices': vertices, 'triangles': triangles})
+    except ValueError as e:
+        raise ValueError(f"{_show(data['file'])}: {e}") from None
+
+
 def _colliders(where: str, colliders: Any, shape: Any, dims: dict, static: bool,
                roots=()) -> tuple:
     """The collision shapes of a body: a list of collision_shapes mappings (or of ``{type:
@@ -456,6 +474,8 @@ def _colliders(where: str, colliders: Any, shape: Any, dims: dict, static: bool,
                 out.extend(_own_shape(shape, dims, {k: v for k, v in c.items() if k != 'type'}))
             elif kind == MESH:
                 out.extend(_mesh_colliders(c, roots))
+            elif kind == TERRAIN and 'file' in c:
+                out.append(_terrain_from_file(c, roots))
             else:
                 out.append(shape_from_dict(c))
         except (ValueError, TypeError, ArithmeticError) as e:

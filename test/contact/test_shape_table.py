@@ -34,6 +34,11 @@ EXAMPLES = {
              'orientation': [0.0, 0.0, 0.3826834323650898, 0.9238795325112867]},
     'ellipsoid': {'type': 'ellipsoid', 'radii': [0.3, 0.2, 0.15], 'position': [0.0, 0.0, 0.1],
                   'orientation': [0.0, 0.3826834323650898, 0.0, 0.9238795325112867]},
+    # a square roof facing down (its triangles clockwise seen from above), turned and placed
+    'terrain': {'type': 'terrain', 'vertices': [[-0.5, -0.4, 0.0], [0.5, -0.4, 0.0],
+                                                [0.5, 0.4, 0.0], [-0.5, 0.4, 0.0]],
+                'triangles': [[0, 2, 1], [0, 3, 2]], 'position': [0.0, 0.0, 0.05],
+                'orientation': [0.0, 0.0, 0.3826834323650898, 0.9238795325112867]},
 }
 SOLIDS = ('sphere', 'capsule', 'box', 'cylinder', 'hull', 'ellipsoid')
 Z_UP = np.array([0.0, 0.0, 1.0])
@@ -52,7 +57,8 @@ def test_every_kind_keeps_the_protocol_and_reads_back_as_written():
         row = shapes.packed(shape, np.eye(3), shapes.Pool())
         assert row.shape == (nk.GEOM_WIDTH,) and np.all(np.isfinite(row))
     # the ranks of the recordings: a new kind comes last
-    assert shapes.NAMES == ('sphere', 'capsule', 'box', 'plane', 'cylinder', 'hull', 'ellipsoid')
+    assert shapes.NAMES == ('sphere', 'capsule', 'box', 'plane', 'cylinder', 'hull', 'ellipsoid',
+                            'terrain')
 
 
 def _reach(shape, rotation, direction) -> float:
@@ -74,6 +80,12 @@ def _reach(shape, rotation, direction) -> float:
         local = rotation.T @ d * np.array(shape.radii) ** 2
         point = rotation @ (local / math.sqrt(float(local @ (rotation.T @ d))))
         return float(point @ d)
+    if shape.kind == 'terrain':  # the box of its vertices (its own axes): a bound of them
+        v = np.array(shape.vertices)
+        low, high = v.min(axis=0), v.max(axis=0)
+        return max(float(rotation @ np.array([(low, high)[i][0], (low, high)[j][1],
+                                              (low, high)[k][2]]) @ d)
+                   for i in (0, 1) for j in (0, 1) for k in (0, 1))
     hx, hy, hz = shape.half_extents
     corners = [rotation @ np.array([sx * hx, sy * hy, sz * hz])
                for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
@@ -82,7 +94,7 @@ def _reach(shape, rotation, direction) -> float:
 
 def test_a_support_is_the_farthest_point_and_bounds_hold_the_shape():
     rng = np.random.default_rng(7)
-    solids = [shapes.shape_from_dict(EXAMPLES[n]) for n in SOLIDS]
+    solids = [shapes.shape_from_dict(EXAMPLES[n]) for n in SOLIDS + ('terrain',)]
     for _ in range(40):
         rotation = so3.exp(rng.normal(size=3))
         direction = rng.normal(size=3)

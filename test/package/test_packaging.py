@@ -23,7 +23,8 @@ from support import ros_harness
 
 ROOT = Path(__file__).resolve().parents[2]
 SHARE_FILES = ('launch/sim.launch.py', 'config/params.yaml', 'rviz/rb_sim.rviz',
-               'foxglove/rb_sim_layout.json', 'scenes/collisions.yaml', 'package.xml')
+               'foxglove/rb_sim_layout.json', 'scenes/collisions.yaml', 'scenes/terrain.yaml',
+               'package.xml')
 
 
 def _params_file(path: Path) -> dict:

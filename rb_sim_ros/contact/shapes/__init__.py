@@ -4,7 +4,7 @@
 of a kind only through this table (as MuJoCo's geom types index its collision table).
 
 A kind's module (``sphere``, ``capsule``, ``box``, ``plane``, ``cylinder``, ``hull``,
-``ellipsoid``) holds,
+``ellipsoid``, ``terrain``) holds,
 and nothing else needs to know more of it:
 
 * ``NAME`` (a scene file's ``type``) and ``KIND``, its number: its index in ``KINDS`` and its
@@ -44,13 +44,14 @@ from typing import Any, Union
 
 import numpy as np
 
-from rb_sim_ros.contact.shapes import box, capsule, cylinder, ellipsoid, hull, plane, sphere
+from rb_sim_ros.contact.shapes import (box, capsule, cylinder, ellipsoid, hull, plane, sphere,
+                                       terrain)
 from rb_sim_ros.contact.shapes.base import FACE_CAPACITY, GEOM_WIDTH, IDENTITY_XYZW, ORIGIN, Pool
 from rb_sim_ros.core.jit import generated_kernel
 from rb_sim_ros.core.rigid_body import short
 
 # In narrow-phase rank order: a kind's number is its index.
-KINDS = (sphere, capsule, box, plane, cylinder, hull, ellipsoid)
+KINDS = (sphere, capsule, box, plane, cylinder, hull, ellipsoid, terrain)
 for _number, _module in enumerate(KINDS):
     if _module.KIND != _number:
         raise ImportError(f'shape kind {_module.NAME!r}: KIND {_module.KIND} is not its place '
@@ -64,6 +65,7 @@ Shape = Union[SHAPE_TYPES]  # type: ignore[valid-type]
 
 Sphere, Capsule, Box, Plane = sphere.Sphere, capsule.Capsule, box.Box, plane.Plane
 Cylinder, Hull, Ellipsoid = cylinder.Cylinder, hull.Hull, ellipsoid.Ellipsoid
+Terrain = terrain.Terrain
 
 
 def is_shape(value: Any) -> bool:
