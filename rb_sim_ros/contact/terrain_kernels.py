@@ -44,6 +44,8 @@ KIND_TERRAIN = terrain.KIND
 # The most contacts gathered from the triangles of one pair before the few are chosen (past
 # it, a deeper one takes the place of the shallowest), and the hierarchy's deepest path.
 GATHERED = 64
+# When they fill it, they are thinned to this many, spread over them (``_thin``).
+THINNED = 16
 STACK_DEPTH = 64
 # The most contacts a pair writes (narrow_kernels.MAX_CONTACTS_PER_PAIR: a global here,
 # checked there).
@@ -60,11 +62,15 @@ SQUARE = 1.0 - 1e-12
 # triangles sharing the edge or corner it lies on.
 SAME_POINT = 1e-9
 # The most points of a shape's face clipped to a triangle's prism (its face's, one more for
-# each side cut), and the tag of a crossing of side k: CROSSING + k.
+# each side cut), and the tag of a crossing of side k by the face's edge from its point m:
+# CROSSING + 16 k + m.
 CLIPPED = convex_kernels.CORE_FACE + 3
 CROSSING = 3900
-# A feature: the convex phase's tag (< 4096) and the triangle's index times this.
-TRIANGLE_TAG = 4099
+# A feature: the tag of the contact on its triangle and the triangle's index mixed into
+# the warm start's 12 bits (world_step.FEATURE_BITS): tag * 97 + index * TRIANGLE_TAG, modulo
+# FEATURES (distinct tags of one triangle stay distinct; two triangles' seldom meet).
+FEATURES = 4096
+TRIANGLE_TAG = 2654435761
 
 
 @inline_kernel
@@ -165,10 +171,12 @@ def terrain_pair(kind, ga, ca, rota, gb, cb, rotb, pool, margin, point, normal, 
             fx, fy, fz = _apply(rotb, float(pool[tri + 3]), float(pool[tri + 4]),
                                 float(pool[tri + 5]))
             # the shape wholly in front of the triangle's plane by more than the margin: none
-            # (what the convex phase would find, at the cost of one support)
-            if (_below(gb, pool, tri, rotb, cb, float(ca[0]), float(ca[1]), float(ca[2]), fx,
-                       fy, fz) + _reach(kind, ga, rota, pool, -fx, -fy, -fz) + radius
-                    < -margin):
+            # (what the convex phase would find, at the cost of one support); wholly behind
+            # it: none either (one-sided: a body beyond a thin wall is not pulled through it)
+            sunk = _below(gb, pool, tri, rotb, cb, float(ca[0]), float(ca[1]), float(ca[2]),
+                          fx, fy, fz)
+            if (sunk + _reach(kind, ga, rota, pool, -fx, -fy, -fz) + radius < -margin
+                    or -sunk + _reach(kind, ga, rota, pool, fx, fy, fz) + radius < -margin):
                 continue
             inner = (float(pool[tri + 6]) == 0.0 and float(pool[tri + 7]) == 0.0
                      and float(pool[tri + 8]) == 0.0)
@@ -196,14 +204,25 @@ def terrain_pair(kind, ga, ca, rota, gb, cb, rotb, pool, margin, point, normal, 
                 along = -(nx * fx + ny * fy + nz * fz)
                 if where == ON_INNER and along < SQUARE:
                     continue  # (a tilted contact at an inner edge: a snag)
-                if not inner and where != ON_ACTIVE and along < 1.0:
-                    sx, sy, sz = px + 0.5 * d * nx, py + 0.5 * d * ny, pz + 0.5 * d * nz
+                turn = not inner and along < 1.0 and (where != ON_ACTIVE or along < 0.0)
+                if turn:  # along the triangle's normal: from the shape's point when the
+                    # convex phase's normal was near it, else from its deepest point (the
+                    # phase's way out, far off the normal, may be through the back)
+                    if along >= convex_kernels.FACE_COS and where != ON_ACTIVE:
+                        sx, sy, sz = px + 0.5 * d * nx, py + 0.5 * d * ny, pz + 0.5 * d * nz
+                    else:
+                        lx, ly, lz = _apply_t(rota, -fx, -fy, -fz)
+                        cx, cy, cz = shapes.core_point_of(kind, ga, pool, lx, ly, lz)
+                        wx, wy, wz = _apply(rota, cx, cy, cz)
+                        sx = float(ca[0]) + wx - radius * fx
+                        sy = float(ca[1]) + wy - radius * fy
+                        sz = float(ca[2]) + wz - radius * fz
                     d = _below(gb, pool, tri, rotb, cb, sx, sy, sz, fx, fy, fz)
                     nx, ny, nz = -fx, -fy, -fz
                     px, py, pz = sx + 0.5 * d * fx, sy + 0.5 * d * fy, sz + 0.5 * d * fz
                 if d < -margin:
                     continue
-                tag = (int(one_feature[m]) + TRIANGLE_TAG * t) % (1 << 30)
+                tag = (int(one_feature[m]) * 97 + t * TRIANGLE_TAG) % FEATURES
                 slot_at = got
                 for k in range(got):  # met already, from a neighbour across an edge: once
                     ex = float(got_point[k, 0]) - px
@@ -216,14 +235,10 @@ def terrain_pair(kind, ga, ca, rota, gb, cb, rotb, pool, margin, point, normal, 
                         break
                 if slot_at < 0:
                     continue
-                if slot_at == GATHERED:  # full: the shallowest gives way to a deeper one
-                    slot_at = 0
-                    for k in range(1, GATHERED):
-                        if float(got_depth[k]) < float(got_depth[slot_at]):
-                            slot_at = k
-                    if not d > float(got_depth[slot_at]):
-                        continue
-                elif slot_at == got:
+                if slot_at == GATHERED:  # full: thinned to THINNED spread over them
+                    got = _thin(got_point, got_normal, got_depth, got_feature, got, THINNED)
+                    slot_at = got
+                if slot_at == got:
                     got += 1
                 got_point[slot_at, 0], got_point[slot_at, 1], got_point[slot_at, 2] = px, py, pz
                 got_normal[slot_at, 0], got_normal[slot_at, 1] = nx, ny
@@ -262,14 +277,17 @@ def _inner_triangle(kind, ga, ca, rota, gb, cb, rotb, pool, tri, fx, fy, fz, rad
         ez = float(corners[j, 2]) - float(corners[k, 2])
         ix, iy, iz = fy * ez - fz * ey, fz * ex - fx * ez, fx * ey - fy * ex  # f x e, inward
         kx, ky, kz = float(corners[k, 0]), float(corners[k, 1]), float(corners[k, 2])
+        # (a side moved out by ON_EDGE of the edge: a point on an edge two triangles share
+        # is kept by both, and met once, never lost to rounding by both)
+        slack = ON_EDGE * (ex * ex + ey * ey + ez * ez)
         kept = 0
         for m in range(n):
             q = (m + 1) % n
             s0 = ((float(face[m, 0]) - kx) * ix + (float(face[m, 1]) - ky) * iy
-                  + (float(face[m, 2]) - kz) * iz)
+                  + (float(face[m, 2]) - kz) * iz) + slack
             s1 = ((float(face[q, 0]) - kx) * ix + (float(face[q, 1]) - ky) * iy
-                  + (float(face[q, 2]) - kz) * iz)
-            if s0 >= 0.0:
+                  + (float(face[q, 2]) - kz) * iz) + slack
+            if s0 >= 0.0 and kept < CLIPPED:
                 for a in range(3):
                     cut[kept, a] = face[m, a]
                 cut_tags[kept] = tags[m]
@@ -278,7 +296,7 @@ def _inner_triangle(kind, ga, ca, rota, gb, cb, rotb, pool, tri, fx, fy, fz, rad
                 w = s0 / (s0 - s1)
                 for a in range(3):
                     cut[kept, a] = float(face[m, a]) + w * (float(face[q, a]) - float(face[m, a]))
-                cut_tags[kept] = CROSSING + k
+                cut_tags[kept] = CROSSING + 16 * k + m
                 kept += 1
         n = kept
         for m in range(n):
@@ -327,16 +345,51 @@ def _below(gb, pool, tri, rotb, cb, sx, sy, sz, fx, fy, fz):
 
 
 @inline_kernel
+def _thin(got_point, got_normal, got_depth, got_feature, got, keep):
+    """The ``got`` contacts gathered cut to ``keep`` of them (``_chosen``), in their order, at
+    the start; their count."""
+    kept = stack_empty(GATHERED, 0, np.bool_)
+    _chosen(got_point, got_depth, got, keep, kept)
+    out = 0
+    for k in range(got):
+        if kept[k]:
+            for a in range(3):
+                got_point[out, a] = got_point[k, a]
+                got_normal[out, a] = got_normal[k, a]
+            got_depth[out] = got_depth[k]
+            got_feature[out] = got_feature[k]
+            out += 1
+    return out
+
+
+@inline_kernel
 def _written(got_point, got_normal, got_depth, got_feature, got, point, normal, depth, feature,
              row):
-    """At most WRITTEN of the ``got`` contacts gathered, from ``row``: all when they fit, else
-    the deepest (the first on a tie), then each the one farthest from those kept (its least
-    distance to them the largest, the first on a tie); their count."""
+    """At most WRITTEN of the ``got`` contacts gathered (``_chosen``), from ``row``; their
+    count."""
     kept = stack_empty(GATHERED, 0, np.bool_)
+    count = _chosen(got_point, got_depth, got, WRITTEN, kept)
+    out = row
     for k in range(got):
-        kept[k] = got <= WRITTEN
-    count = got if got <= WRITTEN else WRITTEN
-    if got > WRITTEN:
+        if kept[k]:
+            for a in range(3):
+                point[out, a] = got_point[k, a]
+                normal[out, a] = got_normal[k, a]
+            depth[out] = got_depth[k]
+            feature[out] = got_feature[k]
+            out += 1
+    return count
+
+
+@inline_kernel
+def _chosen(got_point, got_depth, got, keep, kept):
+    """Which of the ``got`` contacts to keep (kept[:got]), at most ``keep``: all when they fit,
+    else the deepest (the first on a tie), then each the one farthest from those kept (its
+    least distance to them the largest, the first on a tie); their count."""
+    for k in range(got):
+        kept[k] = got <= keep
+    count = got if got <= keep else keep
+    if got > keep:
         best = 0
         for k in range(1, got):
             if float(got_depth[k]) > float(got_depth[best]):
@@ -346,7 +399,7 @@ def _written(got_point, got_normal, got_depth, got_feature, got, point, normal, 
         for k in range(got):
             near[k] = math.inf
         last = best
-        for _ in range(1, WRITTEN):
+        for _ in range(1, keep):
             far, far_at = -1.0, -1
             for k in range(got):
                 if kept[k]:
@@ -361,13 +414,4 @@ def _written(got_point, got_normal, got_depth, got_feature, got, point, normal, 
                     far, far_at = float(near[k]), k
             kept[far_at] = True
             last = far_at
-    out = row
-    for k in range(got):
-        if kept[k]:
-            for a in range(3):
-                point[out, a] = got_point[k, a]
-                normal[out, a] = got_normal[k, a]
-            depth[out] = got_depth[k]
-            feature[out] = got_feature[k]
-            out += 1
     return count

@@ -241,9 +241,14 @@ def mesh_surface(name: str, roots: Sequence[Path], scale=1.0) -> tuple[np.ndarra
         vertices = np.asarray(mesh.vertices, dtype=np.float64)
         if not np.all(np.isfinite(vertices)):
             raise MeshError(f'{shown}: a vertex is not finite')
-        mesh.merge_vertices()
-        return np.asarray(mesh.vertices, dtype=np.float64) * scale, \
-            np.asarray(mesh.faces, dtype=np.int64)
+        mesh.merge_vertices(merge_tex=True, merge_norm=True)  # (not split at UV seams)
+        faces = np.asarray(mesh.faces, dtype=np.int64)
+        # a triangle whose corners merged has no area: dropped, as the terrain drops those
+        whole = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (
+            faces[:, 0] != faces[:, 2])
+        if not whole.any():
+            raise MeshError(f'{shown}: every triangle has corners that coincide')
+        return np.asarray(mesh.vertices, dtype=np.float64) * scale, faces[whole]
     except MeshError:
         raise
     except Exception as e:  # a parser's or its processing's error on bad bytes: any kind

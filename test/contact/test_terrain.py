@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from rb_sim_ros.contact import narrow_phase as nph, shapes
-from rb_sim_ros.contact.collision_shapes import Hull, Plane, Sphere, Terrain
+from rb_sim_ros.contact.collision_shapes import Box, Hull, Plane, Sphere, Terrain
 from rb_sim_ros.contact.settings import ContactSettings
 from rb_sim_ros.contact.shapes import terrain
 from rb_sim_ros.core import so3
@@ -91,6 +91,11 @@ def test_a_terrain_keeps_its_triangles_and_refuses_bad_meshes_naming_why():
                        ((vertices[:2], [(0, 1, 0)]), 'at least 3'),
                        (([(0, 0, 0), (1, 0, 0), (2, 0, 0)], [(0, 1, 2)]), 'no area'),
                        (([(0, 0, 1e10), (1, 0, 0), (2, 0, 0)], [(0, 1, 2)]), 'MAX_LENGTH'),
+                       (([('0', '0', '0')] * 3, [(0, 1, 2)]), 'numbers'),
+                       (([(0, 0, True), (1, 0, 0), (0, 1, 0)], [(0, 1, 2)]), 'numbers'),
+                       ((vertices, [(True, False, 2)]), 'integer vertex indices'),
+                       ((vertices, [(0, 1, 3), (0, 3, 1)]), r'lie on each other facing away'),
+                       ((vertices, [(0, 1, 3), (1, 3, 4)]), r'run the edge \[1, 3\] the same'),
                        (('flat', triangles), 'list of')]:
         with pytest.raises(ValueError, match=match):
             Terrain(*bad)
@@ -259,6 +264,83 @@ def test_a_ball_rolls_across_a_tiled_floor_without_a_bump():
     np.testing.assert_allclose(state.linear_velocity, np.array([2.0, 0.7, 0.0]) * 5 / 7,
                                atol=1e-9)
     assert abs(state.angular_velocity[2]) < 1e-9
+
+
+def strip(count=40, width=0.25):
+    """A floor one tile wide: every triangle has an edge on its border (active), so each goes
+    through the convex phase and its inner edges through the turn (or the drop)."""
+    vertices, triangles = [], []
+    for i in range(count + 1):
+        vertices += [(-5.0 + i * width, -width / 2, 0.0), (-5.0 + i * width, width / 2, 0.0)]
+    for i in range(count):
+        a, b, c, d = 2 * i, 2 * i + 2, 2 * i + 1, 2 * i + 3
+        triangles += [(a, b, d), (a, d, c)] if i % 2 else [(a, b, c), (b, d, c)]
+    return Terrain(vertices, triangles)
+
+
+def test_a_ball_rolls_along_a_strip_of_border_triangles_without_a_bump():
+    """Along a strip one tile wide (every triangle has a border edge: the convex phase meets
+    it, and the contacts at its inner edges are turned to the floor's normal or dropped) a
+    ball rolls exactly as on the plane. Keeping the tilted contacts at inner edges lifted it
+    by 0.057 m/s."""
+    ground = strip()
+    assert ground.active.any(axis=1).all()
+
+    def roll(surface):
+        ball = BodySpec('ball', 1.0, (0.004,) * 3, initial_position=(-4.5, 0.01, 0.1),
+                        initial_linear_velocity=(2.0, 0.0, 0.0), colliders=(Sphere(0.1),))
+        world = collision_world([_ground(surface), ball], 1e-3, G,
+                                contact=ContactSettings(friction=0.5))
+        heights, rises = [], []
+        for _ in range(2000):
+            world.step(1)
+            state = world.state('ball')
+            heights.append(float(state.position[2]))
+            rises.append(float(state.linear_velocity[2]))
+        return world.state('ball'), np.array(heights), np.array(rises)
+    on_strip, heights, rises = roll(ground)
+    on_plane, plane_heights, _ = roll(Plane())
+    assert np.abs(rises).max() < 1e-9
+    np.testing.assert_allclose(heights, plane_heights, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(on_strip.position, on_plane.position, atol=1e-9)
+    assert on_strip.position[0] > -2.5  # it crossed some 11 tiles
+
+
+def test_a_wide_box_rests_level_on_fine_tiles_its_contacts_spread_over_its_face():
+    """A 0.6 m box on 5 cm tiles meets hundreds of contacts (past what a pair gathers: they
+    are thinned, spread over them): it rests level at the plane's height, its 9 contacts
+    spanning its face."""
+    corners = [(x, y, z) for x in (-0.3, 0.3) for y in (-0.3, 0.3) for z in (-0.1, 0.1)]
+
+    def rest(surface):  # (the box's hull: a world the hull test compiled already)
+        box = BodySpec('box', 10.0, (0.6,) * 3, initial_position=(0.013, -0.021, 0.1),
+                       colliders=(Hull(corners),))
+        world = collision_world([_ground(surface), box], 1e-3, G,
+                                contact=ContactSettings(friction=0.5, sleep_time=0.0))
+        world.step(1000)
+        return world.state('box'), world.last_contacts()
+    state, contacts = rest(Terrain(*grid(30, 0.05)))
+    plane, _ = rest(Plane())
+    assert np.abs(state.rotation - I3).max() < 1e-6
+    assert state.position[2] == pytest.approx(plane.position[2], abs=1e-6)
+    points = np.array([c.point for c in contacts])
+    assert len(contacts) == 9 and np.ptp(points[:, 0]) > 0.5 and np.ptp(points[:, 1]) > 0.5
+
+
+def test_deep_overlaps_push_out_along_the_normal_and_a_body_behind_is_left_alone():
+    """One triangle (every edge a border): a ball or a box sunk to or past its plane is
+    pushed out along its normal by its depth below the plane, as a plane would; a ball wholly
+    behind it (one-sided) meets nothing."""
+    one = Terrain([(-1, -1, 0), (1, -1, 0), (0, 1.5, 0)], [(0, 1, 2)])
+    pose = shapes.world_pose(one, np.zeros(3), I3)
+    for shape, z, depth in ((Sphere(0.1), 0.001, 0.099), (Sphere(0.1), 0.0, 0.1),
+                            (Sphere(0.1), -0.05, 0.15), (Box((0.2, 0.2, 0.2)), -0.05, 0.15)):
+        found = nph.collide(shape, (np.array([0.0, 0.0, z]), I3), one, pose, 0.01)
+        assert found, (shape, z)
+        for c in found:
+            assert c.depth == pytest.approx(depth, abs=1e-12), (shape, z)
+            np.testing.assert_allclose(c.normal, [0.0, 0.0, -1.0], atol=1e-12)
+    assert nph.collide(Sphere(0.1), (np.array([0.0, 0.0, -0.2]), I3), one, pose, 0.01) == []
 
 
 def test_every_moving_kind_rests_and_slides_on_a_tiled_floor_as_on_the_plane():

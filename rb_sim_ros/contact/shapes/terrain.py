@@ -121,9 +121,15 @@ def _vertices(value) -> np.ndarray:
     if len(value) > MAX_VERTICES:
         raise ValueError(f'vertices: at most MAX_VERTICES = {MAX_VERTICES}, got {len(value)}')
     try:
-        array = np.array(value, dtype=np.float64)
+        array = np.array(value)
     except (ValueError, TypeError, OverflowError):
         raise ValueError(f'vertices must be N x 3 numbers (m), got {short(value)}') from None
+    if array.dtype.kind not in 'fiu' or (not isinstance(value, np.ndarray) and _has_bool(value)):
+        raise ValueError(f'vertices must be N x 3 numbers (m), got {short(value)}')
+    try:
+        array = array.astype(np.float64)
+    except OverflowError:
+        raise ValueError('vertices: a coordinate does not fit a float') from None
     if array.ndim != 2 or array.shape[1] != 3 or len(array) < 3:
         raise ValueError(f'vertices must be at least 3 of [x, y, z] (m), got an array of '
                          f'shape {array.shape}')
@@ -147,7 +153,8 @@ def _triangles(value, count: int) -> np.ndarray:
         array = np.array(value)
     except (ValueError, TypeError, OverflowError):
         raise ValueError(f'triangles must be T x 3 vertex indices, got {short(value)}') from None
-    if array.ndim != 2 or array.shape[1] != 3 or array.dtype.kind not in 'iu':
+    if (array.ndim != 2 or array.shape[1] != 3 or array.dtype.kind not in 'iu'
+            or (not isinstance(value, np.ndarray) and _has_bool(value))):
         raise ValueError(f'triangles must be T x 3 integer vertex indices, got '
                          f'{short(value)}')
     bad = np.flatnonzero(((array < 0) | (array >= count)).any(axis=1))
@@ -163,11 +170,17 @@ def _triangles(value, count: int) -> np.ndarray:
     return array
 
 
+def _has_bool(rows) -> bool:
+    """Whether a list of rows holds a bool (numpy would read it as 0 or 1)."""
+    return any(isinstance(c, (bool, np.bool_)) for row in rows for c in row)
+
+
 def _active_edges(vertices: np.ndarray, triangles: np.ndarray,
                   normals: np.ndarray) -> np.ndarray:
     """(T, 3) bool: edge k of each triangle (corner k to k + 1) is active when no other
     triangle shares it (the border), more than one does (not a surface there), or the one
-    that does folds away from it (convex) by more than FLAT_ANGLE."""
+    that does folds away from it (convex) by more than FLAT_ANGLE. ValueError when two that
+    share an edge face opposite sides (they run it the same way, or lie on each other)."""
     count = len(triangles)
     ends = np.stack([triangles, np.roll(triangles, -1, axis=1)], axis=2).reshape(-1, 2)
     key = np.sort(ends, axis=1)
@@ -183,6 +196,15 @@ def _active_edges(vertices: np.ndarray, triangles: np.ndarray,
             i, j = int(order[start]), int(order[start + 1])
             t, u = i // 3, j // 3
             n_t, n_u = normals[t], normals[u]
+            if ends[i][0] == ends[j][0]:
+                raise ValueError(f'triangles[{min(t, u)}] and triangles[{max(t, u)}] run the edge '
+                                 f'{ends[i].tolist()} the same way: they face opposite sides '
+                                 '(give every triangle counter-clockwise from the side it pushes '
+                                 'towards)')
+            if float(n_t @ n_u) <= -cos_flat:
+                raise ValueError(f'triangles[{min(t, u)}] and triangles[{max(t, u)}] lie on each '
+                                 'other facing away (a two-sided sheet: give the side it pushes '
+                                 'towards)')
             # the corner of u off the edge, above or below t's plane
             off_u = int(triangles[u][(j % 3 + 2) % 3])
             fold = float((vertices[off_u] - vertices[int(triangles[t][i % 3])]) @ n_t)
