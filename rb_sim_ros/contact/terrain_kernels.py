@@ -73,7 +73,7 @@ FEATURES = 4096
 TRIANGLE_TAG = 2654435761
 
 
-@inline_kernel
+@kernel
 def _reach(kind, geom, rot, pool, dx, dy, dz):
     """How far the core of a shape (kind, geom, its rotation rot) reaches from its centre
     along the world direction d."""
@@ -186,9 +186,10 @@ def terrain_pair(kind, ga, ca, rota, gb, cb, rotb, pool, margin, point, normal, 
                                         one_feature)
             else:
                 tri_geom[terrain.TRIANGLE] = float(t)
-                found = convex_kernels.convex_pair(kind, ga, ca, rota, KIND_TERRAIN, tri_geom,
-                                                   cb, rotb, pool, margin, one_point, one_normal,
-                                                   one_depth, one_feature, 0)
+                # (plain ints: the kernel every row calls, not one more made for constants)
+                found = convex_kernels.convex_pair(kind, ga, ca, rota, int(KIND_TERRAIN),
+                                                   tri_geom, cb, rotb, pool, margin, one_point,
+                                                   one_normal, one_depth, one_feature, int(0))
             for m in range(found):
                 nx, ny, nz = (float(one_normal[m, 0]), float(one_normal[m, 1]),
                               float(one_normal[m, 2]))
@@ -249,7 +250,7 @@ def terrain_pair(kind, ga, ca, rota, gb, cb, rotb, pool, margin, point, normal, 
                     feature, row)
 
 
-@inline_kernel
+@kernel
 def _inner_triangle(kind, ga, ca, rota, gb, cb, rotb, pool, tri, fx, fy, fz, radius, margin,
                     point, normal, depth, feature):
     """The contacts of a shape with a triangle none of whose edges is active (world normal f):
