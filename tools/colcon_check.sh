@@ -20,7 +20,7 @@ echo "[rb_sim_ros] colcon build in $ws" >&2
   # workers, the nodes and replays they start, and the test installs load (a --symlink-install
   # tree is this checkout; the tests' installs are seeded from it, test/support/ros_harness.py).
   start=$SECONDS
-  echo "[rb_sim_ros] compiling the kernels into $NUMBA_CACHE_DIR (about 5-8 min on 2 cores the first" \
+  echo "[rb_sim_ros] compiling the kernels into $NUMBA_CACHE_DIR (about 6-10 min on 2 cores the first" \
     "time, seconds once cached; log: $ws/precompile.log)" >&2
   "$PY" -m rb_sim_ros.sim.precompile >"$ws/precompile.log" 2>&1 \
     || { cat "$ws/precompile.log"; exit 1; }
