@@ -37,8 +37,8 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
-        ('share/' + package_name + '/scenes', ['scenes/example.yaml', 'scenes/collisions.yaml',
-                                                'scenes/terrain.yaml']),
+        ('share/' + package_name + '/scenes',
+         ['scenes/example.yaml', 'scenes/collisions.yaml', 'scenes/terrain.yaml']),
         ('share/' + package_name + '/launch', ['launch/sim.launch.py']),
         ('share/' + package_name + '/config', ['config/params.yaml']),
         ('share/' + package_name + '/rviz', ['rviz/rb_sim.rviz']),

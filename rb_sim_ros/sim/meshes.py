@@ -18,7 +18,7 @@ from __future__ import annotations
 import io
 import os
 from pathlib import Path
-from typing import Sequence
+from typing import cast, Sequence
 
 import numpy as np
 
@@ -237,7 +237,8 @@ def mesh_surface(name: str, roots: Sequence[Path], scale=1.0) -> tuple[np.ndarra
         found = [m for m in found if len(m.faces)]
         if not found:
             raise MeshError(f'{shown}: holds no triangles')
-        mesh = trimesh.util.concatenate(found) if len(found) > 1 else found[0]
+        mesh = cast(trimesh.Trimesh,  # (concatenate is typed as any Geometry)
+                    trimesh.util.concatenate(found) if len(found) > 1 else found[0])
         vertices = np.asarray(mesh.vertices, dtype=np.float64)
         if not np.all(np.isfinite(vertices)):
             raise MeshError(f'{shown}: a vertex is not finite')
