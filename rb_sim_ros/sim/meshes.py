@@ -144,6 +144,25 @@ CACHED = 16
 _READ: dict[tuple, list[np.ndarray]] = {}
 
 
+def _file_meshes(trimesh, name: str, data: bytes, kind: str) -> tuple[list, int]:
+    """(the triangle meshes of a mesh file's bytes ``data`` of type ``kind``, every object of
+    a scene; their vertex count), refused above MAX_VERTICES (a scene's counted before its
+    instances are made)."""
+    loaded = trimesh.load(io.BytesIO(data), file_type=kind, process=False, resolver=None,
+                          skip_materials=True)
+    if isinstance(loaded, trimesh.Scene):
+        total = sum(len(getattr(loaded.geometry.get(loaded.graph[n][1]), 'vertices', ()))
+                    for n in loaded.graph.nodes_geometry)
+    else:
+        total = len(getattr(loaded, 'vertices', ()))
+    if total > MAX_VERTICES:
+        raise MeshError(f'{name}: {total} vertices, more than MAX_VERTICES = '
+                        f'{MAX_VERTICES} (decimate it first)')
+    if isinstance(loaded, trimesh.Scene):
+        return [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)], total
+    return ([loaded] if isinstance(loaded, trimesh.Trimesh) else []), total
+
+
 def _parts(name: str, data: bytes, kind: str, decompose: bool) -> list[np.ndarray]:
     try:
         import trimesh
@@ -151,20 +170,7 @@ def _parts(name: str, data: bytes, kind: str, decompose: bool) -> list[np.ndarra
         raise MeshError(f'{name}: reading mesh files needs trimesh (pip install trimesh, or '
                         'rosdep: python3-trimesh)') from None
     try:
-        loaded = trimesh.load(io.BytesIO(data), file_type=kind, process=False, resolver=None,
-                              skip_materials=True)
-        if isinstance(loaded, trimesh.Scene):  # counted before its instances are made
-            total = sum(len(getattr(loaded.geometry.get(loaded.graph[n][1]), 'vertices', ()))
-                        for n in loaded.graph.nodes_geometry)
-        else:
-            total = len(getattr(loaded, 'vertices', ()))
-        if total > MAX_VERTICES:
-            raise MeshError(f'{name}: {total} vertices, more than MAX_VERTICES = '
-                            f'{MAX_VERTICES} (decimate it first)')
-        if isinstance(loaded, trimesh.Scene):
-            meshes = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)]
-        else:
-            meshes = [loaded] if isinstance(loaded, trimesh.Trimesh) else []
+        meshes, total = _file_meshes(trimesh, name, data, kind)
         if not meshes or total == 0 or not any(len(m.faces) for m in meshes):
             raise MeshError(f'{name}: holds no triangles')
         parts: list[np.ndarray] = []
@@ -220,21 +226,8 @@ def mesh_surface(name: str, roots: Sequence[Path], scale=1.0) -> tuple[np.ndarra
         raise MeshError(f'{shown}: reading mesh files needs trimesh (pip install trimesh, or '
                         'rosdep: python3-trimesh)') from None
     try:
-        loaded = trimesh.load(io.BytesIO(data), file_type=path.suffix.lower()[1:],
-                              process=False, resolver=None, skip_materials=True)
-        if isinstance(loaded, trimesh.Scene):
-            total = sum(len(getattr(loaded.geometry.get(loaded.graph[n][1]), 'vertices', ()))
-                        for n in loaded.graph.nodes_geometry)
-        else:
-            total = len(getattr(loaded, 'vertices', ()))
-        if total > MAX_VERTICES:
-            raise MeshError(f'{shown}: {total} vertices, more than MAX_VERTICES = '
-                            f'{MAX_VERTICES} (decimate it first)')
-        if isinstance(loaded, trimesh.Scene):
-            found = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)]
-        else:
-            found = [loaded] if isinstance(loaded, trimesh.Trimesh) else []
-        found = [m for m in found if len(m.faces)]
+        found = [m for m in _file_meshes(trimesh, shown, data, path.suffix.lower()[1:])[0]
+                 if len(m.faces)]
         if not found:
             raise MeshError(f'{shown}: holds no triangles')
         mesh = cast(trimesh.Trimesh,  # (concatenate is typed as any Geometry)
