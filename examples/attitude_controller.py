@@ -66,6 +66,64 @@ def pd_torque(target, q, w, kp, kd, max_torque: float) -> tuple:
                  for k in range(3))
 
 
+# The controller's parameters: (name, default, description). The ROS node declares them; an
+# in-process run (rb_sim_ros.offline.closed_loop) hands them to make_law as a dict.
+PARAMETERS = (
+    ('target_rpy', [0.0, 0.0, math.pi / 2],
+     'Target roll, pitch, yaw (rad; REP-103 fixed axes) in the world frame.'),
+    ('inertia', [0.1, 0.1, 0.1], "The body's principal moments of inertia (kg m^2), body frame."),
+    ('natural_frequency', 2.0, 'Closed-loop natural frequency wn (rad/s).'),
+    ('damping_ratio', 0.8, 'Closed-loop damping ratio zeta.'),
+    ('max_torque', 10.0, 'Largest torque per axis (N m).'),
+    ('source', 'odom', "Read the state from 'odom' (ground truth) or 'imu'."),
+)
+
+
+class AttitudeLaw:
+    """The law alone, without ROS: called with each state message (Odometry or Imu), it
+    returns ((0, 0, 0), body-frame torque), or None (no change) for a state that is not
+    finite. ``state`` names the topic it reads."""
+
+    def __init__(self, parameters: dict) -> None:
+        values = {name: default for name, default, _ in PARAMETERS}
+        unknown = sorted(set(parameters) - set(values))
+        if unknown:
+            raise ValueError(f"unknown parameter '{unknown[0]}' (known: "
+                             f"{', '.join(values)})")
+        values.update(parameters)
+        rpy, inertia = list(values['target_rpy']), list(values['inertia'])
+        wn, zeta = values['natural_frequency'], values['damping_ratio']
+        self.max_torque, self.state = values['max_torque'], values['source']
+        numbers = rpy + inertia + [wn, zeta, self.max_torque]
+        if len(rpy) != 3 or len(inertia) != 3 or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                for v in numbers) or min(inertia) <= 0 or wn <= 0 or zeta <= 0 or \
+                self.max_torque <= 0 or self.state not in ('odom', 'imu'):
+            raise ValueError('target_rpy needs 3 angles, inertia 3 moments > 0; '
+                             'natural_frequency, damping_ratio and max_torque must be > 0, '
+                             "source 'odom' or 'imu'")
+        self.values = values
+        self.target = quaternion_from_rpy(*rpy)
+        self.kp = [2.0 * i * wn * wn for i in inertia]
+        self.kd = [2.0 * zeta * wn * i for i in inertia]
+
+    def __call__(self, msg):
+        if isinstance(msg, Odometry):
+            o, w = msg.pose.pose.orientation, msg.twist.twist.angular  # odom's twist: body
+        else:
+            o, w = msg.orientation, msg.angular_velocity
+        q, w = (o.x, o.y, o.z, o.w), (w.x, w.y, w.z)
+        if not all(math.isfinite(c) for c in q + w) or not any(q):
+            return None
+        return (0.0, 0.0, 0.0), pd_torque(self.target, q, w, self.kp, self.kd, self.max_torque)
+
+
+def make_law(parameters: dict) -> AttitudeLaw:
+    """The controller in-process (rb_sim_ros.offline.closed_loop): its law from the same
+    parameters the node takes. ValueError naming a bad one."""
+    return AttitudeLaw(parameters)
+
+
 class AttitudeController(Node):
     def __init__(self) -> None:
         super().__init__('attitude_controller')
@@ -73,50 +131,30 @@ class AttitudeController(Node):
         def param(name, default, text):
             return self.declare_parameter(name, default,
                                           ParameterDescriptor(description=text)).value
-        rpy = param('target_rpy', [0.0, 0.0, math.pi / 2],
-                    'Target roll, pitch, yaw (rad; REP-103 fixed axes) in the world frame.')
-        inertia = param('inertia', [0.1, 0.1, 0.1],
-                        "The body's principal moments of inertia (kg m^2), body frame.")
-        wn = param('natural_frequency', 2.0, 'Closed-loop natural frequency wn (rad/s).')
-        zeta = param('damping_ratio', 0.8, 'Closed-loop damping ratio zeta.')
-        self.max_torque = param('max_torque', 10.0, 'Largest torque per axis (N m).')
-        source = param('source', 'odom', "Read the state from 'odom' (ground truth) or 'imu'.")
+        values = {name: param(name, default, text) for name, default, text in PARAMETERS}
         self.jitter = param('answer_delay_max', 0.0, 'Wait a random wall time up to this (s) '
                             'before each answer: in lockstep the run stays the same bits.')
         thread = param('control_thread', True, 'Answer each state from a thread of its own, '
                        "waiting on the state alone; false: through the node's executor.")
-        values = list(rpy) + list(inertia) + [wn, zeta, self.max_torque, self.jitter]
-        if len(rpy) != 3 or len(inertia) != 3 or not all(
-                isinstance(v, (int, float)) and math.isfinite(v) for v in values) or \
-                min(inertia) <= 0 or wn <= 0 or zeta <= 0 or self.max_torque <= 0 or \
-                source not in ('odom', 'imu') or not 0 <= self.jitter <= 10 or \
+        if not isinstance(self.jitter, (int, float)) or not 0 <= self.jitter <= 10 or \
                 not isinstance(thread, bool):
-            raise ValueError('target_rpy needs 3 angles, inertia 3 moments > 0; '
-                             'natural_frequency, damping_ratio and max_torque must be > 0, '
-                             "source 'odom' or 'imu', answer_delay_max from 0 to 10 s, "
-                             'control_thread true or false')
-        self.target = quaternion_from_rpy(*rpy)
-        self.kp = [2.0 * i * wn * wn for i in inertia]
-        self.kd = [2.0 * zeta * wn * i for i in inertia]
+            raise ValueError('answer_delay_max from 0 to 10 s, control_thread true or false')
+        self.attitude = make_law({k: list(v) if k in ('target_rpy', 'inertia') else v
+                                  for k, v in values.items()})
         self._random = random.Random()  # unseeded: the delays differ from run to run
         self.loop = ControlLoop(self, self.law, *(
-            (Odometry, 'odom') if source == 'odom' else (Imu, 'imu')), thread=thread)
-        self.get_logger().info(f'pointing at rpy {list(rpy)} with wn {wn} rad/s, zeta {zeta}, '
-                               f'from {source}')
+            (Odometry, 'odom') if self.attitude.state == 'odom' else (Imu, 'imu')),
+            thread=thread)
+        self.get_logger().info(f"pointing at rpy {list(values['target_rpy'])} with wn "
+                               f"{values['natural_frequency']} rad/s, zeta "
+                               f"{values['damping_ratio']}, from {self.attitude.state}")
 
     def law(self, msg):
         """The body-frame torque for a state (Odometry or Imu); None (no change) for a state
         that is not finite."""
-        if isinstance(msg, Odometry):
-            o, w = msg.pose.pose.orientation, msg.twist.twist.angular  # odom's twist: body
-        else:
-            o, w = msg.orientation, msg.angular_velocity
-        q, w = (o.x, o.y, o.z, o.w), (w.x, w.y, w.z)
         if self.jitter:
             time.sleep(self._random.uniform(0.0, self.jitter))
-        if not all(math.isfinite(c) for c in q + w) or not any(q):
-            return None
-        return (0.0, 0.0, 0.0), pd_torque(self.target, q, w, self.kp, self.kd, self.max_torque)
+        return self.attitude(msg)
 
 
 def main(args=None) -> int:

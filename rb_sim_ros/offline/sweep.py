@@ -321,7 +321,7 @@ def _simulate(config, params, context, out_path) -> dict:
             if error:
                 break
             for n in moving:
-                _publish(sim, n, outs[n], sensors[n], recorder)
+                publish_state(sim, n, outs[n], sensors[n], recorder)
             stats = sim.contact_stats()
             most = max(most, stats.contacts if stats is not None else 0)
     finally:
@@ -348,21 +348,24 @@ def _simulate(config, params, context, out_path) -> dict:
     return row
 
 
-def _publish(sim, name, out, sensor, recorder) -> None:
-    """One publish of ``name`` as the node's BodyPorts.publish makes it with a recorder."""
+def publish_state(sim, name, out, sensor, recorder) -> bool:
+    """One publish of ``name`` as the node's BodyPorts.publish makes it with a recorder (the
+    messages filled in ``out``, the IMU's noise drawn, the outputs recorded); False, nothing
+    drawn nor recorded, for a state that is not finite."""
     t = sim.time_ns
     pose_twist = sim.pose_twist(name)
     if not all(math.isfinite(c) for vec in pose_twist for c in vec):
-        return
+        return False
     if not out.fill(t, *pose_twist):
-        return
+        return False
     a, b = sim.accelerations(name)
     offsets = sensor.sample(t)
     if not out.fill_motion(t, pose_twist[1], pose_twist[3], a, b, sim.config.gravity,
                            offsets):
         sensor.undo()
-        return
+        return False
     recorder.output(name, sim.step_count, t, out)
+    return True
 
 
 def _rotation(q) -> np.ndarray:

@@ -65,6 +65,28 @@ SUBSCRIBED = (
 )
 
 
+def stamped_wrench(wrench_msg: WrenchMsg, fid: str, world_frame: str, body_frame: str,
+                   points: dict, wrench_frame: str, max_wrench: float):
+    """The core Wrench of a wrench_stamped's wrench in frame ``fid`` (leading '/' stripped):
+    '' is ``wrench_frame``'s, the world or the body by their frame ids (or 'world', 'body'),
+    or an application point of ``points`` (force there, axes the body's). ValueError naming
+    what is wrong. The node's answer to a wrench_stamped, and an in-process controller's
+    (offline/closed_loop), are made here alike."""
+    if fid == '':
+        frame = Frame.parse(wrench_frame)
+    elif fid in (world_frame, 'world'):
+        frame = Frame.WORLD
+    elif fid in (body_frame, 'body'):
+        frame = Frame.BODY
+    elif fid in points:
+        return ros_messages.wrench_at_point(wrench_msg, points[fid], max_wrench)
+    else:
+        named = f", nor a point ({', '.join(sorted(points))})" if points else ''
+        raise ValueError(f"frame_id '{fid}' is neither '{world_frame}' nor '{body_frame}'"
+                         f'{named} (no tf lookup here)')
+    return ros_messages.wrench_from_msg(wrench_msg, frame, max_wrench)
+
+
 class TwistInput:
     """A set_twist not yet turned into the world frame (that needs R at the step it applies)."""
 
@@ -243,27 +265,13 @@ class BodyPorts:
 
     def _stamped_event(self, wrench_msg: WrenchMsg, fid: str):
         """The SetWrench of a wrench_stamped in frame ``fid``, or None (refused and said)."""
-        if fid == '':
-            frame = Frame.parse(self.settings['wrench_frame'])
-        elif fid in (self.world_frame, 'world'):
-            frame = Frame.WORLD
-        elif fid in (self.body_frame, 'body'):
-            frame = Frame.BODY
-        elif fid in self.points:  # at an application point: force there, axes the body's
-            try:
-                wrench = ros_messages.wrench_at_point(wrench_msg, self.points[fid],
-                                                      self.settings['max_wrench'])
-            except ValueError as e:
-                self._reject('wrench_stamped', e)
-                return None
-            return SetWrench(wrench, self.name)
-        else:
-            points = f", nor a point ({', '.join(sorted(self.points))})" if self.points else ''
-            self._reject('wrench_stamped', ValueError(
-                f"frame_id '{fid}' is neither '{self.world_frame}' nor '{self.body_frame}'"
-                f'{points} (no tf lookup here)'))
+        try:
+            return SetWrench(stamped_wrench(wrench_msg, fid, self.world_frame, self.body_frame,
+                                            self.points, self.settings['wrench_frame'],
+                                            self.settings['max_wrench']), self.name)
+        except ValueError as e:
+            self._reject('wrench_stamped', e)
             return None
-        return self._wrench_event(wrench_msg, frame, 'wrench_stamped')
 
     def _wrench_event(self, wrench_msg: WrenchMsg, frame: Frame, what: str):
         try:

@@ -53,7 +53,7 @@ from nav_msgs.msg import Odometry
 from rb_sim_ros.ros.lockstep import HOLD
 from rb_sim_ros.ros.taken_inputs import TakenInputs
 
-__all__ = ['ControlLoop', 'HOLD']
+__all__ = ['ControlLoop', 'HOLD', 'command_message']
 
 
 def stamp_ns(stamp) -> int:
@@ -152,14 +152,22 @@ class ControlLoop:
 
     def command(self, state, wrench) -> WrenchStamped:
         """The WrenchStamped answering ``state`` with ``wrench`` ((force, torque) or None)."""
-        out = WrenchStamped()
-        out.header.stamp = state.header.stamp
-        if wrench is None:
-            out.header.frame_id = HOLD
-            return out
-        out.header.frame_id = body_frame_of(state) if self.frame == 'body' else self.frame
-        force, torque = wrench
-        f, t = out.wrench.force, out.wrench.torque
-        f.x, f.y, f.z = (float(c) for c in force)
-        t.x, t.y, t.z = (float(c) for c in torque)
+        return command_message(state, wrench, self.frame)
+
+
+def command_message(state, wrench, frame: str = 'body') -> WrenchStamped:
+    """The WrenchStamped answering the state message ``state`` with ``wrench`` ((force,
+    torque), or None for HOLD), stamped as the state, in ``frame`` ('body': the state's body
+    frame): what a ControlLoop publishes, and what offline/closed_loop hands the simulator
+    for a controller called in-process, so that both paths give the same bits."""
+    out = WrenchStamped()
+    out.header.stamp = state.header.stamp
+    if wrench is None:
+        out.header.frame_id = HOLD
         return out
+    out.header.frame_id = body_frame_of(state) if frame == 'body' else frame
+    force, torque = wrench
+    f, t = out.wrench.force, out.wrench.torque
+    f.x, f.y, f.z = (float(c) for c in force)
+    t.x, t.y, t.z = (float(c) for c in torque)
+    return out

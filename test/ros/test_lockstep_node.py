@@ -24,6 +24,7 @@ from std_srvs.srv import SetBool, Trigger
 from rb_sim_ros.offline import replay
 from rb_sim_ros.recording.reader import RecordingReader
 from rb_sim_ros.ros import node_recorder
+from support.attitude_law import wrenches_follow_the_law
 from support.ros_harness import stamp_ns
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -32,35 +33,6 @@ ctl = importlib.import_module('attitude_controller')
 loop = importlib.import_module('closed_loop_ci')
 
 BURN = 'while True: pass'
-
-
-def _wrenches_follow_the_law(path: Path, body_topic: str, state: str, delay: int,
-                             target_rpy=loop.TARGET_RPY) -> int:
-    """Every wrench recorded for a body is the attitude law of the state recorded ``delay``
-    periods before it (10 steps of 1 ms each): the answer took effect where the protocol
-    says. Returns how many were checked."""
-    kp = [2.0 * i * loop.WN ** 2 for i in loop.INERTIA]
-    kd = [2.0 * loop.ZETA * loop.WN * i for i in loop.INERTIA]
-    target = ctl.quaternion_from_rpy(*target_rpy)
-    states, wrenches = {}, []
-    reader = RecordingReader(str(path))
-    for m in reader.messages(topics=[f'/{body_topic}{state}', f'/rb_sim/input/'
-                                     f'{body_topic.rstrip("/") or "body"}/wrench']):
-        if m.topic.startswith('/rb_sim/input/'):
-            wrenches.append((m.sequence, m.message))
-        else:
-            msg = m.message
-            if state == 'odom':
-                o, w = msg.pose.pose.orientation, msg.twist.twist.angular
-            else:
-                o, w = msg.orientation, msg.angular_velocity
-            states[m.sequence] = ((o.x, o.y, o.z, o.w), (w.x, w.y, w.z))
-    assert len(wrenches) > 50
-    for step, msg in wrenches:
-        q, w = states[step - 10 * delay]
-        t = msg.wrench.torque
-        assert (t.x, t.y, t.z) == ctl.pd_torque(target, q, w, kp, kd, 10.0), step
-    return len(wrenches)
 
 
 def test_a_closed_loop_repeats_bit_for_bit_under_load_with_a_jittery_controller_at_any_pace(
@@ -86,7 +58,7 @@ def test_a_closed_loop_repeats_bit_for_bit_under_load_with_a_jittery_controller_
     for run in (quick, slow):
         assert replay.verify(str(run)).identical
     for run in (quick, slow):
-        assert _wrenches_follow_the_law(run, '', 'imu', delay=0)
+        assert wrenches_follow_the_law(run, '', 'imu', delay=0)
     # The loop closed: the body is on its target at the end.
     t, angle = loop.attitude_errors(quick)
     assert t[-1] == 4.0 and angle[-1] < 0.02 < 1.0 < angle[0]
@@ -118,7 +90,7 @@ def test_two_controllers_on_two_bodies_with_a_delay_repeat_and_answer_where_the_
     assert node_recorder.same_run(str(first), str(second)) == ''
     assert replay.verify(str(first)).identical
     for body in ('a/', 'b/'):
-        assert _wrenches_follow_the_law(first, body, 'odom', delay=2)
+        assert wrenches_follow_the_law(first, body, 'odom', delay=2)
 
 
 def _diagnostics(probe, got, key, wanted, what):

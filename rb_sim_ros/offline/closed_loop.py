@@ -1,0 +1,290 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+"""A controller in lockstep with the simulator, called in-process: no DDS, no node, the run
+the simulator node makes with the same controller answering over ROS, bit for bit.
+
+    from rb_sim_ros.offline import closed_loop
+    law = closed_loop.load_controller('examples/attitude_controller.py',
+                                      {'inertia': [0.1, 0.2, 0.3], 'target_rpy': [0.3, 0, 1]})
+    result = closed_loop.run({'inertia': [0.1, 0.2, 0.3], 'stop_after': 10.0},
+                             {'body': law}, 'run.mcap')
+
+``run`` takes the node's parameters (every one the node has; ``lockstep`` is implied,
+``stop_after`` ends the run) and a controller per body, and records to the file what the node
+records with ``-p lockstep:=true -p record:=run.mcap`` and the controller as a ROS node
+(``ControlLoop``) on that body's ``wrench_stamped``: the same metadata, states, IMU noise,
+/tf and wrench inputs at the same steps (``node_recorder.same_run`` says '' of the two files,
+and ``replay --verify`` accepts it). It is made of the node's own pieces: the lockstep
+bookkeeping (``ros/lockstep.Lockstep``: the answers of a state take effect together at the
+step after it, or ``lockstep_delay`` periods later), the publish of a state with its IMU
+draw (``sweep.publish_state``), the answer made of the law's wrench
+(``control_loop.command_message``) and turned into the wrench the node takes
+(``body_ports.stamped_wrench``), a re-sent identical wrench not recorded, a law that raises,
+or gives a wrench the node refuses, answered with no change (HOLD), and command_timeout.
+
+A controller is a Python file or module with ``make_law(parameters: dict)``, returning the
+law: called with each state message (nav_msgs/Odometry, or sensor_msgs/Imu if the law's
+``state`` attribute is 'imu'), it returns ``(force, torque)`` (N, N m, in the law's ``frame``
+attribute: 'body' by default) or None for no change. The same file run as a ROS node
+(``python FILE --ros-args -p NAME:=VALUE``) takes the same parameters: that is the other way
+to run it (examples/attitude_controller.py is both).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import importlib
+import importlib.util
+import math
+import os
+from typing import Any, Callable
+
+from rb_sim_ros.core.rigid_body import ZERO_WRENCH
+from rb_sim_ros.core.stepper import IntegrationError
+from rb_sim_ros.offline.sweep import publish_state
+from rb_sim_ros.ros import node_params, ros_messages
+from rb_sim_ros.ros.body_ports import PUBLISHED, RECORDED, stamped_wrench
+from rb_sim_ros.ros.control_loop import command_message, stamp_ns
+from rb_sim_ros.ros.lockstep import HOLD, Lockstep
+from rb_sim_ros.ros.node_config import config_from
+from rb_sim_ros.ros.node_recorder import NodeRecorder
+from rb_sim_ros.sim.imu import ImuSensor
+from rb_sim_ros.sim.scene import load_scene
+from rb_sim_ros.sim.simulation import SetWrench, Simulation
+
+TF, TF_STATIC = '/tf', '/tf_static'
+
+
+def load_controller(where: str, parameters: dict | None = None):
+    """The law of controller ``where`` (a .py file, or a module's dotted name) made with
+    ``parameters``: its ``make_law(parameters)``. ValueError naming what is wrong."""
+    try:
+        if where.endswith('.py'):
+            name = 'rb_sim_controller_' + os.path.basename(where)[:-3]
+            spec = importlib.util.spec_from_file_location(name, where)
+            if spec is None or spec.loader is None:
+                raise ValueError(f'controller {where}: not a Python file')
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+        else:
+            module = importlib.import_module(where)
+    except (OSError, ImportError, SyntaxError) as e:
+        raise ValueError(f'controller {where}: cannot load it: {e}') from None
+    make = getattr(module, 'make_law', None)
+    if not callable(make):
+        raise ValueError(f'controller {where}: it has no make_law(parameters) to call '
+                         'in-process')
+    try:
+        law = make(dict(parameters or {}))
+    except (TypeError, ValueError) as e:
+        raise ValueError(f'controller {where}: {str(e).splitlines()[0]}') from None
+    if not callable(law) or getattr(law, 'state', 'odom') not in ('odom', 'imu'):
+        raise ValueError(f"controller {where}: make_law must return a callable whose 'state' "
+                         "(if any) is 'odom' or 'imu'")
+    return law
+
+
+def node_values(params: dict) -> dict:
+    """Every node parameter: its default, or the value in ``params``, each checked as the node
+    checks it (ValueError naming a bad one); ``lockstep`` on."""
+    values = {p.name: p.default for p in node_params.PARAMS}
+    for name, value in params.items():
+        if name not in values:
+            raise ValueError(f"'{name}' is not a parameter of the simulator")
+        values[name] = value
+    values['lockstep'] = True
+    for name, value in values.items():
+        node_params.check(name, value)
+    if not values['stop_after']:
+        raise ValueError('stop_after: a closed-loop run in-process needs an end (sim seconds)')
+    return values
+
+
+@dataclass
+class Result:
+    steps: int
+    time_ns: int
+    error: str = ''
+    refused: int = 0       # answers the node would refuse (a bad wrench, a law that raised)
+    answered: int = 0      # states the laws answered
+
+
+class _Body:
+    """One moving body with topics: its messages, IMU and controller."""
+
+    def __init__(self, values: dict, spec, index: int, single: bool, law) -> None:
+        self.name = spec.name
+        self.frame = node_params.body_frame(values, spec.name, single)
+        noise = node_params.imu_noise(values)
+        self.out = ros_messages.OutputMessages(
+            values['world_frame'], self.frame, values['twist_frame'],
+            node_params.covariance36(values['odom_pose_covariance']),
+            node_params.covariance36(values['odom_twist_covariance']), noise)
+        self.sensor = ImuSensor(noise, index)
+        prefix = '/' if single else f'/{spec.name}/'
+        self.topics = {kind: prefix + kind for kind, _, _ in PUBLISHED if kind in RECORDED}
+        self.points = dict(spec.points)
+        self.law = law
+        self.last_command_step = 0
+
+
+class ClosedLoop:
+    """The run, period by period, as the node steps it in lockstep (``run`` drives it)."""
+
+    def __init__(self, values: dict, laws: dict[str, Callable], out_path: str,
+                 scene=None) -> None:
+        self.values = values
+        if scene is None and values['scene_file']:
+            scene = load_scene(values['scene_file'])
+        self.config = config_from(values, scene)
+        self.sim = Simulation(self.config)
+        self.sim.warm_up()
+        single = scene is None
+        shown = self.config.bodies[:1 if single else values['max_body_topics']]
+        unknown = sorted(set(laws) - {b.name for b in shown if not b.static})
+        if unknown:
+            raise ValueError(f"controller for '{unknown[0]}': not a moving body with topics")
+        self.bodies = [_Body(values, spec, index, single, laws.get(spec.name))
+                       for index, spec in enumerate(shown) if not spec.static]
+        statics = [spec for spec in shown if spec.static]
+        self._tf = self._tf_static = None
+        if values['publish_tf']:
+            from tf2_msgs.msg import TFMessage
+            world = values['world_frame']
+            self._tf = ros_messages.tf_message(TFMessage, world, [b.frame for b in self.bodies])
+            if statics:
+                self._tf_static = ros_messages.tf_message(
+                    TFMessage, world, [node_params.body_frame(values, s.name, single)
+                                       for s in statics])
+                self._static_poses = [self.sim.pose_twist(s.name)[:2] for s in statics]
+        self.recorder = NodeRecorder(
+            out_path, self.config, values, {b.name: b.topics for b in self.bodies},
+            overwrite=True, tf_topics=[TF, TF_STATIC] if self._tf is not None else [],
+            max_chunk_age_s=None, background=False)
+        self.lockstep = Lockstep(sorted(laws), values['lockstep_delay'])
+        self.lockstep.join(self.lockstep.declared)
+        self.stop_step = math.ceil(values['stop_after'] / self.config.dt - 1e-9)
+        timeout = values['command_timeout']
+        self.timeout_steps = max(1, math.ceil(timeout / self.config.dt - 1e-9)) \
+            if timeout else 0
+        self.result = Result(0, 0)
+
+    # -- the node's period ---------------------------------------------------------------
+    def start(self) -> bool:
+        """Step 0: its state published and answered. False if the run ended."""
+        return self._publish_and_answer()
+
+    def period(self) -> bool:
+        """One publish period: the answers due applied, the steps, the state published and
+        answered. False once the run has ended (stop_after, or an error)."""
+        sim = self.sim
+        for name, answer in self.lockstep.take():
+            body = self._body(name)
+            if isinstance(answer, SetWrench):
+                self._apply(body, answer, command=True)
+            else:  # HOLD
+                body.last_command_step = sim.step_count
+        if self.timeout_steps:
+            for body in self.bodies:
+                if sim.step_count - body.last_command_step >= self.timeout_steps and \
+                        sim.wrench(body.name) != ZERO_WRENCH:
+                    self._apply(body, SetWrench(ZERO_WRENCH, body.name), command=False)
+        end = min(sim.step_count + self.config.steps_per_publish, self.stop_step)
+        try:
+            sim.run(end - sim.step_count)
+        except IntegrationError as e:
+            self.result.error = str(e).splitlines()[0][:500]
+            return False
+        if sim.step_count >= self.stop_step:
+            self.lockstep.expect(sim.time_ns)
+            self._publish()
+            return False
+        return self._publish_and_answer()
+
+    def _body(self, name: str) -> _Body:
+        return next(b for b in self.bodies if b.name == name)
+
+    def _apply(self, body: _Body, event: SetWrench, command: bool) -> None:
+        """The node's _apply of a wrench: taken, its step a command's (command_timeout), and
+        recorded only if it changed the wrench held."""
+        sim = self.sim
+        held = sim.wrench(body.name)
+        sim.apply(event)
+        if command:
+            body.last_command_step = sim.step_count
+        if sim.wrench(body.name) != held:
+            self.recorder.event(sim.step_count, sim.time_ns, event)
+
+    def _publish(self) -> bool:
+        sim = self.sim
+        for body in self.bodies:
+            if not publish_state(sim, body.name, body.out, body.sensor, self.recorder):
+                self.result.error = (f"body '{body.name}' has a non-finite state at step "
+                                     f'{sim.step_count}; not published')
+                return False
+        t_ns = sim.time_ns
+        if self._tf is not None:
+            ros_messages.fill_tf(self._tf, t_ns, [sim.pose_twist(b.name)[:2]
+                                                  for b in self.bodies])
+            self.recorder.tf(TF, sim.step_count, t_ns, self._tf)
+        if self._tf_static is not None:  # once, at the first publish
+            ros_messages.fill_tf(self._tf_static, t_ns, self._static_poses)
+            self.recorder.tf(TF_STATIC, sim.step_count, t_ns, self._tf_static)
+            self._tf_static = None
+        return True
+
+    def _publish_and_answer(self) -> bool:
+        self.lockstep.expect(self.sim.time_ns)
+        if not self._publish():
+            return False
+        for body in self.bodies:
+            if body.law is not None:
+                self._answer(body)
+        return True
+
+    def _answer(self, body: _Body) -> None:
+        """The controller's answer to the state just published, as its ControlLoop and the
+        node's wrench_stamped make it."""
+        law = body.law
+        state = body.out.imu if getattr(law, 'state', 'odom') == 'imu' else body.out.odom
+        try:
+            wrench = law(state)
+            msg = command_message(state, wrench, getattr(law, 'frame', 'body'))
+        except Exception:  # noqa: B902 - as ControlLoop: a law that raises answers HOLD
+            self.result.refused += 1
+            msg = command_message(state, None)
+        fid = msg.header.frame_id.lstrip('/')
+        answer: Any = HOLD
+        if fid != HOLD:
+            v = self.values
+            try:
+                answer = SetWrench(stamped_wrench(msg.wrench, fid, v['world_frame'],
+                                                  body.frame, body.points, v['wrench_frame'],
+                                                  v['max_wrench']), body.name)
+            except ValueError:  # the node refuses it, and answers with no change
+                self.result.refused += 1
+        self.lockstep.offer(body.name, stamp_ns(msg.header.stamp), answer)
+        self.result.answered += 1
+
+    def close(self) -> Result:
+        self.recorder.close()
+        if self.recorder.failed and not self.result.error:
+            self.result.error = self.recorder.failed
+        self.result.steps, self.result.time_ns = self.sim.step_count, self.sim.time_ns
+        return self.result
+
+
+def run(params: dict, laws: dict[str, Callable], out_path: str, scene=None) -> Result:
+    """One closed-loop run to its ``stop_after``, recorded to ``out_path``: see the module's
+    doc. ``params``: node parameters (the rest their defaults); ``laws``: body name -> law
+    (``load_controller``); ``scene``: the scene (sim.scene.Scene) in place of
+    ``scene_file``'s (None: that file's, or the single body of the parameters).
+    ValueError for a bad parameter, scene or controller."""
+    loop = ClosedLoop(node_values(params), laws, out_path, scene)
+    try:
+        if loop.start():
+            while loop.period():
+                pass
+    finally:
+        result = loop.close()
+    return result

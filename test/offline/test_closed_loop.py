@@ -1,0 +1,177 @@
+# Copyright 2026 The rb_sim_ros Authors
+# Licensed under the Apache License, Version 2.0
+# pypi-only: mcap
+"""A controller called in-process in lockstep (offline/closed_loop) makes the run the simulator
+node makes with the same controller as a ROS node over DDS: the same recording, field by
+field. The oracles: the node's own recording of the DDS run (node_recorder.same_run),
+replay --verify, and the controller's law applied to the recorded states (each wrench is the
+law of the state the protocol says)."""
+
+import math
+
+import pytest
+
+from rb_sim_ros.offline import closed_loop, replay
+from rb_sim_ros.recording.reader import RecordingReader
+from rb_sim_ros.ros import node_recorder
+from support.attitude_law import ctl, loop, wrenches_follow_the_law
+
+CONTROLLER = str(loop.HERE / 'attitude_controller.py')
+GAINS = {'target_rpy': loop.TARGET_RPY, 'inertia': loop.INERTIA,
+         'natural_frequency': loop.WN, 'damping_ratio': loop.ZETA}
+# What examples/closed_loop_ci.py sets on the simulator (record and its overwrite are
+# RUN_NEUTRAL: they may differ).
+SIM = {'lockstep_timeout': 60.0, 'record_overwrite': True, 'inertia': loop.INERTIA}
+
+
+def test_in_process_and_over_dds_the_same_controller_makes_the_same_run(
+        installed, ros_env, tmp_path):
+    """The noisy IMU as the controller's state, and a delay of two periods: what both ways
+    must reproduce (the noise drawn at the same publishes, the answers taking effect at the
+    same steps)."""
+    sim = {'imu_gyro_noise': 0.01, 'imu_seed': 7, 'lockstep_delay': 2,
+           'real_time_factor': 0.0}
+    dds = loop.closed_loop(tmp_path / 'dds.mcap', env=ros_env, stop_after=2.0,
+                           sim_args=[a for k, v in sim.items()
+                                     for a in ('-p', f'{k}:={v}')],
+                           controller_args=['-p', 'source:=imu'])
+    law = closed_loop.load_controller(CONTROLLER, dict(GAINS, source='imu'))
+    ours = tmp_path / 'ours.mcap'
+    result = closed_loop.run(dict(SIM, stop_after=2.0, **sim), {'body': law}, str(ours))
+    assert (result.error, result.steps, result.refused) == ('', 2000, 0)
+    assert node_recorder.same_run(str(dds), str(ours)) == ''
+    assert replay.verify(str(ours)).identical
+    assert wrenches_follow_the_law(ours, '', 'imu', delay=2) > 150
+
+
+def _wrench_steps(path):
+    return [m.sequence for m in RecordingReader(str(path)).messages(
+        topics=['/rb_sim/input/body/wrench'])]
+
+
+def test_the_loop_settles_the_body_and_answers_each_state_once_where_the_protocol_says(
+        tmp_path):
+    """In-process alone (no ROS graph): the body reaches its target within the time its
+    gains promise, and each wrench is the law of the state before it."""
+    law = closed_loop.load_controller(CONTROLLER, GAINS)
+    path = tmp_path / 'run.mcap'
+    result = closed_loop.run(dict(SIM, stop_after=4.0), {'body': law}, str(path))
+    assert result.answered == 400 and result.error == ''
+    assert wrenches_follow_the_law(path, '', 'odom', delay=0) > 300
+    t, angle = loop.attitude_errors(path)
+    assert t[-1] == 4.0 and angle[-1] < 0.005 < 1.0 < angle[0]
+    settled_at = t[[k for k in range(len(t)) if angle[k] > 0.02 * angle[0]][-1] + 1]
+    assert settled_at < 1.5 * 4.0 / (loop.ZETA * loop.WN)
+
+
+class _Law:
+    """A law that answers as told: its wrench per call number, raising where it is an
+    exception."""
+
+    def __init__(self, answers) -> None:
+        self.answers, self.calls = answers, 0
+
+    def __call__(self, state):
+        answer = self.answers(self.calls)
+        self.calls += 1
+        if isinstance(answer, Exception):
+            raise answer
+        return answer
+
+
+def test_a_law_that_raises_or_gives_a_bad_wrench_is_answered_with_no_change(tmp_path):
+    """As ControlLoop and the node do: the wrench held stays (nothing recorded), the run goes
+    on, and command_timeout does not fire (a HOLD is a command)."""
+    def answers(k):
+        if k < 3:
+            return (0.0, 0.0, 0.0), (0.0, 0.0, 0.1 * (k + 1))
+        return [RuntimeError('boom'), ((math.nan, 0.0, 0.0), (0.0, 0.0, 0.0)), None][k % 3]
+    path = tmp_path / 'held.mcap'
+    result = closed_loop.run({'stop_after': 2.0, 'command_timeout': 0.05},
+                             {'body': _Law(answers)}, str(path))
+    assert result.error == '' and result.refused == 132  # calls 3 to 199 but each third's None
+    assert _wrench_steps(path) == [0, 10, 20]
+    # the torque 0.3 N m about z held for the rest of the run: w_z = 0.6 + 0.3 (t - 0.02) / I
+    w = [m.message.twist.twist.angular.z for m in RecordingReader(str(path)).messages(
+        topics=['/odom'])][-1]
+    assert w == pytest.approx((0.1 * 0.01 + 0.2 * 0.01 + 0.3 * 1.98) / 0.1, rel=1e-9)
+    assert replay.verify(str(path)).identical
+
+
+def test_an_answered_wrench_is_renewed_every_period_and_never_timed_out(tmp_path):
+    """command_timeout shorter than the run but longer than a period: each answer is a
+    command, so the force answered at every state acts for the whole run (v = F t / m)."""
+    law = _Law(lambda k: ((1.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
+    values = closed_loop.node_values({'stop_after': 0.5, 'command_timeout': 0.05})
+    run = closed_loop.ClosedLoop(values, {'body': law}, str(tmp_path / 'renewed.mcap'))
+    assert run.start()
+    periods = 1
+    while run.period():
+        periods += 1
+    result = run.close()
+    assert periods == 50 and result.answered == 50 and law.calls == 50
+    assert _wrench_steps(tmp_path / 'renewed.mcap') == [0]  # the same wrench: recorded once
+    v = run.sim.pose_twist('body')[2]
+    assert v[0] == pytest.approx(0.5, rel=1e-12)
+
+
+@pytest.mark.parametrize('where, params, said', [
+    ('no_such_file.py', {}, 'cannot load it'),
+    ('math', {}, 'no make_law'),
+    (CONTROLLER, {'gain': 1.0}, "unknown parameter 'gain'"),
+    (CONTROLLER, {'natural_frequency': -1.0}, 'must be > 0'),
+    (CONTROLLER, {'inertia': [1.0, 'a', 1.0]}, 'inertia 3 moments'),
+])
+def test_a_bad_controller_is_refused_in_one_line(where, params, said):
+    with pytest.raises(ValueError, match=said) as e:
+        closed_loop.load_controller(where, params)
+    assert '\n' not in str(e.value)
+
+
+@pytest.mark.parametrize('params, said', [
+    ({'stop_after': 1.0, 'dt': -1.0}, 'dt'),
+    ({'stop_after': 1.0, 'no_such': 1}, "'no_such' is not a parameter"),
+    ({}, 'stop_after'),
+])
+def test_bad_parameters_are_refused_in_one_line(params, said):
+    with pytest.raises(ValueError, match=said):
+        closed_loop.node_values(params)
+
+
+def test_a_controller_for_a_body_without_topics_is_refused(tmp_path):
+    with pytest.raises(ValueError, match="'ghost': not a moving body"):
+        closed_loop.run({'stop_after': 1.0}, {'ghost': _Law(lambda k: None)},
+                        str(tmp_path / 'x.mcap'))
+
+
+def test_the_example_law_is_the_nodes_law():
+    """make_law gives the torque pd_torque gives for the gains of the parameters."""
+    law = ctl.make_law(GAINS)
+    kp = [2.0 * i * loop.WN ** 2 for i in loop.INERTIA]
+    kd = [2.0 * loop.ZETA * loop.WN * i for i in loop.INERTIA]
+    from nav_msgs.msg import Odometry
+    msg = Odometry()
+    o = msg.pose.pose.orientation
+    o.x, o.y, o.z, o.w = 0.1, 0.2, 0.3, math.sqrt(1 - 0.14)
+    msg.twist.twist.angular.x = 0.5
+    assert law(msg) == ((0.0, 0.0, 0.0), ctl.pd_torque(
+        ctl.quaternion_from_rpy(*loop.TARGET_RPY), (o.x, o.y, o.z, o.w), (0.5, 0.0, 0.0),
+        kp, kd, 10.0))
+
+
+def test_two_bodies_of_a_scene_each_with_its_controller_and_a_delay(tmp_path):
+    """Each body's answers take effect two periods after its state, on its own topics."""
+    scene = tmp_path / 'two.yaml'
+    scene.write_text(
+        'bodies:\n'
+        f'  - {{name: a, mass: 1.0, inertia: {loop.INERTIA}}}\n'
+        f'  - {{name: b, mass: 1.0, inertia: {loop.INERTIA}, '
+        'orientation: [0.0, 0.0, 0.7071067811865476, 0.7071067811865476]}\n')
+    path = tmp_path / 'two.mcap'
+    laws = {b: closed_loop.load_controller(CONTROLLER, GAINS) for b in ('a', 'b')}
+    result = closed_loop.run({'stop_after': 2.0, 'scene_file': str(scene),
+                              'lockstep_delay': 2}, laws, str(path))
+    assert result.error == '' and result.answered == 400
+    for body in ('a/', 'b/'):
+        assert wrenches_follow_the_law(path, body, 'odom', delay=2) > 150
+    assert replay.verify(str(path)).identical
