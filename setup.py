@@ -63,6 +63,7 @@ setup(
             'send_wrench = rb_sim_ros.ros.send_wrench:main',
             'replay = rb_sim_ros.offline.replay:main',
             'sweep = rb_sim_ros.offline.sweep:main',
+            'campaign = rb_sim_ros.offline.campaign:main',
         ],
     },
 )

@@ -58,6 +58,11 @@ TF, TF_STATIC = '/tf', '/tf_static'
 def load_controller(where: str, parameters: dict | None = None):
     """The law of controller ``where`` (a .py file, or a module's dotted name) made with
     ``parameters``: its ``make_law(parameters)``. ValueError naming what is wrong."""
+    return make_law(controller_module(where), where, parameters)
+
+
+def controller_module(where: str):
+    """The module of controller ``where`` (a .py file, or a dotted name), imported."""
     try:
         if where.endswith('.py'):
             name = 'rb_sim_controller_' + os.path.basename(where)[:-3]
@@ -66,10 +71,14 @@ def load_controller(where: str, parameters: dict | None = None):
                 raise ValueError(f'controller {where}: not a Python file')
             module = importlib.util.module_from_spec(spec)
             spec.loader.exec_module(module)
-        else:
-            module = importlib.import_module(where)
+            return module
+        return importlib.import_module(where)
     except (OSError, ImportError, SyntaxError) as e:
         raise ValueError(f'controller {where}: cannot load it: {e}') from None
+
+
+def make_law(module, where: str, parameters: dict | None = None):
+    """``module.make_law(parameters)``, checked (``where`` names it in errors)."""
     make = getattr(module, 'make_law', None)
     if not callable(make):
         raise ValueError(f'controller {where}: it has no make_law(parameters) to call '
@@ -126,14 +135,23 @@ class _Body:
         self.points = dict(spec.points)
         self.law = law
         self.last_command_step = 0
+        # (with trace) every published state's time and orientation, every recorded wrench
+        # input's time and torque: the recording's own values, for metrics without reading
+        # it back
+        self.times: list[float] = []
+        self.orientations: list[tuple] = []
+        self.wrench_times: list[float] = []
+        self.torques: list[tuple] = []
 
 
 class ClosedLoop:
     """The run, period by period, as the node steps it in lockstep (``run`` drives it)."""
 
     def __init__(self, values: dict, laws: dict[str, Callable], out_path: str,
-                 scene=None) -> None:
+                 scene=None, trace: bool = False, metadata: dict | None = None) -> None:
         self.values = values
+        self.trace = trace
+        self.contact_periods = 0  # periods that ended with a contact
         if scene is None and values['scene_file']:
             scene = load_scene(values['scene_file'])
         self.config = config_from(values, scene)
@@ -161,6 +179,8 @@ class ClosedLoop:
             out_path, self.config, values, {b.name: b.topics for b in self.bodies},
             overwrite=True, tf_topics=[TF, TF_STATIC] if self._tf is not None else [],
             max_chunk_age_s=None, background=False)
+        for name, record in (metadata or {}).items():  # (what made the run: a campaign's)
+            self.recorder.metadata(name, record)
         self.lockstep = Lockstep(sorted(laws), values['lockstep_delay'])
         self.lockstep.join(self.lockstep.declared)
         self.stop_step = math.ceil(values['stop_after'] / self.config.dt - 1e-9)
@@ -214,6 +234,9 @@ class ClosedLoop:
             body.last_command_step = sim.step_count
         if sim.wrench(body.name) != held:
             self.recorder.event(sim.step_count, sim.time_ns, event)
+            if self.trace:
+                body.wrench_times.append(sim.time_ns * 1e-9)
+                body.torques.append(tuple(event.wrench.torque))
 
     def _publish(self) -> bool:
         sim = self.sim
@@ -223,6 +246,14 @@ class ClosedLoop:
                                      f'{sim.step_count}; not published')
                 return False
         t_ns = sim.time_ns
+        if self.trace:
+            for body in self.bodies:
+                o = body.out.odom.pose.pose.orientation
+                body.times.append(t_ns * 1e-9)
+                body.orientations.append((o.x, o.y, o.z, o.w))
+            stats = sim.contact_stats()
+            if stats is not None and stats.contacts:
+                self.contact_periods += 1
         if self._tf is not None:
             ros_messages.fill_tf(self._tf, t_ns, [sim.pose_twist(b.name)[:2]
                                                   for b in self.bodies])

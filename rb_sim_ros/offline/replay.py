@@ -66,7 +66,8 @@ INPUT_TYPES = {kind: type_name_of(cls) for kind, cls in node_recorder.INPUTS.ite
 OUTPUT_TYPES = {kind: type_name_of(cls) for kind, cls in node_recorder.OUTPUTS.items()}
 # Parameters replay itself uses, with their defaults (a recording holds all of them).
 IMU_DEFAULTS = {'imu_gyro_noise': 0.0, 'imu_accel_noise': 0.0, 'imu_gyro_bias_walk': 0.0,
-                'imu_accel_bias_walk': 0.0, 'imu_seed': 0}
+                'imu_accel_bias_walk': 0.0, 'imu_seed': 0, 'imu_gyro_bias': [0.0] * 3,
+                'imu_accel_bias': [0.0] * 3}
 FRAME_PARAMS = {'world_frame': 'odom', 'body_frame': 'base_link', 'twist_frame': 'body'}
 
 

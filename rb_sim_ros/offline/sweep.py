@@ -382,8 +382,9 @@ def _cell(value) -> str:
 # -- tasks and engines -----------------------------------------------------------------------
 def run_task(context: dict, start: int, stop: int) -> list:
     """A task: [(row, recording bytes)] of runs ``start`` to ``stop`` - 1 of the context's
-    plan, each recorded in a directory of its own under the name it gets (the file name is
-    in the recording). A run that fails in any way is a row with its error; the task goes on."""
+    plan, each made by the context's ``run_one`` (default: a sweep's run) and recorded in a
+    directory of its own under the name it gets (the file name is in the recording). A run
+    that fails in any way is a row with its error; the task goes on."""
     results = []
     die = os.environ.get(DIE_ONCE_ENV, '')
     with tempfile.TemporaryDirectory(prefix='rb_sim_sweep_') as d:
@@ -397,7 +398,7 @@ def run_task(context: dict, start: int, stop: int) -> list:
                     os._exit(17)  # the worker dies, as if killed
             path = os.path.join(d, file_name(run))
             try:
-                row = run_one(context, run, seed, values, path)
+                row = context.get('run_one', run_one)(context, run, seed, values, path)
             except Exception as e:  # noqa: B902 - a bug in one run must not cost the others
                 row = {'run': run, 'seed': seed, **{k: _cell(v) for k, v in values.items()},
                        'error': f'{type(e).__name__}: {e}'.splitlines()[0][:500]}
@@ -747,14 +748,27 @@ def sweep(scene_path: str, varies: list, seeds: int, steps: int, out_dir: str,
     config_from(values, scene)
     if wrench_body and not any(b.name == wrench_body and not b.static for b in scene.bodies):
         raise ValueError(f'--wrench-body {wrench_body}: no moving body of that name')
+    return drive(context, [k for k, _ in varies], out_dir, engine, progress, 'sweep')
+
+
+# The summary's last columns: what a run is and cost, after the varied values and the states.
+TAIL = ('energy', 'contacts', 'max_contacts', 'steps', 'file', 'error', 'wall_s', 'cpu_s')
+
+
+def drive(context: dict, keys: list, out_dir: str, engine=None, progress: bool = True,
+          name: str = 'sweep', tail=TAIL) -> list:
+    """Run every run of ``context['plan']`` with ``run_task`` on ``engine``, the recordings
+    and ``summary.csv`` (the ``keys``' columns first, ``tail``'s last) written to ``out_dir``
+    as they come; the rows, sorted by run. Interrupted (a KeyboardInterrupt) by SIGINT or
+    SIGTERM, the rows of the runs that finished in the summary."""
+    runs = context['plan']
     os.makedirs(out_dir, exist_ok=True)
     own = engine is None
     engine = engine or LocalEngine(os.cpu_count() or 1)
     tasks = chunks(len(runs), engine.workers)
-    keys = [k for k, _ in varies]
     rows = []
     partial = os.path.join(out_dir, 'summary.partial.jsonl')
-    show = Progress(len(runs), 'sweep', 'runs') if progress else _NoProgress()
+    show = Progress(len(runs), name, 'runs') if progress else _NoProgress()
     stop = None
     try:
         with open(partial, 'w') as f:
@@ -785,7 +799,7 @@ def sweep(scene_path: str, varies: list, seeds: int, steps: int, out_dir: str,
             engine.close()
     rows.sort(key=lambda r: r['run'])
     summary = os.path.join(out_dir, 'summary.csv')
-    _write_summary(summary, rows, keys)
+    _write_summary(summary, rows, keys, tail)
     os.unlink(partial)
     if stop is not None:  # the runs not finished are not in the summary
         raise Interrupted(_signum(stop),
@@ -806,15 +820,13 @@ def _write_atomically(path: str, data: bytes) -> None:
         raise
 
 
-def _write_summary(path: str, rows: list, keys: list) -> None:
+def _write_summary(path: str, rows: list, keys: list, tail=TAIL) -> None:
     columns = ['run', 'seed', *keys]
     for row in rows:
         for c in row:
-            if c not in columns and c not in ('steps', 'energy', 'contacts', 'max_contacts',
-                                              'wall_s', 'cpu_s', 'file', 'error'):
+            if c not in columns and c not in tail:
                 columns.append(c)
-    columns += ['energy', 'contacts', 'max_contacts', 'steps', 'file', 'error', 'wall_s',
-                'cpu_s']
+    columns += list(tail)
     tmp = path + '.part'
     with open(tmp, 'w', newline='') as f:
         writer = csv.DictWriter(f, columns, extrasaction='ignore')

@@ -39,14 +39,15 @@ def difference(a: str, b: str, metadata_view=None, message_view=None) -> str:
 
     ``metadata_view(path, name, record)`` and ``message_view(path, topic, message)``, when
     given, say what of a metadata record (a dict) and of a message is compared (e.g. without
-    the file's own name): what they return is compared instead."""
+    the file's own name): what they return is compared instead (a metadata record whose
+    view is None is left out)."""
     ra, rb = RecordingReader(a), RecordingReader(b)
     if ra.library != rb.library:
         return f'writer {ra.library!r} != {rb.library!r}'
     ma, mb = ra.metadata, rb.metadata
     if metadata_view is not None:
-        ma = {n: metadata_view(a, n, dict(r)) for n, r in ma.items()}
-        mb = {n: metadata_view(b, n, dict(r)) for n, r in mb.items()}
+        ma = {n: v for n, r in ma.items() if (v := metadata_view(a, n, dict(r))) is not None}
+        mb = {n: v for n, r in mb.items() if (v := metadata_view(b, n, dict(r))) is not None}
     if ma != mb:
         names = sorted(n for n in set(ma) | set(mb) if ma.get(n) != mb.get(n))
         return f'metadata {names} differs'

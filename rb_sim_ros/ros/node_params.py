@@ -128,6 +128,14 @@ def _sigma(name: str, v: Any) -> None:
         raise ValueError(f'{name} must be a number from 0 to {MAX_SIGMA:g}, got {v!r}')
 
 
+def _bias(name: str, v: Any) -> None:
+    """An IMU's initial bias: 3 numbers, each within +-imu.MAX_SIGMA."""
+    _vector(3)(name, v)
+    if any(abs(float(c)) > MAX_SIGMA for c in v):
+        raise ValueError(f'{name} must be 3 numbers from -{MAX_SIGMA:g} to {MAX_SIGMA:g}, got '
+                         f'{v!r}')
+
+
 def _prefix(name: str, v: Any) -> None:
     """'' or what makes a frame id of any body frame after it ('sim1/', 'sim1_')."""
     if not isinstance(v, str) or len(v) > 256 or (v and not _FRAME.fullmatch(v + 'x')):
@@ -140,7 +148,9 @@ def imu_noise(values: dict):
     """The sim.imu.ImuNoise of the node's parameters ``values``."""
     return ImuNoise(float(values['imu_gyro_noise']), float(values['imu_accel_noise']),
                     float(values['imu_gyro_bias_walk']), float(values['imu_accel_bias_walk']),
-                    int(values['imu_seed']))
+                    int(values['imu_seed']),
+                    tuple(float(c) for c in values.get('imu_gyro_bias', (0.0,) * 3)),
+                    tuple(float(c) for c in values.get('imu_accel_bias', (0.0,) * 3)))
 
 
 def body_frame(values: dict, name: str, single: bool) -> str:
@@ -257,9 +267,14 @@ PARAMS = (
           'and axis (m/s^2); its variance fills linear_acceleration_covariance.', True,
           _sigma),
     Param('imu_gyro_bias_walk', 0.0, 'Gyroscope bias random walk per axis (rad/s/sqrt(s)); '
-          'the bias starts at zero.', True, _sigma),
+          'the bias starts at imu_gyro_bias.', True, _sigma),
     Param('imu_accel_bias_walk', 0.0, 'Accelerometer bias random walk per axis '
-          '(m/s^2/sqrt(s)); the bias starts at zero.', True, _sigma),
+          '(m/s^2/sqrt(s)); the bias starts at imu_accel_bias.', True, _sigma),
+    Param('imu_gyro_bias', [0.0, 0.0, 0.0], 'Gyroscope bias at the first sample, per body '
+          'axis (rad/s): a turn-on bias, constant but for imu_gyro_bias_walk.', True,
+          _bias),
+    Param('imu_accel_bias', [0.0, 0.0, 0.0], 'Accelerometer bias at the first sample, per '
+          'body axis (m/s^2), constant but for imu_accel_bias_walk.', True, _bias),
     Param('imu_seed', 0, 'Seed of the IMU noise (0 to 2^63 - 1); each body draws its own '
           'stream from it, so a run and its replay get the same noise.', True,
           _integer(0, 2 ** 63 - 1)),

@@ -87,6 +87,9 @@ def run_definition(config: Config, parameters: dict, output_topics: dict,
             'tf_topics': json.dumps(sorted(tf_topics))}
 
 
+# A metadata record of where a run came from (offline/campaign: the campaign, the run's
+# number, seed, drawn values and controller parameters).
+PROVENANCE = 'rb_sim_ros_campaign'
 # Parameters that change how a run is made, not what it is: two recordings of one run may
 # differ in them (the file, the pace, how long lockstep waits).
 RUN_NEUTRAL = ('record', 'record_overwrite', 'real_time_factor', 'max_catchup',
@@ -96,7 +99,8 @@ RUN_NEUTRAL = ('record', 'record_overwrite', 'real_time_factor', 'max_catchup',
 def same_run(a: str, b: str) -> str:
     """'' if recordings ``a`` and ``b`` are the same run, bit for bit, else the first
     difference (recording.compare.difference): every message and metadata record, but for the
-    RUN_NEUTRAL parameters and the files' own names."""
+    RUN_NEUTRAL parameters, the files' own names and the PROVENANCE record (what made the run,
+    not what it is: a run of a campaign and the same run made by the node are one run)."""
     def definition(text: str) -> str:
         data = json.loads(text)
         params = json.loads(data.get('parameters', '{}'))
@@ -105,6 +109,8 @@ def same_run(a: str, b: str) -> str:
         return json.dumps(data, sort_keys=True)
 
     def metadata(path, name, record):
+        if name == PROVENANCE:
+            return None
         if name == METADATA:
             return json.loads(definition(json.dumps(record)))
         # rosbag2's record names the file itself
@@ -281,6 +287,13 @@ class NodeRecorder:
     def pending(self) -> int:
         """Messages handed over and not yet written (the writer's queue)."""
         return self._writer.pending
+
+    def metadata(self, name: str, record: dict[str, str]) -> None:
+        """A metadata record of the recording's maker (not the node's: ``same_run`` compares
+        the node's records only), e.g. the campaign a run belongs to (PROVENANCE)."""
+        if name == METADATA:
+            raise ValueError(f"metadata '{name}' is the run's definition")
+        self._writer.write_metadata(name, record)
 
     def event(self, step: int, time_ns: int, event) -> None:
         if self._writer.error is not None:

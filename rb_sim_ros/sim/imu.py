@@ -10,7 +10,8 @@ name the same quantities):
 * white noise, a standard deviation per sample (rad/s for the gyroscope, m/s^2 for the
   accelerometer);
 * a bias that walks: b_k = b_{k-1} + sigma_b sqrt(t_k - t_{k-1}) n_k, sigma_b in rad/s/sqrt(s)
-  or m/s^2/sqrt(s); zero at the first sample.
+  or m/s^2/sqrt(s); at the first sample, the initial bias b_0 (a constant per axis, rad/s or
+  m/s^2: a sensor's turn-on bias; zero by default).
 
 Deterministic: each body draws from its own stream (numpy's PCG64 seeded with (seed, body
 index)), 12 normals a sample whatever the settings, so a run's noise depends only on the seed
@@ -40,6 +41,8 @@ class ImuNoise:
     gyro_bias_walk: float = 0.0  # rad/s/sqrt(s)
     accel_bias_walk: float = 0.0  # m/s^2/sqrt(s)
     seed: int = 0
+    gyro_bias: tuple = (0.0, 0.0, 0.0)  # rad/s, at the first sample
+    accel_bias: tuple = (0.0, 0.0, 0.0)  # m/s^2, at the first sample
 
     def __post_init__(self) -> None:
         for name in ('gyro_noise', 'accel_noise', 'gyro_bias_walk', 'accel_bias_walk'):
@@ -48,6 +51,13 @@ class ImuNoise:
                     not math.isfinite(v) or not 0.0 <= v <= MAX_SIGMA:
                 raise ValueError(f'imu {name} must be a number from 0 to {MAX_SIGMA:g}, got '
                                  f'{v!r}')
+        for name in ('gyro_bias', 'accel_bias'):
+            v = getattr(self, name)
+            if not isinstance(v, tuple) or len(v) != 3 or not all(
+                    isinstance(c, (int, float)) and not isinstance(c, bool) and
+                    math.isfinite(c) and abs(c) <= MAX_SIGMA for c in v):
+                raise ValueError(f'imu {name} must be 3 numbers from -{MAX_SIGMA:g} to '
+                                 f'{MAX_SIGMA:g}, got {v!r}')
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or \
                 not 0 <= self.seed < 2 ** 63:
             raise ValueError(f'imu seed must be an integer from 0 to 2^63 - 1, got '
@@ -56,7 +66,7 @@ class ImuNoise:
     @property
     def noisy(self) -> bool:
         return any((self.gyro_noise, self.accel_noise, self.gyro_bias_walk,
-                    self.accel_bias_walk))
+                    self.accel_bias_walk, *self.gyro_bias, *self.accel_bias))
 
 
 def specific_force(linear_acceleration, gravity):
@@ -72,8 +82,8 @@ class ImuSensor:
         self.noise = noise
         self._rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(
             [noise.seed, body_index])))
-        self._gyro_bias = [0.0, 0.0, 0.0]
-        self._accel_bias = [0.0, 0.0, 0.0]
+        self._gyro_bias = [float(c) for c in noise.gyro_bias]
+        self._accel_bias = [float(c) for c in noise.accel_bias]
         self._last_ns: int | None = None
         self._undo: tuple | None = None
 

@@ -132,6 +132,19 @@ def test_the_bias_walks_as_sigma_sqrt_t():
     assert np.allclose(steps.std(axis=0)[3:], walk_a, rtol=0.03)
 
 
+def test_a_turn_on_bias_is_the_offset_of_every_sample_and_where_the_walk_starts():
+    still = ImuSensor(ImuNoise(gyro_bias=(0.01, -0.02, 0.03), accel_bias=(0.1, 0.0, -0.2)), 0)
+    for k in range(5):
+        assert still.sample(k * 10_000_000) == ((0.01, -0.02, 0.03), (0.1, 0.0, -0.2))
+    walking = ImuSensor(ImuNoise(gyro_bias_walk=0.1, gyro_bias=(0.5, 0.0, 0.0), seed=3), 0)
+    first, second = walking.sample(0), walking.sample(10_000_000)
+    assert first == ((0.5, 0.0, 0.0), (0.0, 0.0, 0.0)) and second[0] != first[0]
+    plain = ImuSensor(ImuNoise(gyro_bias_walk=0.1, seed=3), 0)
+    plain.sample(0)
+    assert np.allclose(np.subtract(second[0], plain.sample(10_000_000)[0]), (0.5, 0, 0),
+                       rtol=0, atol=1e-15)  # the same walk, from the bias
+
+
 def test_the_noise_is_a_function_of_seed_body_and_times():
     noise = ImuNoise(gyro_noise=0.1, accel_noise=0.1, gyro_bias_walk=0.1, seed=42)
     times = [k * 10_000_000 for k in range(50)]
@@ -147,7 +160,9 @@ def test_the_noise_is_a_function_of_seed_body_and_times():
 
 @pytest.mark.parametrize('field, value', [
     ('gyro_noise', float('nan')), ('accel_noise', -1.0), ('gyro_bias_walk', float('inf')),
-    ('accel_bias_walk', True), ('seed', -1), ('seed', 1.5)])
+    ('accel_bias_walk', True), ('seed', -1), ('seed', 1.5),
+    ('gyro_bias', (float('nan'), 0.0, 0.0)), ('accel_bias', (1.0, 2.0)),
+    ('gyro_bias', [0.0, 0.0, 0.0]), ('accel_bias', (0.0, 0.0, 2e6))])
 def test_bad_noise_is_refused_with_its_name(field, value):
     with pytest.raises(ValueError, match=field if field != 'seed' else 'seed'):
         ImuNoise(**{field: value})
