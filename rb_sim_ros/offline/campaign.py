@@ -58,8 +58,9 @@ from typing import Any
 import numpy as np
 
 from rb_sim_ros.core.stepper import IntegrationError
-from rb_sim_ros.offline import campaign_plots, closed_loop, metrics, sweep
+from rb_sim_ros.offline import campaign_plots, closed_loop, dds_loop, metrics, sweep
 from rb_sim_ros.ros import node_params, node_recorder, ros_arguments
+from rb_sim_ros.ros.node_config import config_from
 from rb_sim_ros.sim import safe_yaml
 from rb_sim_ros.sim.scene import read_scene_data, scene_from_data
 
@@ -115,6 +116,25 @@ def _typed(value, like, key: str):
     return value
 
 
+def normalised(values: dict, defaults: dict) -> dict:
+    """``values`` with an integer where the default is a float (or a list of floats) made a
+    float: what a ROS parameter of that type takes, so that both ways of running (in-process,
+    and the nodes given a parameters file) get, and record, the same values."""
+    out = dict(values)
+    for name, value in values.items():
+        default = defaults.get(name)
+        if isinstance(default, float) and _whole(value):
+            out[name] = float(value)
+        elif isinstance(default, (list, tuple)) and default and \
+                all(isinstance(c, float) for c in default) and isinstance(value, (list, tuple)):
+            out[name] = [float(c) if _whole(c) else c for c in value]
+    return out
+
+
+def _whole(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
 def apply_values(context: dict, values: dict, seed: int) -> tuple[dict, dict, Any]:
     """(node parameters, controller parameters, scene data or None) of a run; ``values`` are
     made what was set (a whole number for a parameter that takes one)."""
@@ -134,7 +154,8 @@ def apply_values(context: dict, values: dict, seed: int) -> tuple[dict, dict, An
                              'nor controller.NAME, and there is no --scene to put it in')
         else:
             sweep.set_key(data, key, value)
-    return params, controller, data
+    return (normalised(params, node_defaults),
+            normalised(controller, context['controller_defaults']), data)
 
 
 def controller_defaults(where: str) -> dict:
@@ -160,33 +181,18 @@ def run_campaign_one(context: dict, run: int, seed: int, values: dict, out_path:
         params, controller, data = apply_values(context, values, seed)
         row.update({k: sweep._cell(v) for k, v in values.items()})
         scene = scene_from_data(data, context['scene_path']) if data is not None else None
-        law = closed_loop.make_law(_module(context['controller']), context['controller'],
-                                   controller)
-        body = context['body']
-        provenance = {'campaign': context['spec_path'], 'run': str(run), 'seed': str(seed),
-                      'values': json.dumps(values, sort_keys=True),
-                      'controller': context['controller'],
-                      'controller_parameters': json.dumps(controller, sort_keys=True)}
-        loop = closed_loop.ClosedLoop(
-            closed_loop.node_values(params), {body or _first_body(params, scene): law},
-            out_path, scene, trace=True, metadata={node_recorder.PROVENANCE: provenance})
-        try:
-            if loop.start():
-                while loop.period():
-                    pass
-        finally:
-            result = loop.close()
-        config = loop.config
-        row['steps'] = result.steps
-        row['contact_s'] = repr(loop.contact_periods * config.dt * config.steps_per_publish)
-        row.update(_metrics(loop.bodies[0] if not body else
-                            next(b for b in loop.bodies if b.name == body), controller))
-        for where in context['metrics']:
-            info = {'run': run, 'seed': seed, 'values': values, 'body': body,
+        if context.get('dds'):  # the scene's file, unless a key of it was dispersed
+            varied = any(_where(key)[0] == 'scene' for key in values)
+            _over_dds(context, params, controller, data if varied else None, scene, out_path,
+                      row)
+        else:
+            _in_process(context, run, seed, values, params, controller, scene, out_path, row)
+        for where in context['metrics'] if not row.get('error') else ():
+            info = {'run': run, 'seed': seed, 'values': values,
+                    'body': context['body'] or _first_body(scene),
                     'target_rpy': controller.get('target_rpy')}
             found = metrics.user_metric(where)(out_path, info)
             row.update({k: repr(float(v)) for k, v in found.items()})
-        row['error'] = result.error
     except (ValueError, IntegrationError) as e:
         row['error'] = str(e).splitlines()[0][:500]
     row['rerun'] = f"campaign --rerun {shlex.quote(context['spec_path'])} {run}"
@@ -195,8 +201,54 @@ def run_campaign_one(context: dict, run: int, seed: int, values: dict, out_path:
     return row
 
 
-def _first_body(params: dict, scene) -> str:
-    """The body a campaign controls by default: the first moving one."""
+def _in_process(context, run, seed, values, params, controller, scene, out_path, row) -> None:
+    law = closed_loop.make_law(_module(context['controller']), context['controller'],
+                               controller)
+    body = context['body'] or _first_body(scene)
+    provenance = {'campaign': context['spec_path'], 'run': str(run), 'seed': str(seed),
+                  'values': json.dumps(values, sort_keys=True),
+                  'controller': context['controller'],
+                  'controller_parameters': json.dumps(controller, sort_keys=True)}
+    loop = closed_loop.ClosedLoop(
+        closed_loop.node_values(params), {body: law}, out_path, scene, trace=True,
+        metadata={node_recorder.PROVENANCE: provenance})
+    try:
+        if loop.start():
+            while loop.period():
+                pass
+    finally:
+        result = loop.close()
+    config = loop.config
+    row['steps'] = result.steps
+    row['contact_s'] = repr(loop.contact_periods * config.dt * config.steps_per_publish)
+    row.update(_metrics(next(b for b in loop.bodies if b.name == body), controller))
+    row['error'] = result.error
+
+
+def _over_dds(context, params, controller, data, scene, out_path, row) -> None:
+    """The run with the simulator and the controller as ROS nodes (dds_loop): its metrics
+    read back from the node's recording (contact_s is not known: the node does not record
+    contacts)."""
+    values = closed_loop.node_values(params)  # checked here: a bad value is the row's error
+    config = config_from(values, scene)
+    body = context['body'] or _first_body(scene)
+    error = dds_loop.run(params, context['controller'], controller, out_path, data,
+                         namespace=body if scene is not None else '')
+    if error:
+        row['error'] = error
+        return
+    row['steps'] = math.ceil(values['stop_after'] / config.dt - 1e-9)
+    target = controller.get('target_rpy')
+    if target is not None:
+        found = metrics.attitude(out_path, body if scene is not None else '',
+                                 metrics.quaternion_from_rpy(*target))
+        row.update({k: repr(v) for k, v in found.items()})
+    row['error'] = ''
+
+
+def _first_body(scene) -> str:
+    """The body a campaign controls by default: the single body, or a scene's first moving
+    one."""
     if scene is None:
         return 'body'
     return next(b.name for b in scene.bodies if not b.static)
@@ -233,6 +285,7 @@ def _spec_context(spec: dict, spec_path: str) -> dict:
                'controller_defaults': controller_defaults(spec['controller']),
                'scene': data, 'scene_path': scene_path, 'body': spec.get('body') or '',
                'metrics': list(spec.get('metrics', ())), 'spec_path': spec_path,
+               'dds': bool(spec.get('dds')),
                'run_one': run_campaign_one}
     for where in context['metrics']:
         metrics.user_metric(where)
@@ -305,6 +358,10 @@ def main(args=None) -> int:
                         'body of the parameters)')
     parser.add_argument('--body', help='the controlled body (default: the first moving one)')
     parser.add_argument('--metric', action='append', default=[], metavar='MODULE:FUNCTION')
+    parser.add_argument('--dds', action='store_true', help='run the controller as the ROS '
+                        'node it is, over DDS in lockstep with the simulator node (two '
+                        'processes a run, on a ROS domain each worker holds), instead of '
+                        'in-process')
     parser.add_argument('--out', default='campaign_out', help='directory of the runs')
     parser.add_argument('--workers', type=int, default=os.cpu_count() or 1)
     parser.add_argument('--ray', metavar='ADDRESS', help="run on Ray: 'local', 'auto' or an "
@@ -383,7 +440,7 @@ def _main(parser, opts, handle: bool) -> int:
                 'vary': [list(item.partition('=')[::2]) for item in opts.vary],
                 'seeds': opts.seeds, 'stop_after': opts.stop_after,
                 'scene': os.path.abspath(opts.scene) if opts.scene else '',
-                'body': opts.body or '', 'metrics': opts.metric}
+                'body': opts.body or '', 'metrics': opts.metric, 'dds': opts.dds}
         engine = sweep._engine(opts, handle)
         try:
             rows = campaign(spec, opts.out, engine)

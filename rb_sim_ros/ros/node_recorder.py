@@ -92,8 +92,12 @@ def run_definition(config: Config, parameters: dict, output_topics: dict,
 PROVENANCE = 'rb_sim_ros_campaign'
 # Parameters that change how a run is made, not what it is: two recordings of one run may
 # differ in them (the file, the pace, how long lockstep waits).
+# scene_file too: the scene is in the recorded config (the bodies, gravity, contact) and
+# spawns are recorded whole, so the file's name is where it came from, not what ran (a
+# campaign's run over DDS reads its dispersed scene from a file of its own).
 RUN_NEUTRAL = ('record', 'record_overwrite', 'real_time_factor', 'max_catchup',
-               'compile_in_background', 'lockstep_timeout', 'lockstep_on_timeout')
+               'compile_in_background', 'lockstep_timeout', 'lockstep_on_timeout',
+               'scene_file')
 
 
 def same_run(a: str, b: str) -> str:

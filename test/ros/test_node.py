@@ -53,11 +53,11 @@ def test_installed_layout(installed, ros_env):
 
 CLAIM_DOMAIN = """
 import sys
-from support import ros_harness
+from rb_sim_ros.ros import ros_domains
 if len(sys.argv) > 1:
-    ros_harness.DOMAIN_IDS = [int(a) for a in sys.argv[1:]]
+    ros_domains.DOMAIN_IDS = [int(a) for a in sys.argv[1:]]
 try:
-    print(ros_harness.reserve_domain_id())
+    print(ros_domains.reserve())
 except RuntimeError as e:
     print(e)
 """
@@ -76,7 +76,7 @@ def test_concurrent_runs_never_share_a_domain_id(ros_env):
                               env=env, capture_output=True, text=True, timeout=120,
                               check=True).stdout.strip()
 
-    assert other(mine) == f'every ROS domain id in {[mine]} is held by another test run'
+    assert other(mine) == f'every ROS domain id in {[mine]} is held by another process'
     theirs = int(other())
     assert theirs != mine and theirs in ros_harness.DOMAIN_IDS
     assert int(other(mine, theirs)) == theirs  # free again once that process ended

@@ -15,7 +15,6 @@ import fcntl
 import hashlib
 import os
 from pathlib import Path
-import random
 import shutil
 import signal
 import subprocess
@@ -28,6 +27,7 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 
 from rb_sim_ros.core import jit
+from rb_sim_ros.ros import ros_domains
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -100,37 +100,9 @@ def site_packages(prefix: Path) -> Path:
     return prefix / rel
 
 
-# Fast DDS's default ports stay below the ephemeral range for ids 0..101; 0 is everyone's
-# default, so the tests never take it.
-DOMAIN_IDS = range(1, 102)
-_reserved: tuple[int, object] | None = None
-
-
-def domain_lock_path(domain_id: int) -> Path:
-    return Path(tempfile.gettempdir()) / f'rb_sim_ros_test_domain_{domain_id}.lock'
-
-
-def reserve_domain_id() -> int:
-    """A ROS domain id that no other process using this harness holds, for this process's
-    lifetime: the first id, from a random start, whose lock file this process locks."""
-    global _reserved
-    if _reserved is not None:
-        return _reserved[0]
-    ids = list(DOMAIN_IDS)
-    start = random.Random().randrange(len(ids))
-    for domain_id in ids[start:] + ids[:start]:
-        try:
-            f = open(domain_lock_path(domain_id), 'a')
-        except OSError:  # e.g. another user's file in a sticky /tmp: theirs, then
-            continue
-        try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            f.close()
-            continue
-        _reserved = (domain_id, f)  # the open file holds the lock
-        return domain_id
-    raise RuntimeError(f'every ROS domain id in {DOMAIN_IDS} is held by another test run')
+DOMAIN_IDS = ros_domains.DOMAIN_IDS
+domain_lock_path = ros_domains.lock_path
+reserve_domain_id = ros_domains.reserve
 
 
 def ros_env(prefix: Path) -> dict:
