@@ -177,6 +177,8 @@ def quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
     q.append((*sweeps, f'{cpu * 1e3:.0f} ms of one core'))
     q.append((*sweeps, f'{cpu * 1e6 / 3600:.0f} core-hours'))
 
+    q.extend(campaign_quotes(folder))
+
     sleeping = '#Sleeping'
     q.append((coll, sleeping, f'{scene[0]:.2f} sim seconds per wall second in the first'))
     q.append((coll, sleeping, f'then {min(scene[-3:]):.1f} to {max(scene[-3:]):.1f} in the last '
@@ -477,6 +479,31 @@ def ccd_cells(ccd: dict) -> dict[str, str]:
                        'missed)')
         cells[name + '_without'] = f"{c['seconds_per_step_without'] * 1e3:.{digits}f}"
     return cells
+
+
+def campaign_text(folder: Path = DOCS_BENCH) -> str:
+    """What docs/campaigns.md and docs/benchmarks.md say of bench/campaign_bench.py's run."""
+    c = load('campaign_bench', folder)
+    e = {x['engine']: x for x in c['engines']}
+    one, two = e['in-process, 1 worker'], e['in-process, 2 workers']
+    ray, dds = e['in-process, Ray (local) 2 CPUs'], e['over DDS, 2 workers']
+    text = (f"in-process, 1 worker {one['runs_per_s']:.2f} runs/s, 2 workers "
+            f"{two['runs_per_s']:.2f} runs/s ({two['runs_per_s'] / one['runs_per_s']:.2f}x), "
+            f"Ray with 2 CPUs {ray['runs_per_s']:.2f} runs/s; over DDS, 2 workers "
+            f"{dds['runs_per_s']:.2f} runs/s ({two['runs_per_s'] / dds['runs_per_s']:.0f}x "
+            f"fewer). A run costs {one['cpu_s_per_run'] * 1e3:.0f} ms of one core in-process: "
+            f"a million runs are {one['cpu_s_per_run'] * 1e6 / 3600:.0f} core-hours.")
+    big = c.get('big')
+    if big:
+        text += (f" {big['runs']:,} runs on 2 workers took {big['seconds'] / 60:.1f} min "
+                 f"({big['runs'] / big['seconds']:.2f} runs/s).")
+    return text
+
+
+def campaign_quotes(folder: Path = DOCS_BENCH) -> list[tuple[str, str, str]]:
+    text = campaign_text(folder)
+    return [('docs/campaigns.md', '#Engines, faults, scale', text),
+            ('docs/benchmarks.md', '#Campaigns', text)]
 
 
 def section(text: str, title: str) -> str:

@@ -271,6 +271,11 @@ def _metrics(body, controller: dict) -> dict:
 def _spec_context(spec: dict, spec_path: str) -> dict:
     """The context the workers get, from a campaign's spec (campaign.json): checked, and its
     first run's values put in, so that a bad key or value is one line before any worker."""
+    seeds, stop = spec['seeds'], spec['stop_after']
+    if not 1 <= seeds <= sweep.MAX_RUNS:
+        raise ValueError(f'seeds must be from 1 to {sweep.MAX_RUNS}, got {seeds}')
+    if not (math.isfinite(stop) and 0 < stop <= 1e9):
+        raise ValueError(f'stop_after must be from 0 to 1e9 s, got {stop}')
     varies = [(key, sweep.parse_spec(key, text)) for key, text in spec['vary']]
     for key, _ in varies:
         _where(key)
@@ -314,15 +319,44 @@ def campaign(spec: dict, out_dir: str, engine=None, progress: bool = True) -> li
 def rerun(spec_path: str, run: int, out_dir: str) -> tuple[dict, str]:
     """Run ``run`` of the campaign of ``spec_path`` again, alone, into ``out_dir``: its row and
     its recording's path."""
-    with open(spec_path) as f:
-        spec = json.load(f)
+    spec = read_spec(spec_path)
     context = _spec_context(spec, spec_path)
     if not 0 <= run < len(context['plan']):
         raise ValueError(f'run {run}: the campaign has runs 0 to {len(context["plan"]) - 1}')
     os.makedirs(out_dir, exist_ok=True)
     path = os.path.join(out_dir, sweep.file_name(run))
+    if os.path.realpath(out_dir) == os.path.realpath(os.path.dirname(spec_path) or '.'):
+        raise ValueError(f'--out {out_dir}: the directory of the campaign (its run would be '
+                         'written over): choose another')
     _, seed, values = context['plan'].run(run)
     return run_campaign_one(context, run, seed, values, path), path
+
+
+SPEC_TYPES: dict[str, Any] = {
+    'controller': str, 'controller_params': dict, 'params': dict, 'vary': list, 'seeds': int,
+    'stop_after': (int, float), 'scene': str, 'body': str, 'metrics': list}
+
+
+def read_spec(path: str) -> dict:
+    """A campaign.json, its fields checked (ValueError naming the first that is wrong)."""
+    try:
+        with open(path) as f:
+            spec = json.load(f)
+    except OSError as e:
+        raise ValueError(f'{path}: cannot read it: {e.strerror}') from None
+    except ValueError as e:
+        raise ValueError(f'{path}: not a campaign (not JSON: {e})') from None
+    if not isinstance(spec, dict):
+        raise ValueError(f'{path}: not a campaign (a JSON object expected)')
+    for name, kind in SPEC_TYPES.items():
+        if not isinstance(spec.get(name), kind) or isinstance(spec.get(name), bool):
+            raise ValueError(f"{path}: not a campaign ('{name}' missing or not a "
+                             f'{getattr(kind, "__name__", "number")})')
+    if not all(isinstance(v, list) and len(v) == 2 and all(isinstance(c, str) for c in v)
+               for v in spec['vary']) or not all(isinstance(m, str) for m in spec['metrics']):
+        raise ValueError(f"{path}: not a campaign ('vary' holds [KEY, SPEC] pairs, 'metrics' "
+                         'names)')
+    return spec
 
 
 # -- command line ----------------------------------------------------------------------------

@@ -340,3 +340,22 @@ def test_over_dds_the_controllers_node_makes_the_same_campaign_as_in_process(tmp
     assert [{k: v for k, v in r.items() if k != 'contact_s'} for r in _costless(here)] == \
         [{k: v for k, v in r.items() if k != 'contact_s'} for r in _costless(dds)]
     assert _same(tmp_path / 'here', tmp_path / 'dds')
+
+
+@pytest.mark.parametrize('text, said', [
+    ('{', 'not JSON'), ('[]', 'a JSON object'), ('{"controller": 1}', "'controller' missing"),
+    (json.dumps(dict(_spec([]), seeds=0)), 'seeds must be from 1'),
+    (json.dumps(dict(_spec([]), vary=[['a']])), "'vary' holds"),
+])
+def test_a_campaign_file_that_is_not_one_is_one_line(tmp_path, text, said):
+    (tmp_path / 'campaign.json').write_text(text)
+    out = _cli('--rerun', str(tmp_path / 'campaign.json'), '0', '--out', 'x', cwd=tmp_path)
+    assert out.returncode == 2 and said in out.stderr and \
+        len(out.stderr.strip().splitlines()) == 1, out.stderr
+
+
+def test_a_rerun_into_the_campaigns_own_directory_is_refused(tmp_path):
+    campaign.campaign(_spec([], stop_after=0.1), str(tmp_path / 'c'), Serial(),
+                      progress=False)
+    out = _cli('--rerun', 'c/campaign.json', '0', '--out', 'c', cwd=tmp_path)
+    assert out.returncode == 2 and 'written over' in out.stderr
