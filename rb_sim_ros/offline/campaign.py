@@ -30,14 +30,18 @@ Runs are the grid of the lists and ranges times ``--seeds``; each run's seed is 
 and its draws come from its own stream (run, seed, key): a run depends only on its number,
 never on the engine, the worker count or the order runs finish in.
 
-Each run's drawn values are in its recording (``/rb_sim/run_definition``: the node parameters
-and the scene as the simulator took them; the controller's parameters as
-``controller_parameters`` in the same record's parameters) and in its row of ``summary.csv``,
-beside its metrics (offline/metrics: settling time, overshoot, peak and RMS torque, initial and
-final attitude error towards the controller's ``target_rpy``; ``contact_s``, the time the body
-spent in contact; ``--metric`` adds a user's), its file, its error if it failed, what it cost,
+Each run's drawn values are in its recording (the node parameters and the scene as the
+simulator took them, in the run's definition; the run's number, seed, drawn values and
+controller parameters in a metadata record ``rb_sim_ros_campaign``, which runs over DDS, the
+node's own recordings, do not have) and in its row of ``summary.csv``, beside its metrics
+(offline/metrics: settling time, overshoot, peak time, peak and RMS torque, initial and final
+attitude error towards the controller's ``target_rpy``; ``contact_s``, in-process: the publish
+periods whose last step had a contact anywhere in the scene, in seconds; ``--metric`` adds a
+user's), ``refused`` (answers the simulator took as no change: the law raised, or its wrench
+was refused) and the first one's ``refusal``, its file, its error if it failed, what it cost,
 and ``rerun``: the command that makes that run again alone. ``campaign.json`` holds the
-campaign itself.
+campaign itself. ``--param stop_after`` and ``--param imu_seed`` are refused: they are the
+campaign's (``--stop-after``, and each run's seed).
 """
 
 from __future__ import annotations
@@ -64,7 +68,7 @@ from rb_sim_ros.ros.node_config import config_from
 from rb_sim_ros.sim import safe_yaml
 from rb_sim_ros.sim.scene import read_scene_data, scene_from_data
 
-TAIL = ('steps', 'contact_s', 'file', 'error', 'wall_s', 'cpu_s', 'rerun')
+TAIL = ('steps', 'contact_s', 'refused', 'refusal', 'file', 'error', 'wall_s', 'cpu_s', 'rerun')
 # The laws of the controllers a worker loaded: a controller file is read once a worker.
 _MODULES: dict[str, Any] = {}
 
@@ -162,7 +166,11 @@ def controller_defaults(where: str) -> dict:
     """The controller's parameters and defaults (its PARAMETERS table, if it has one)."""
     module = _module(where)
     table = getattr(module, 'PARAMETERS', ())
-    return {row[0]: row[1] for row in table}
+    try:
+        return {str(row[0]): row[1] for row in table}
+    except (TypeError, IndexError, KeyError):
+        raise ValueError(f'controller {where}: its PARAMETERS is not a table of (name, '
+                         'default, description) rows') from None
 
 
 def _module(where: str):
@@ -221,6 +229,7 @@ def _in_process(context, run, seed, values, params, controller, scene, out_path,
     config = loop.config
     row['steps'] = result.steps
     row['contact_s'] = repr(loop.contact_periods * config.dt * config.steps_per_publish)
+    row['refused'], row['refusal'] = result.refused, result.refusal
     row.update(_metrics(next(b for b in loop.bodies if b.name == body), controller))
     row['error'] = result.error
 
@@ -274,13 +283,22 @@ def _spec_context(spec: dict, spec_path: str) -> dict:
     seeds, stop = spec['seeds'], spec['stop_after']
     if not 1 <= seeds <= sweep.MAX_RUNS:
         raise ValueError(f'seeds must be from 1 to {sweep.MAX_RUNS}, got {seeds}')
-    if not (math.isfinite(stop) and 0 < stop <= 1e9):
+    if not (isinstance(stop, (int, float)) and 0 < stop <= 1e9):  # (no float() of 10**400)
         raise ValueError(f'stop_after must be from 0 to 1e9 s, got {stop}')
+    for name in ('stop_after', 'imu_seed'):
+        if name in spec['params']:
+            raise ValueError(f"{name} is the campaign's: "
+                             + ('--stop-after' if name == 'stop_after' else
+                                "each run's seed is its imu_seed (--seeds)"))
+    if spec.get('controller', '').endswith('.py'):  # (over DDS it runs from elsewhere)
+        spec = dict(spec, controller=os.path.abspath(spec['controller']))
     varies = [(key, sweep.parse_spec(key, text)) for key, text in spec['vary']]
     for key, _ in varies:
         _where(key)
-    scene_path = spec.get('scene') or ''
+    scene_path = os.path.abspath(spec['scene']) if spec.get('scene') else ''
     data = read_scene_data(scene_path) if scene_path else None
+    if data is None and spec.get('body') not in ('', 'body', None):
+        raise ValueError(f"--body {spec['body']}: without --scene the body is 'body'")
     params = dict(spec['params'], stop_after=float(spec['stop_after']))
     if scene_path:
         params['scene_file'] = scene_path
@@ -439,7 +457,8 @@ def _main(parser, opts, handle: bool) -> int:
                   'bit for bit')
             return 1 if bad else 0
         if opts.plot:
-            paths = campaign_plots.plot(opts.plot)
+            paths = campaign_plots.plot(
+                opts.plot, read_spec(os.path.join(opts.plot, 'campaign.json')))
             print('\n'.join(paths))
             return 0
         if opts.rerun:

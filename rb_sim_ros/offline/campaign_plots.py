@@ -12,7 +12,6 @@
 from __future__ import annotations
 
 import csv
-import json
 import math
 import os
 
@@ -27,15 +26,12 @@ MAX_LINES = 300
 WORST = 3
 
 
-def _rows(out_dir: str) -> tuple[dict, list]:
+def _rows(out_dir: str) -> list:
     try:
-        with open(os.path.join(out_dir, 'campaign.json')) as f:
-            spec = json.load(f)
         with open(os.path.join(out_dir, 'summary.csv'), newline='') as f:
-            rows = list(csv.DictReader(f))
-    except (OSError, ValueError) as e:
+            return list(csv.DictReader(f))
+    except (OSError, ValueError, csv.Error) as e:
         raise ValueError(f'{out_dir}: not a finished campaign ({e})') from None
-    return spec, rows
 
 
 def _number(text) -> float:
@@ -45,13 +41,14 @@ def _number(text) -> float:
         return math.nan
 
 
-def plot(out_dir: str, progress: bool = True) -> list[str]:
-    """Draw the pictures of the campaign in ``out_dir`` into it; their paths."""
+def plot(out_dir: str, spec: dict, progress: bool = True) -> list[str]:
+    """Draw the pictures of the campaign in ``out_dir`` (``spec``: its campaign.json, read and
+    checked) into it; their paths."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    spec, rows = _rows(out_dir)
+    rows = _rows(out_dir)
     good = [r for r in rows if not r.get('error') and r.get('file')]
     if not good:
         raise ValueError(f'{out_dir}: no run finished without an error: nothing to draw')
@@ -84,8 +81,11 @@ def plot(out_dir: str, progress: bool = True) -> list[str]:
 
 
 def _envelope(plt, out_dir: str, spec: dict, good: list, progress: bool) -> str:
-    target = spec['controller_params'].get('target_rpy')
-    q = metrics.quaternion_from_rpy(*(target or (0.0, 0.0, 0.0)))
+    target = spec['controller_params'].get('target_rpy') or (0.0, 0.0, 0.0)
+    try:
+        q = metrics.quaternion_from_rpy(*(float(c) for c in target))
+    except (TypeError, ValueError):
+        raise ValueError(f'campaign.json: target_rpy {target!r} is not 3 angles') from None
     fig, ax = plt.subplots(figsize=(9, 5))
     worst = sorted(good, key=lambda r: -_number(r.get('final_error_rad')))[:WORST]
     curves = []

@@ -9,34 +9,39 @@ the simulator node makes with the same controller answering over ROS, bit for bi
     result = closed_loop.run({'inertia': [0.1, 0.2, 0.3], 'stop_after': 10.0},
                              {'body': law}, 'run.mcap')
 
-``run`` takes the node's parameters (every one the node has; ``lockstep`` is implied,
-``stop_after`` ends the run) and a controller per body, and records to the file what the node
-records with ``-p lockstep:=true -p record:=run.mcap`` and the controller as a ROS node
-(``ControlLoop``) on that body's ``wrench_stamped``: the same metadata, states, IMU noise,
-/tf and wrench inputs at the same steps (``node_recorder.same_run`` says '' of the two files,
-and ``replay --verify`` accepts it). It is made of the node's own pieces: the lockstep
-bookkeeping (``ros/lockstep.Lockstep``: the answers of a state take effect together at the
-step after it, or ``lockstep_delay`` periods later), the publish of a state with its IMU
-draw (``sweep.publish_state``), the answer made of the law's wrench
-(``control_loop.command_message``) and turned into the wrench the node takes
-(``body_ports.stamped_wrench``), a re-sent identical wrench not recorded, a law that raises,
-or gives a wrench the node refuses, answered with no change (HOLD), and command_timeout.
+``run`` takes the node's parameters (``lockstep`` is implied, ``stop_after`` ends the run;
+``start_paused`` and a ``lockstep_inputs`` other than the controlled bodies are refused, as
+nothing here would unpause the run or answer for another body) and a controller per body, and
+records to the file what the node records with ``-p lockstep:=true -p record:=run.mcap`` and
+the controller as a ROS node (``ControlLoop``) on that body's ``wrench_stamped``: the same
+metadata, states, IMU noise, /tf and wrench inputs at the same steps
+(``node_recorder.same_run`` says '' of the two files, and ``replay --verify`` accepts it). It
+is made of the node's own pieces: the lockstep bookkeeping (``ros/lockstep.Lockstep``: the
+answers of a state take effect together at the step after it, or ``lockstep_delay`` periods
+later), the publish of a state with its IMU draw (``sweep.publish_state``), the answer made of
+the law's wrench (``control_loop.command_message``) and turned into the wrench the node takes
+(``body_ports.stamped_wrench``), a re-sent identical wrench not recorded, a law that raises, or
+gives a wrench the node refuses, answered with no change (HOLD), and command_timeout.
 
 A controller is a Python file or module with ``make_law(parameters: dict)``, returning the
 law: called with each state message (nav_msgs/Odometry, or sensor_msgs/Imu if the law's
 ``state`` attribute is 'imu'), it returns ``(force, torque)`` (N, N m, in the law's ``frame``
 attribute: 'body' by default) or None for no change. The same file run as a ROS node
 (``python FILE --ros-args -p NAME:=VALUE``) takes the same parameters: that is the other way
-to run it (examples/attitude_controller.py is both).
+to run it (examples/attitude_controller.py is both). The message the law gets is the
+simulator's own, refilled for the next state: a law that keeps a state past its call copies
+what it keeps (over ROS each state is a fresh message; a law keeping the message itself would
+see it change here, and the two ways would differ).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+import hashlib
 import importlib
 import importlib.util
-import math
 import os
+import sys
 from typing import Any, Callable
 
 from rb_sim_ros.core.rigid_body import ZERO_WRENCH
@@ -46,7 +51,7 @@ from rb_sim_ros.ros import node_params, ros_messages
 from rb_sim_ros.ros.body_ports import PUBLISHED, RECORDED, stamped_wrench
 from rb_sim_ros.ros.control_loop import command_message, stamp_ns
 from rb_sim_ros.ros.lockstep import HOLD, Lockstep
-from rb_sim_ros.ros.node_config import config_from
+from rb_sim_ros.ros.node_config import config_from, stop_step, timeout_steps
 from rb_sim_ros.ros.node_recorder import NodeRecorder
 from rb_sim_ros.sim.imu import ImuSensor
 from rb_sim_ros.sim.scene import load_scene
@@ -65,16 +70,27 @@ def controller_module(where: str):
     """The module of controller ``where`` (a .py file, or a dotted name), imported."""
     try:
         if where.endswith('.py'):
-            name = 'rb_sim_controller_' + os.path.basename(where)[:-3]
-            spec = importlib.util.spec_from_file_location(name, where)
+            path = os.path.abspath(where)
+            name = 'rb_sim_controller_' + hashlib.sha1(path.encode()).hexdigest()[:12]
+            if name in sys.modules:
+                return sys.modules[name]
+            spec = importlib.util.spec_from_file_location(name, path)
             if spec is None or spec.loader is None:
                 raise ValueError(f'controller {where}: not a Python file')
             module = importlib.util.module_from_spec(spec)
-            spec.loader.exec_module(module)
+            sys.modules[name] = module  # (as an import: dataclasses and pickling look it up)
+            try:
+                spec.loader.exec_module(module)
+            except BaseException:
+                del sys.modules[name]
+                raise
             return module
         return importlib.import_module(where)
-    except (OSError, ImportError, SyntaxError) as e:
-        raise ValueError(f'controller {where}: cannot load it: {e}') from None
+    except ValueError:
+        raise
+    except Exception as e:  # noqa: B902 - whatever its import raised: the user's file
+        raise ValueError(f'controller {where}: cannot load it: {type(e).__name__}: '
+                         f'{str(e).splitlines()[0] if str(e) else ""}') from None
 
 
 def make_law(module, where: str, parameters: dict | None = None):
@@ -85,8 +101,11 @@ def make_law(module, where: str, parameters: dict | None = None):
                          'in-process')
     try:
         law = make(dict(parameters or {}))
-    except (TypeError, ValueError) as e:
-        raise ValueError(f'controller {where}: {str(e).splitlines()[0]}') from None
+    except Exception as e:  # noqa: B902 - whatever the user's make_law raised
+        text = str(e).splitlines()[0] if str(e) else ''
+        raise ValueError(f'controller {where}: make_law: '
+                         + (text if isinstance(e, ValueError) else
+                            f'{type(e).__name__}: {text}')) from None
     if not callable(law) or getattr(law, 'state', 'odom') not in ('odom', 'imu'):
         raise ValueError(f"controller {where}: make_law must return a callable whose 'state' "
                          "(if any) is 'odom' or 'imu'")
@@ -106,6 +125,8 @@ def node_values(params: dict) -> dict:
         node_params.check(name, value)
     if not values['stop_after']:
         raise ValueError('stop_after: a closed-loop run in-process needs an end (sim seconds)')
+    if values['start_paused']:
+        raise ValueError('start_paused: nothing would unpause a closed-loop run in-process')
     return values
 
 
@@ -116,6 +137,7 @@ class Result:
     error: str = ''
     refused: int = 0       # answers the node would refuse (a bad wrench, a law that raised)
     answered: int = 0      # states the laws answered
+    refusal: str = ''      # why the first of them was refused, one line
 
 
 class _Body:
@@ -166,10 +188,16 @@ class ClosedLoop:
                        for index, spec in enumerate(shown) if not spec.static]
         statics = [spec for spec in shown if spec.static]
         self._tf = self._tf_static = None
-        if values['publish_tf']:
+        try:  # as the node: without tf2_msgs, no /tf (it warns)
             from tf2_msgs.msg import TFMessage
+        except ImportError:
+            TFMessage = None
+        tf_on = bool(values['publish_tf']) and TFMessage is not None
+        if tf_on:
             world = values['world_frame']
-            self._tf = ros_messages.tf_message(TFMessage, world, [b.frame for b in self.bodies])
+            if self.bodies:  # (the node makes /tf for moving bodies with topics only)
+                self._tf = ros_messages.tf_message(TFMessage, world,
+                                                   [b.frame for b in self.bodies])
             if statics:
                 self._tf_static = ros_messages.tf_message(
                     TFMessage, world, [node_params.body_frame(values, s.name, single)
@@ -177,16 +205,18 @@ class ClosedLoop:
                 self._static_poses = [self.sim.pose_twist(s.name)[:2] for s in statics]
         self.recorder = NodeRecorder(
             out_path, self.config, values, {b.name: b.topics for b in self.bodies},
-            overwrite=True, tf_topics=[TF, TF_STATIC] if self._tf is not None else [],
+            overwrite=True, tf_topics=[TF, TF_STATIC] if tf_on else [],
             max_chunk_age_s=None, background=False)
         for name, record in (metadata or {}).items():  # (what made the run: a campaign's)
             self.recorder.metadata(name, record)
+        declared = node_params.names_list(values['lockstep_inputs'])
+        if declared and set(declared) != set(laws):
+            raise ValueError(f'lockstep_inputs {sorted(set(declared))}: in-process, the '
+                             f'inputs are the bodies with a controller ({sorted(laws)})')
         self.lockstep = Lockstep(sorted(laws), values['lockstep_delay'])
         self.lockstep.join(self.lockstep.declared)
-        self.stop_step = math.ceil(values['stop_after'] / self.config.dt - 1e-9)
-        timeout = values['command_timeout']
-        self.timeout_steps = max(1, math.ceil(timeout / self.config.dt - 1e-9)) \
-            if timeout else 0
+        self.stop_step = stop_step(values, self.config)
+        self.timeout_steps = timeout_steps(values, self.config)
         self.result = Result(0, 0)
 
     # -- the node's period ---------------------------------------------------------------
@@ -240,11 +270,15 @@ class ClosedLoop:
 
     def _publish(self) -> bool:
         sim = self.sim
-        for body in self.bodies:
-            if not publish_state(sim, body.name, body.out, body.sensor, self.recorder):
+        failed = False
+        for body in self.bodies:  # (all of them, as the node: the others are published)
+            if not publish_state(sim, body.name, body.out, body.sensor, self.recorder) and \
+                    not failed:
+                failed = True
                 self.result.error = (f"body '{body.name}' has a non-finite state at step "
                                      f'{sim.step_count}; not published')
-                return False
+        if failed:
+            return False
         t_ns = sim.time_ns
         if self.trace:
             for body in self.bodies:
@@ -281,8 +315,8 @@ class ClosedLoop:
         try:
             wrench = law(state)
             msg = command_message(state, wrench, getattr(law, 'frame', 'body'))
-        except Exception:  # noqa: B902 - as ControlLoop: a law that raises answers HOLD
-            self.result.refused += 1
+        except Exception as e:  # noqa: B902 - as ControlLoop: a law that raises answers HOLD
+            self._refused(f'the law raised {type(e).__name__}: {e}')
             msg = command_message(state, None)
         fid = msg.header.frame_id.lstrip('/')
         answer: Any = HOLD
@@ -292,10 +326,16 @@ class ClosedLoop:
                 answer = SetWrench(stamped_wrench(msg.wrench, fid, v['world_frame'],
                                                   body.frame, body.points, v['wrench_frame'],
                                                   v['max_wrench']), body.name)
-            except ValueError:  # the node refuses it, and answers with no change
-                self.result.refused += 1
+            except ValueError as e:  # the node refuses it, and answers with no change
+                self._refused(f'its wrench was refused: {e}')
         self.lockstep.offer(body.name, stamp_ns(msg.header.stamp), answer)
         self.result.answered += 1
+
+    def _refused(self, why: str) -> None:
+        self.result.refused += 1
+        if not self.result.refusal:
+            self.result.refusal = (f't = {self.sim.time_ns * 1e-9:.9f} s: '
+                                   + why.splitlines()[0])[:300]
 
     def close(self) -> Result:
         self.recorder.close()

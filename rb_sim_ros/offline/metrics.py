@@ -133,8 +133,9 @@ def user_metric(where: str) -> Callable:
         raise ValueError(f'--metric {where}: give it as module:function')
     try:
         fn = getattr(importlib.import_module(module), name)
-    except (ImportError, AttributeError) as e:
-        raise ValueError(f'--metric {where}: {e}') from None
+    except Exception as e:  # noqa: B902 - whatever the user's module raised on import
+        raise ValueError(f'--metric {where}: {type(e).__name__}: '
+                         f'{str(e).splitlines()[0] if str(e) else ""}') from None
     if not callable(fn):
         raise ValueError(f'--metric {where}: not a function')
     return fn

@@ -53,3 +53,15 @@ def config_from(v: dict, scene=None) -> Config:
         node_params.body_frame(v, b.name, scene is None)
     return Config(dt=float(v['dt']), steps_per_publish=int(round(steps)),
                   integrator=integrator, gravity=gravity, bodies=bodies, contact=contact)
+
+
+def timeout_steps(v: dict, config: Config) -> int:
+    """command_timeout in steps: 0 disables; a timeout shorter than a step still times out
+    (at the next step), never disables."""
+    timeout = v['command_timeout']
+    return max(1, math.ceil(timeout / config.dt - 1e-9)) if timeout else 0
+
+
+def stop_step(v: dict, config: Config) -> int:
+    """The step stop_after ends the run at (0: it does not end by itself)."""
+    return math.ceil(v['stop_after'] / config.dt - 1e-9) if v['stop_after'] else 0

@@ -71,12 +71,12 @@ from rb_sim_ros.ros.body_ports import APPLIED_QOS, BodyPorts, OVERRIDABLE, Twist
 from rb_sim_ros.ros.collision_markers import CollisionMarkers
 from rb_sim_ros.ros.diagnostics import Diagnostics
 from rb_sim_ros.ros.lockstep import HOLD, Lockstep
-from rb_sim_ros.ros.node_config import config_from
+from rb_sim_ros.ros.node_config import config_from, stop_step, timeout_steps
 from rb_sim_ros.ros.ros_messages import TF, TF_STATIC
 from rb_sim_ros.ros.taken_inputs import TakenInputs
 from rb_sim_ros.sim import precompile
 from rb_sim_ros.sim.scene import load_scene
-from rb_sim_ros.sim.simulation import (BodySpec, Config, config_after, contact_tests, Delete,
+from rb_sim_ros.sim.simulation import (BodySpec, config_after, contact_tests, Delete,
                                        kernels_after, Reset, SetTwist, SetWrench, Simulation,
                                        Spawn, warm_up_bodies, warm_up_contacts)
 
@@ -221,8 +221,7 @@ class SimulatorNode(Node):
         self._failures = 0
         self._paused = bool(values['start_paused'])
         self._timeout_steps = 0
-        self._stop_step = math.ceil(values['stop_after'] / self.config.dt - 1e-9) \
-            if values['stop_after'] else 0
+        self._stop_step = stop_step(values, self.config)
         self._lockstep = Lockstep(None, values['lockstep_delay']) if values['lockstep'] \
             else None
         self._resent = 0.0  # when a state was last sent again to a controller not heard yet
@@ -1054,7 +1053,7 @@ class SimulatorNode(Node):
 
     # -- parameters ------------------------------------------------------------------------
     def _apply_settings(self) -> None:
-        self._timeout_steps = _timeout_steps(self._v, self.config)
+        self._timeout_steps = timeout_steps(self._v, self.config)
 
     def _on_set_parameters(self, params) -> SetParametersResult:
         if not any(p.name in node_params.BY_NAME for p in params):
@@ -1068,7 +1067,7 @@ class SimulatorNode(Node):
                 node_params.check(p.name, p.value)
                 new[p.name] = p.value
             config = config_from(new, self._scene)
-            _timeout_steps(new, config)
+            timeout_steps(new, config)
         except ValueError as e:
             return SetParametersResult(successful=False, reason=str(e))
         except Exception as e:  # noqa: B902 - a bug must refuse the value, not kill the node
@@ -1115,13 +1114,6 @@ class SimulatorNode(Node):
             # Said on stderr: after a signal the logger's context may be gone already.
             print(f"[rb_sim] recording finished: '{os.path.abspath(self._v['record'])}'",
                   file=sys.stderr)
-
-
-def _timeout_steps(v: dict, config: Config) -> int:
-    """command_timeout in steps: 0 disables; a timeout shorter than a step still times out
-    (at the next step), never disables."""
-    timeout = v['command_timeout']
-    return max(1, math.ceil(timeout / config.dt - 1e-9)) if timeout else 0
 
 
 class _Settings:

@@ -337,8 +337,9 @@ def test_over_dds_the_controllers_node_makes_the_same_campaign_as_in_process(tmp
         engine.close()
     here, dds = _rows(tmp_path / 'here'), _rows(tmp_path / 'dds')
     assert len(here) == 4 and not any(r['error'] for r in here + dds), dds
-    assert [{k: v for k, v in r.items() if k != 'contact_s'} for r in _costless(here)] == \
-        [{k: v for k, v in r.items() if k != 'contact_s'} for r in _costless(dds)]
+    unknown = ('contact_s', 'refused', 'refusal')  # (the node records neither)
+    assert [{k: v for k, v in r.items() if k not in unknown} for r in _costless(here)] == \
+        [{k: v for k, v in r.items() if k not in unknown} for r in _costless(dds)]
     assert _same(tmp_path / 'here', tmp_path / 'dds')
 
 
@@ -359,3 +360,61 @@ def test_a_rerun_into_the_campaigns_own_directory_is_refused(tmp_path):
                       progress=False)
     out = _cli('--rerun', 'c/campaign.json', '0', '--out', 'c', cwd=tmp_path)
     assert out.returncode == 2 and 'written over' in out.stderr
+
+
+RAISING_LAW = """
+def make_law(parameters):
+    def law(state):
+        raise RuntimeError('sensor fault')
+    return law
+"""
+
+
+def test_a_law_that_always_fails_shows_in_its_row(tmp_path):
+    """An open-loop run is not a silent success: every answer refused, and why."""
+    (tmp_path / 'raising.py').write_text(RAISING_LAW)
+    spec = _spec([], stop_after=0.5)
+    spec.update(controller=str(tmp_path / 'raising.py'), controller_params={})
+    campaign.campaign(spec, str(tmp_path / 'out'), Serial(), progress=False)
+    row = _rows(tmp_path / 'out')[0]
+    assert row['error'] == '' and row['refused'] == '50'
+    assert row['refusal'] == 't = 0.000000000 s: the law raised RuntimeError: sensor fault'
+
+
+def test_contact_time_is_the_periods_in_contact(tmp_path):
+    """A ball resting on the ground is in contact every period; one far above, never."""
+    scene = tmp_path / 'ball.yaml'
+    scene.write_text(
+        'gravity: [0, 0, -9.81]\n'
+        'bodies:\n'
+        '  - {name: ball, shape: sphere, radius: 0.1, density: 1000, position: [0, 0, 0.1],\n'
+        '     colliders: shape}\n'
+        '  - name: ground\n'
+        '    static: true\n'
+        '    colliders: [{type: plane, normal: [0.0, 0.0, 1.0], offset: 0.0}]\n')
+    spec = _spec([('bodies.ball.position.2', '[0.1, 100.0]')], stop_after=0.5,
+                 scene=str(scene), params={})
+    spec['controller_params'] = {'target_rpy': [0.0, 0.0, 0.0], 'inertia': [0.004] * 3}
+    campaign.campaign(spec, str(tmp_path / 'out'), Serial(), progress=False)
+    resting, falling = _rows(tmp_path / 'out')
+    assert resting['error'] == falling['error'] == ''
+    assert float(resting['contact_s']) == pytest.approx(0.5, abs=0.0100001)
+    assert float(falling['contact_s']) == 0.0
+
+
+@pytest.mark.parametrize('args, said', [
+    (['--param', 'stop_after=3'], '--stop-after'),
+    (['--param', 'imu_seed=3'], "each run's seed"),
+    (['--body', 'ghost'], "without --scene the body is 'body'"),
+    (['--metric', 'no_such_module_x:f'], '--metric no_such_module_x:f: ModuleNotFoundError'),
+])
+def test_more_bad_arguments_are_one_line(tmp_path, args, said):
+    out = _cli('--controller', CONTROLLER, '--out', 'c', *args, cwd=tmp_path)
+    assert out.returncode == 2 and said in out.stderr, out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1
+
+
+def test_a_campaign_file_with_a_huge_stop_is_one_line(tmp_path):
+    (tmp_path / 'campaign.json').write_text(json.dumps(dict(_spec([]), stop_after=10 ** 400)))
+    out = _cli('--rerun', 'campaign.json', '0', '--out', 'x', cwd=tmp_path)
+    assert out.returncode == 2 and 'stop_after must be' in out.stderr, out.stderr

@@ -175,3 +175,69 @@ def test_two_bodies_of_a_scene_each_with_its_controller_and_a_delay(tmp_path):
     for body in ('a/', 'b/'):
         assert wrenches_follow_the_law(path, body, 'odom', delay=2) > 150
     assert replay.verify(str(path)).identical
+
+
+def test_a_scene_with_a_static_body_a_frame_prefix_and_two_controllers_over_dds_too(
+        installed, ros_env, tmp_path):
+    """What a scene adds to the node's recording: a static body's /tf_static, the bodies'
+    own topics and frames (frame_prefix), two lockstep inputs, command_timeout; the node over
+    DDS with two controller nodes and the in-process loop record the same run."""
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(
+        'bodies:\n'
+        f'  - {{name: a, mass: 1.0, inertia: {loop.INERTIA}}}\n'
+        f'  - {{name: b, mass: 2.0, inertia: {loop.INERTIA}, '
+        'orientation: [0.0, 0.0, 0.7071067811865476, 0.7071067811865476]}\n'
+        '  - name: ground\n'
+        '    static: true\n'
+        '    position: [0.0, 0.0, -5.0]\n'
+        '    colliders: [{type: plane, normal: [0.0, 0.0, 1.0], offset: 0.0}]\n')
+    sim = {'scene_file': str(scene), 'lockstep_inputs': ['a', 'b'], 'lockstep_delay': 1,
+           'frame_prefix': 'sc/', 'command_timeout': 0.05, 'real_time_factor': 0.0}
+    dds = loop.closed_loop(tmp_path / 'dds.mcap', env=ros_env, stop_after=1.0,
+                           sim_args=[a for k, v in sim.items() for a in ('-p', f'{k}:={v}')],
+                           controllers=[['-r', '__ns:=/a'], ['-r', '__ns:=/b']])
+    laws = {b: closed_loop.load_controller(CONTROLLER, GAINS) for b in ('a', 'b')}
+    ours = tmp_path / 'ours.mcap'
+    result = closed_loop.run(dict(SIM, stop_after=1.0, **sim), laws, str(ours))
+    assert result.error == '' and result.answered == 200
+    assert node_recorder.same_run(str(dds), str(ours)) == ''
+    statics = list(RecordingReader(str(ours)).messages(topics=['/tf_static']))
+    assert [t.child_frame_id for t in statics[0].message.transforms] == ['sc/ground']
+
+
+def test_in_process_parameters_it_cannot_honour_are_refused(tmp_path):
+    law = closed_loop.load_controller(CONTROLLER, GAINS)
+    with pytest.raises(ValueError, match='start_paused'):
+        closed_loop.run({'stop_after': 1.0, 'start_paused': True}, {'body': law},
+                        str(tmp_path / 'x.mcap'))
+    with pytest.raises(ValueError, match='lockstep_inputs'):
+        closed_loop.run({'stop_after': 1.0, 'lockstep_inputs': '[other]'}, {'body': law},
+                        str(tmp_path / 'x.mcap'))
+
+
+DATACLASS_LAW = """
+from __future__ import annotations
+from dataclasses import dataclass
+
+
+@dataclass
+class Gain:
+    k: float = 1.0
+
+
+def make_law(parameters):
+    gain = Gain(**parameters)
+    return lambda state: ((0.0, 0.0, 0.0), (0.0, 0.0, -gain.k * state.twist.twist.angular.z))
+"""
+
+
+def test_a_controller_file_loads_as_a_module_and_a_failing_one_is_one_line(tmp_path):
+    (tmp_path / 'dc.py').write_text(DATACLASS_LAW)
+    law = closed_loop.load_controller(str(tmp_path / 'dc.py'), {'k': 2.0})
+    assert callable(law)
+    (tmp_path / 'boom.py').write_text('raise RuntimeError("no")\n')
+    with pytest.raises(ValueError, match='cannot load it: RuntimeError: no'):
+        closed_loop.load_controller(str(tmp_path / 'boom.py'))
+    with pytest.raises(ValueError, match='make_law: TypeError'):
+        closed_loop.load_controller(str(tmp_path / 'dc.py'), {'nope': 1})
