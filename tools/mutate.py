@@ -93,7 +93,7 @@ MUTANTS = [
      [("'tick_lateness_p99_ms': pct(0.99)", "'tick_lateness_p99_ms': pct(0.5)")],
      [NODE + 'test_diagnostics_count_an_induced_stall'],
      'the p99 lateness is the median'),
-    ('timeout-below-a-step-disables', 'rb_sim_ros/ros/simulator_node.py',
+    ('timeout-below-a-step-disables', 'rb_sim_ros/ros/node_config.py',
      [('max(1, math.ceil(timeout / config.dt - 1e-9))',
        'math.ceil(timeout / config.dt - 1e-9)')],
      [HARDENING + 'test_a_timeout_shorter_than_a_step_still_times_out'],
