@@ -53,9 +53,7 @@ import math
 import os
 import re
 import shlex
-import signal
 import sys
-import threading
 import time
 from typing import Any
 
@@ -220,12 +218,7 @@ def _in_process(context, run, seed, values, params, controller, scene, out_path,
     loop = closed_loop.ClosedLoop(
         closed_loop.node_values(params), {body: law}, out_path, scene, trace=True,
         metadata={node_recorder.PROVENANCE: provenance})
-    try:
-        if loop.start():
-            while loop.period():
-                pass
-    finally:
-        result = loop.close()
+    result = loop.run_to_end()
     config = loop.config
     row['steps'] = result.steps
     row['contact_s'] = repr(loop.contact_periods * config.dt * config.steps_per_publish)
@@ -425,21 +418,7 @@ def main(args=None) -> int:
     opts = parser.parse_args(ros_arguments.non_ros_args(argv, 'campaign'))
     if not 1 <= opts.workers <= 4096:
         parser.error(f'--workers must be from 1 to 4096, got {opts.workers}')
-    handle = threading.current_thread() is threading.main_thread()
-    sweep._SIGNALS.clear()
-    previous = {n: signal.signal(n, sweep._on_signal) for n in sweep._HANDLED} \
-        if handle else {}
-    try:
-        return _main(parser, opts, handle)
-    except KeyboardInterrupt as e:
-        signum = sweep._signum(e)
-        note = getattr(e, 'note', '')
-        print(f'campaign: interrupted by {signal.Signals(signum).name}'
-              + (f': {note}' if note else ''), file=sys.stderr)
-        return 128 + signum
-    finally:
-        for n, handler in previous.items():
-            signal.signal(n, handler)
+    return sweep.handling_signals('campaign', lambda handle: _main(parser, opts, handle))
 
 
 def _main(parser, opts, handle: bool) -> int:

@@ -331,6 +331,17 @@ class ClosedLoop:
         self.lockstep.offer(body.name, stamp_ns(msg.header.stamp), answer)
         self.result.answered += 1
 
+    def run_to_end(self) -> Result:
+        """Start, every period to the end, and close (the recording finished however it
+        ends)."""
+        try:
+            if self.start():
+                while self.period():
+                    pass
+        finally:
+            result = self.close()
+        return result
+
     def _refused(self, why: str) -> None:
         self.result.refused += 1
         if not self.result.refusal:
@@ -351,11 +362,4 @@ def run(params: dict, laws: dict[str, Callable], out_path: str, scene=None) -> R
     (``load_controller``); ``scene``: the scene (sim.scene.Scene) in place of
     ``scene_file``'s (None: that file's, or the single body of the parameters).
     ValueError for a bad parameter, scene or controller."""
-    loop = ClosedLoop(node_values(params), laws, out_path, scene)
-    try:
-        if loop.start():
-            while loop.period():
-                pass
-    finally:
-        result = loop.close()
-    return result
+    return ClosedLoop(node_values(params), laws, out_path, scene).run_to_end()

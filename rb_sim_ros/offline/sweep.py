@@ -895,15 +895,22 @@ def main(args=None) -> int:
     opts = parser.parse_args(ros_arguments.non_ros_args(argv, 'sweep'))
     if not 1 <= opts.workers <= 4096:
         parser.error(f'--workers must be from 1 to 4096, got {opts.workers}')
+    return handling_signals('sweep', lambda handle: _main(parser, opts, handle))
+
+
+def handling_signals(prog: str, run) -> int:
+    """``run(handle)`` (handle: this is the main thread, whose SIGINT and SIGTERM it takes)
+    with SIGINT and SIGTERM stopping it alike: what finished is kept, one line says so, exit
+    status 128 + the signal. The tool's own handlers (sweep's, campaign's)."""
     handle = threading.current_thread() is threading.main_thread()
     _SIGNALS.clear()
     previous = {n: signal.signal(n, _on_signal) for n in _HANDLED} if handle else {}
     try:
-        return _main(parser, opts, handle)
+        return run(handle)
     except KeyboardInterrupt as e:  # SIGINT, or SIGTERM: what finished is kept
         signum = _signum(e)
         note = getattr(e, 'note', '')
-        print(f'sweep: interrupted by {signal.Signals(signum).name}'
+        print(f'{prog}: interrupted by {signal.Signals(signum).name}'
               + (f': {note}' if note else ''), file=sys.stderr)
         return 128 + signum
     finally:
