@@ -11,7 +11,9 @@ opens a bare .mcap file without metadata.yaml; readers that need a bag directory
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
+import functools
 import os
 from pathlib import Path
 
@@ -24,6 +26,9 @@ VERSION = 9
 METADATA_NAME = 'rosbag2'
 METADATA_KEY = 'serialized_metadata'
 _EMPTY_START = 2**63 - 1  # rosbag2's starting time of a bag without messages
+# libyaml's safe loader and dumper where PyYAML has them (the same YAML, ~10x faster)
+_Loader = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
+_Dumper = getattr(yaml, 'CSafeDumper', yaml.SafeDumper)
 
 
 @dataclass(frozen=True)
@@ -39,8 +44,15 @@ class TopicSummary:
 
 
 def _profiles(text: str) -> list:
+    """The QoS profiles of a topic's YAML text (parsed once per text: a sweep's worker closes
+    a recording of the same topics every run), a copy of its own."""
+    return copy.deepcopy(_parsed_profiles(text))
+
+
+@functools.lru_cache(maxsize=256)
+def _parsed_profiles(text: str) -> list:
     try:
-        profiles = yaml.safe_load(text)
+        profiles = yaml.load(text, Loader=_Loader)
     except yaml.YAMLError:  # a foreign writer's; rosbag2 would not read it either
         return []
     return profiles if isinstance(profiles, list) else []
@@ -90,7 +102,7 @@ def bag_information(file_name: str, topics: list[TopicSummary], start_ns: int | 
 
 def dump(info: dict) -> str:
     """YAML text of a bag information dict (block style, keys in rosbag2's order)."""
-    return yaml.safe_dump(info, sort_keys=False, default_flow_style=False)
+    return yaml.dump(info, Dumper=_Dumper, sort_keys=False, default_flow_style=False)
 
 
 def write_rosbag2_metadata(mcap_path: str | os.PathLike, overwrite: bool = False) -> Path:

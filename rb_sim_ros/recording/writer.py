@@ -2,7 +2,8 @@
 # Licensed under the Apache License, Version 2.0
 """RecordingWriter: a ROS 2 (rosbag2-compatible) MCAP file, written without stalling the caller.
 
-The caller's thread only checks arguments and serialises (rclpy's C serialiser, microseconds);
+The caller's thread only checks arguments and serialises (``cdr``'s serialiser of the type,
+or rclpy's for a type it does not handle: microseconds);
 the bytes go through a queue to a background thread that builds chunks, compresses them and
 writes them. Each finished chunk goes to the OS in one ``os.write`` (no user-space buffer), so a
 process killed with SIGKILL leaves a file readable up to its last finished chunk; a chunk is
@@ -33,6 +34,7 @@ from rclpy.serialization import serialize_message
 
 from rb_sim_ros.recording.bag_info import (bag_information, dump, METADATA_KEY, METADATA_NAME,
                                            TopicSummary)
+from rb_sim_ros.recording.cdr import encoder
 from rb_sim_ros.recording.errors import WriterError
 from rb_sim_ros.recording.qos import offered_qos_profiles
 from rb_sim_ros.recording.schemas import schema_text, type_hash, type_name_of
@@ -188,7 +190,8 @@ class RecordingWriter:
         self.compression = compression
         self._bag_info = bag_info
         self._max_age = max_chunk_age_s
-        self._topics: dict[str, tuple[int, type]] = {}
+        # topic -> (channel id, message type, its serialiser)
+        self._topics: dict[str, tuple[int, type, Any]] = {}
         self._schemas: dict[str, int] = {}
         self._summaries: dict[int, TopicSummary] = {}
         self._counts: dict[int, int] = {}
@@ -245,7 +248,8 @@ class RecordingWriter:
             channel_id = len(self._topics) + 1
             self._summaries[channel_id] = TopicSummary(topic, name, qos_yaml, digest or '', 0)
             self._queue.put((_CHANNEL, channel_id, topic, schema_id, metadata))
-            self._topics[topic] = (channel_id, msg_type)
+            self._topics[topic] = (channel_id, msg_type,
+                                   encoder(msg_type) or serialize_message)
 
     def write(self, topic: str, msg: Any, log_time_ns: int, publish_time_ns: int | None = None,
               sequence: int = 0) -> None:
@@ -261,7 +265,7 @@ class RecordingWriter:
             self._check_open()
             return
         try:
-            channel_id, msg_type = self._topics[topic]
+            channel_id, msg_type, encode = self._topics[topic]
         except (KeyError, TypeError):
             raise WriterError(f'{self.path}: topic {topic!r} was not registered') from None
         if type(msg) is not msg_type:
@@ -279,8 +283,7 @@ class RecordingWriter:
             except TypeError:
                 raise WriterError(f'{self.path}: topic {topic}: sequence {sequence!r} is not '
                                   'an integer') from None
-        self._queue.put((_MESSAGE, channel_id, log, pub, sequence & 0xFFFFFFFF,
-                         serialize_message(msg)))
+        self._queue.put((_MESSAGE, channel_id, log, pub, sequence & 0xFFFFFFFF, encode(msg)))
 
     def write_metadata(self, name: str, data: Mapping[str, str]) -> None:
         """Queue an MCAP metadata record ``name`` with string keys and values.
