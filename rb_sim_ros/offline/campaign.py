@@ -42,6 +42,12 @@ was refused) and the first one's ``refusal``, its file, its error if it failed, 
 and ``rerun``: the command that makes that run again alone. ``campaign.json`` holds the
 campaign itself. ``--param stop_after`` and ``--param imu_seed`` are refused: they are the
 campaign's (``--stop-after``, and each run's seed).
+
+A run records what its metrics read: each body's odom and the inputs (``record_outputs`` and
+``publish_tf`` default to ``[odom]`` and false here, RECORDED); ``--param
+record_outputs=[odom,imu]`` keeps more, ``--param publish_tf=true`` /tf. A recording of fewer
+outputs is the same run (replay regenerates every output and compares those recorded), made
+in half the time.
 """
 
 from __future__ import annotations
@@ -66,6 +72,9 @@ from rb_sim_ros.ros.node_config import config_from
 from rb_sim_ros.sim import safe_yaml
 from rb_sim_ros.sim.scene import read_scene_data, scene_from_data
 
+# What a campaign's run records unless its --param says otherwise: odom (the metrics') and the
+# inputs, the least a run needs to be verified and measured.
+RECORDED = {'record_outputs': ['odom'], 'publish_tf': False}
 TAIL = ('steps', 'contact_s', 'refused', 'refusal', 'file', 'error', 'wall_s', 'cpu_s', 'rerun')
 # The laws of the controllers a worker loaded: a controller file is read once a worker.
 _MODULES: dict[str, Any] = {}
@@ -292,7 +301,7 @@ def _spec_context(spec: dict, spec_path: str) -> dict:
     data = read_scene_data(scene_path) if scene_path else None
     if data is None and spec.get('body') not in ('', 'body', None):
         raise ValueError(f"--body {spec['body']}: without --scene the body is 'body'")
-    params = dict(spec['params'], stop_after=float(spec['stop_after']))
+    params = dict(RECORDED, **spec['params'], stop_after=float(spec['stop_after']))
     if scene_path:
         params['scene_file'] = scene_path
     context = {'plan': sweep.Plan(varies, int(spec['seeds'])), 'params': params,

@@ -44,6 +44,8 @@ import os
 import sys
 from typing import Any, Callable
 
+from geometry_msgs.msg import WrenchStamped
+
 from rb_sim_ros.core.rigid_body import ZERO_WRENCH
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.offline.sweep import publish_state
@@ -156,6 +158,7 @@ class _Body:
         self.topics = {kind: prefix + kind for kind, _, _ in PUBLISHED if kind in RECORDED}
         self.points = dict(spec.points)
         self.law = law
+        self.answer = WrenchStamped()  # the law's answer, refilled each period (read at once)
         self.last_command_step = 0
         # (with trace) every published state's time and orientation, every recorded wrench
         # input's time and torque: the recording's own values, for metrics without reading
@@ -314,10 +317,10 @@ class ClosedLoop:
         state = body.out.imu if getattr(law, 'state', 'odom') == 'imu' else body.out.odom
         try:
             wrench = law(state)
-            msg = command_message(state, wrench, getattr(law, 'frame', 'body'))
+            msg = command_message(state, wrench, getattr(law, 'frame', 'body'), body.answer)
         except Exception as e:  # noqa: B902 - as ControlLoop: a law that raises answers HOLD
             self._refused(f'the law raised {type(e).__name__}: {e}')
-            msg = command_message(state, None)
+            msg = command_message(state, None, out=body.answer)
         fid = msg.header.frame_id.lstrip('/')
         answer: Any = HOLD
         if fid != HOLD:

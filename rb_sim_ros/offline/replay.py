@@ -310,6 +310,22 @@ def _parameters(data, config: Config, path: str) -> dict:
     return data
 
 
+def _kinds_problem(topics: dict, parameters: dict) -> str:
+    """What is wrong with the output kinds recorded of a body, or '': only those
+    record_outputs names (all, in a recording from before it), and of them every required
+    one (the others came later)."""
+    kinds = sorted(topics)
+    if not set(kinds) <= set(OUTPUT_TYPES):
+        return f'has {kinds[:10]}: outputs are only {sorted(OUTPUT_TYPES)}'
+    named = node_params.record_outputs(parameters.get('record_outputs', OUTPUT_TYPES))
+    if not set(kinds) <= set(named):
+        return f'has {kinds}, but record_outputs names only {named}'
+    needed = [kind for kind in node_recorder.REQUIRED_OUTPUTS if kind in named]
+    if not set(needed) <= set(kinds):
+        return f'has {kinds}: it needs {needed}'
+    return ''
+
+
 def _output_topics(data, config: Config, parameters: dict, path: str) -> dict:
     _mapping(data, 'output_topics', path)
     # The node gives own topics (and so recorded outputs) to the first max_body_topics bodies
@@ -322,10 +338,9 @@ def _output_topics(data, config: Config, parameters: dict, path: str) -> dict:
     seen = set()
     for body, topics in data.items():
         _mapping(topics, f'output_topics.{body}', path)
-        if not set(node_recorder.REQUIRED_OUTPUTS) <= set(topics) <= set(OUTPUT_TYPES):
-            raise _bad(path, f'output_topics.{body} has {sorted(topics)}: it needs '
-                       f'{list(node_recorder.REQUIRED_OUTPUTS)}, and may have only '
-                       f'{sorted(OUTPUT_TYPES)}')
+        problem = _kinds_problem(topics, parameters)
+        if problem:
+            raise _bad(path, f'output_topics.{body} {problem}')
         for kind, topic in topics.items():
             if (not isinstance(topic, str) or not topic.startswith('/') or len(topic) < 2
                     or topic.startswith(node_recorder.INPUT_PREFIX) or topic in seen
@@ -393,13 +408,13 @@ def _tf_topics(meta: dict, path: str) -> list:
     return data
 
 
-def _spawned_topics(body: str, topics: dict, by_topic: dict, types: dict) -> None:
+def _spawned_topics(body: str, topics: dict, by_topic: dict, types: dict,
+                    parameters: dict) -> None:
     """Add the output topics of a body spawned in the run; ValueError if they are not its
     own (a body spawned again after a delete has the same ones)."""
-    if topics and not set(node_recorder.REQUIRED_OUTPUTS) <= set(topics) <= set(OUTPUT_TYPES):
-        raise ValueError(f'output_topics has {sorted(topics)[:10]}: it needs '
-                         f'{list(node_recorder.REQUIRED_OUTPUTS)}, and may have only '
-                         f'{sorted(OUTPUT_TYPES)}')
+    problem = _kinds_problem(topics, parameters) if topics else ''
+    if problem:
+        raise ValueError(f'output_topics {problem}')
     for kind, topic in topics.items():
         if (not topic.startswith('/') or len(topic) < 2
                 or topic.startswith(node_recorder.INPUT_PREFIX) or topic == RUN_DEFINITION
@@ -564,7 +579,7 @@ def load(path: str) -> Recording:
         try:
             if parsed[1] == 'spawn':
                 event, topics = node_recorder.spawn_from_message(parsed[0], msg)
-                _spawned_topics(parsed[0], topics, by_topic, types)
+                _spawned_topics(parsed[0], topics, by_topic, types, parameters)
             else:
                 event = node_recorder.event_from_message(*parsed, msg)
         except ValueError as e:

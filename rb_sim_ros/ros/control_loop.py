@@ -155,12 +155,15 @@ class ControlLoop:
         return command_message(state, wrench, self.frame)
 
 
-def command_message(state, wrench, frame: str = 'body') -> WrenchStamped:
+def command_message(state, wrench, frame: str = 'body',
+                    out: WrenchStamped | None = None) -> WrenchStamped:
     """The WrenchStamped answering the state message ``state`` with ``wrench`` ((force,
     torque), or None for HOLD), stamped as the state, in ``frame`` ('body': the state's body
     frame): what a ControlLoop publishes, and what offline/closed_loop hands the simulator
-    for a controller called in-process, so that both paths give the same bits."""
-    out = WrenchStamped()
+    for a controller called in-process, so that both paths give the same bits. ``out``: a
+    message to fill (a HOLD's wrench is then what it held), else a new one."""
+    if out is None:
+        out = WrenchStamped()
     out.header.stamp = state.header.stamp
     if wrench is None:
         out.header.frame_id = HOLD
@@ -168,6 +171,6 @@ def command_message(state, wrench, frame: str = 'body') -> WrenchStamped:
     out.header.frame_id = body_frame_of(state) if frame == 'body' else frame
     force, torque = wrench
     f, t = out.wrench.force, out.wrench.torque
-    f.x, f.y, f.z = (float(c) for c in force)
-    t.x, t.y, t.z = (float(c) for c in torque)
+    f.x, f.y, f.z = map(float, force)
+    t.x, t.y, t.z = map(float, torque)
     return out

@@ -17,6 +17,7 @@ from typing import Any, Callable
 
 from rb_sim_ros.core import multistep
 from rb_sim_ros.core.rigid_body import Frame
+from rb_sim_ros.ros import output_kinds
 from rb_sim_ros.sim.imu import ImuNoise, MAX_SIGMA
 
 
@@ -218,6 +219,21 @@ def _names(name: str, v: Any) -> None:
         raise ValueError(f'{name}: too long')
 
 
+def record_outputs(v: Any) -> list[str]:
+    """The output kinds ``record_outputs`` names, in the order of output_kinds.NAMES."""
+    named = set(names_list(v))
+    return [kind for kind in output_kinds.NAMES if kind in named]
+
+
+def _record_outputs(name: str, v: Any) -> None:
+    _names(name, v)
+    named = names_list(v)
+    unknown = sorted(set(named) - set(output_kinds.NAMES))
+    if unknown or not named or len(set(named)) != len(named):
+        raise ValueError(f'{name} must name one or more of {", ".join(output_kinds.NAMES)}, '
+                         f'each once, got {v!r}')
+
+
 @dataclass(frozen=True)
 class Param:
     name: str
@@ -346,6 +362,11 @@ PARAMS = (
     Param('record', '', 'Path of an MCAP file to record the run to; empty: no recording.', True,
           _string),
     Param('record_overwrite', False, 'Overwrite an existing recording file.', True, _bool),
+    Param('record_outputs', list(output_kinds.NAMES), 'The outputs of each body a recording '
+          f"holds: any of {', '.join(output_kinds.NAMES)}, as a list or comma-separated. "
+          'Fewer make a smaller recording, written faster (a campaign records odom); replay '
+          'regenerates every output and compares those recorded. Published: all of them, '
+          'whatever this is.', True, _record_outputs),
 )
 
 BY_NAME = {p.name: p for p in PARAMS}

@@ -45,8 +45,8 @@ from rb_sim_ros import __version__
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.recording import RecordingWriter, WriterError
 from rb_sim_ros.recording.compare import difference
-from rb_sim_ros.ros import output_kinds
-from rb_sim_ros.ros.ros_messages import tf_qos, time_msg
+from rb_sim_ros.ros import node_params, output_kinds
+from rb_sim_ros.ros.ros_messages import set_stamp, tf_qos, time_msg
 from rb_sim_ros.sim.simulation import (body_from_dict, body_to_dict, Config, Delete, Reset,
                                        SetPose, SetTwist, SetWrench, Spawn)
 
@@ -137,6 +137,17 @@ def parse_input_topic(topic: str) -> tuple[str, str] | None:
     return (body, kind) if kind in INPUTS and body else None
 
 
+def wrench_message(event: SetWrench, time_ns: int, msg: WrenchStamped) -> WrenchStamped:
+    """``msg`` filled in place with the wrench input ``event`` took effect with at
+    ``time_ns``."""
+    set_stamp(msg.header.stamp, time_ns)
+    msg.header.frame_id = event.wrench.frame.value
+    f, t = msg.wrench.force, msg.wrench.torque
+    f.x, f.y, f.z = map(float, event.wrench.force)
+    t.x, t.y, t.z = map(float, event.wrench.torque)
+    return msg
+
+
 def event_message(event, time_ns: int, output_topics: dict | None = None):
     """(kind, message) recording ``event`` that took effect at ``time_ns``; a Spawn's names
     the ``output_topics`` of the new body ({} for one without)."""
@@ -146,15 +157,9 @@ def event_message(event, time_ns: int, output_topics: dict | None = None):
             sort_keys=True))
     if isinstance(event, Delete):
         return 'delete', String(data='{}')
-    stamp = time_msg(time_ns)
     if isinstance(event, SetWrench):
-        msg = WrenchStamped()
-        msg.header.stamp = stamp
-        msg.header.frame_id = event.wrench.frame.value
-        f, t = msg.wrench.force, msg.wrench.torque
-        f.x, f.y, f.z = (float(c) for c in event.wrench.force)
-        t.x, t.y, t.z = (float(c) for c in event.wrench.torque)
-        return 'wrench', msg
+        return 'wrench', wrench_message(event, time_ns, WrenchStamped())
+    stamp = time_msg(time_ns)
     if isinstance(event, SetPose):
         msg = PoseStamped()
         msg.header.stamp, msg.header.frame_id = stamp, 'world'
@@ -261,6 +266,11 @@ class NodeRecorder:
             raise WriterError(f'cannot record to {e}{hint}') from None
         self._closed_error: str | None = None
         self._first = config.bodies[0].name
+        self._wrench = WrenchStamped()  # refilled for each wrench input recorded
+        # the outputs recorded: those record_outputs names (all, for a caller without it)
+        self._kinds = frozenset(node_params.record_outputs(
+            parameters.get('record_outputs', OUTPUTS)))
+        output_topics = {body: self._recorded(topics) for body, topics in output_topics.items()}
         self._outputs = dict(output_topics)
         self._registered: set[str] = set()
         for spec in config.bodies:
@@ -302,7 +312,11 @@ class NodeRecorder:
     def event(self, step: int, time_ns: int, event) -> None:
         if self._writer.error is not None:
             return
-        kind, msg = event_message(event, time_ns)
+        if type(event) is SetWrench:  # (the most frequent: one message refilled, as the
+            # writer serialises it before write returns)
+            kind, msg = 'wrench', wrench_message(event, time_ns, self._wrench)
+        else:
+            kind, msg = event_message(event, time_ns)
         topic = input_topic(event.body or self._first, kind)
         try:
             self._register(topic, INPUTS[kind])
@@ -310,6 +324,10 @@ class NodeRecorder:
             self._closed_error = self._closed_error or str(e)
             return
         self._writer.write(topic, msg, time_ns, sequence=step)
+
+    def _recorded(self, topics: dict[str, str]) -> dict[str, str]:
+        """Of a body's output topics, those recorded (record_outputs)."""
+        return {kind: topic for kind, topic in topics.items() if kind in self._kinds}
 
     def _register(self, topic: str, msg_type) -> None:
         """Declare ``topic`` once (a body deleted and spawned again keeps its topics)."""
@@ -323,6 +341,7 @@ class NodeRecorder:
         if self._writer.error is not None:
             return
         name = event.spec.name
+        output_topics = self._recorded(output_topics)
         try:
             for kind, msg_type in INPUTS.items():
                 if kind != 'delete':

@@ -32,6 +32,12 @@ def time_msg(time_ns: int) -> Time:
     return Time(sec=time_ns // 1_000_000_000, nanosec=time_ns % 1_000_000_000)
 
 
+def set_stamp(stamp: Time, time_ns: int) -> None:
+    """Set ``stamp`` (a builtin_interfaces/Time) to ``time_ns`` in place (a new Time costs
+    more than the message it stamps)."""
+    stamp.sec, stamp.nanosec = divmod(time_ns, 1_000_000_000)
+
+
 def wrench_from_msg(msg: WrenchMsg, frame: Frame, max_wrench: float) -> Wrench:
     """A core Wrench from a geometry_msgs/Wrench (N, N m) in ``frame``.
 
@@ -118,7 +124,6 @@ class OutputMessages:
              angular_velocity) -> bool:
         """Fill all three from a world-frame state at ``time_ns`` (sim time, ns). False if a
         body-frame velocity overflowed (|v| near 1e308): then nothing must be sent."""
-        stamp = time_msg(time_ns)
         pose = self.pose.pose
         pose.position.x, pose.position.y, pose.position.z = position
         o = pose.orientation
@@ -130,8 +135,8 @@ class OutputMessages:
         t = self.twist
         t.linear.x, t.linear.y, t.linear.z = lin
         t.angular.x, t.angular.y, t.angular.z = ang
-        self.pose.header.stamp = stamp
-        self.odom.header.stamp = stamp
+        set_stamp(self.pose.header.stamp, time_ns)
+        set_stamp(self.odom.header.stamp, time_ns)
         self.odom.pose.pose = pose
         ot = self.odom.twist.twist
         ot.linear.x, ot.linear.y, ot.linear.z = lin_b
@@ -144,7 +149,6 @@ class OutputMessages:
         plus ``imu_offsets`` = (gyro, accel) noise, body frame) and the AccelStamped (world
         frame) from a world-frame state and its accelerations at ``time_ns``. False if a value
         is not finite: then nothing must be sent."""
-        stamp = time_msg(time_ns)
         r = rotation_from_quaternion(quaternion_xyzw)
         gyro = rotate(r, angular_velocity, transpose=True)
         force = rotate(r, specific_force(linear_acceleration, gravity), transpose=True)
@@ -153,14 +157,14 @@ class OutputMessages:
             gyro = (gyro[0] + g0, gyro[1] + g1, gyro[2] + g2)
             force = (force[0] + f0, force[1] + f1, force[2] + f2)
         imu = self.imu
-        imu.header.stamp = stamp
+        set_stamp(imu.header.stamp, time_ns)
         o = imu.orientation
         o.x, o.y, o.z, o.w = quaternion_xyzw
         w, a = imu.angular_velocity, imu.linear_acceleration
         w.x, w.y, w.z = gyro
         a.x, a.y, a.z = force
         acc = self.accel
-        acc.header.stamp = stamp
+        set_stamp(acc.header.stamp, time_ns)
         lin, ang = acc.accel.linear, acc.accel.angular
         lin.x, lin.y, lin.z = linear_acceleration
         ang.x, ang.y, ang.z = angular_acceleration

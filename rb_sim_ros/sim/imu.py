@@ -82,8 +82,9 @@ class ImuSensor:
         self.noise = noise
         self._rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(
             [noise.seed, body_index])))
-        self._gyro_bias = [float(c) for c in noise.gyro_bias]
-        self._accel_bias = [float(c) for c in noise.accel_bias]
+        self._gyro_bias = tuple(float(c) for c in noise.gyro_bias)
+        self._accel_bias = tuple(float(c) for c in noise.accel_bias)
+        self._noisy = noise.noisy
         self._last_ns: int | None = None
         self._undo: tuple | None = None
 
@@ -93,20 +94,21 @@ class ImuSensor:
         every sample, in time order (``undo`` takes back one that could not be sent): the
         noise stream then depends on the samples' times only."""
         n = self.noise
-        if not n.noisy:
+        if not self._noisy:
             return None
-        self._undo = (self._rng.bit_generator.state, list(self._gyro_bias),
-                      list(self._accel_bias), self._last_ns)
-        draw = self._rng.standard_normal(12).tolist()
+        gb, ab = self._gyro_bias, self._accel_bias
+        self._undo = (self._rng.bit_generator.state, gb, ab, self._last_ns)
+        g0, g1, g2, a0, a1, a2, wg0, wg1, wg2, wa0, wa1, wa2 = \
+            self._rng.standard_normal(12).tolist()
         root = math.sqrt((time_ns - self._last_ns) * 1e-9) if self._last_ns is not None \
             else 0.0
         self._last_ns = time_ns
-        gb, ab = self._gyro_bias, self._accel_bias
-        for c in range(3):
-            gb[c] += n.gyro_bias_walk * root * draw[6 + c]
-            ab[c] += n.accel_bias_walk * root * draw[9 + c]
-        return (tuple(gb[c] + n.gyro_noise * draw[c] for c in range(3)),
-                tuple(ab[c] + n.accel_noise * draw[3 + c] for c in range(3)))
+        kg, ka = n.gyro_bias_walk * root, n.accel_bias_walk * root
+        gb = self._gyro_bias = (gb[0] + kg * wg0, gb[1] + kg * wg1, gb[2] + kg * wg2)
+        ab = self._accel_bias = (ab[0] + ka * wa0, ab[1] + ka * wa1, ab[2] + ka * wa2)
+        sg, sa = n.gyro_noise, n.accel_noise
+        return ((gb[0] + sg * g0, gb[1] + sg * g1, gb[2] + sg * g2),
+                (ab[0] + sa * a0, ab[1] + sa * a1, ab[2] + sa * a2))
 
     def undo(self) -> None:
         """Take back the last ``sample`` (its sample was not sent): the stream is as before."""

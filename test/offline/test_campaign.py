@@ -117,7 +117,8 @@ def test_dispersed_noise_delay_twist_and_torque_limit_reach_the_run(tmp_path):
                              ('lockstep_delay', '0:2:2'),
                              ('initial_angular_velocity.2', 'uniform(-0.3, 0.3)'),
                              ('controller.max_torque', '[0.001, 10.0]')],
-                            stop_after=4.0), str(tmp_path), Serial(), progress=False)
+                            stop_after=4.0, params={'record_outputs': ['odom', 'imu']}),
+                      str(tmp_path), Serial(), progress=False)
     rows = _rows(tmp_path)
     assert len(rows) == 8 and not any(r['error'] for r in rows)
     for row in rows:
@@ -185,10 +186,15 @@ def test_a_dispersed_mass_a_users_controller_and_a_users_metric(tmp_path, monkey
 
 
 def test_the_rows_metrics_are_the_recordings(tmp_path):
-    """Measured during the run, they are what metrics.attitude reads back from the file."""
+    """Measured during the run, they are what metrics.attitude reads back from the file; the
+    file records odom and the inputs only (a campaign's default), and replay verifies it."""
     campaign.campaign(_spec([('controller.natural_frequency', '[2.0]')], stop_after=3.0),
                       str(tmp_path), Serial(), progress=False)
     row = _rows(tmp_path)[0]
+    recording = RecordingReader(str(tmp_path / row['file']))
+    assert {t for t, info in recording.topics.items()
+            if info.message_count and not t.startswith('/rb_sim/')} == {'/odom'}
+    assert replay.verify(str(tmp_path / row['file'])).identical
     found = metrics.attitude(str(tmp_path / row['file']), '',
                              metrics.quaternion_from_rpy(0.0, 0.0, STEP))
     for name, value in found.items():

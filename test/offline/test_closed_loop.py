@@ -1,6 +1,6 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
-# pypi-only: mcap
+# pypi-only: mcap rosbags
 """A controller called in-process in lockstep (offline/closed_loop) makes the run the simulator
 node makes with the same controller as a ROS node over DDS: the same recording, field by
 field. The oracles: the node's own recording of the DDS run (node_recorder.same_run),
@@ -10,6 +10,7 @@ law of the state the protocol says)."""
 import math
 
 import pytest
+from rosbags.highlevel import AnyReader
 
 from rb_sim_ros.offline import closed_loop, replay
 from rb_sim_ros.recording.reader import RecordingReader
@@ -180,8 +181,9 @@ def test_two_bodies_of_a_scene_each_with_its_controller_and_a_delay(tmp_path):
 def test_a_scene_with_a_static_body_a_frame_prefix_and_two_controllers_over_dds_too(
         installed, ros_env, tmp_path):
     """What a scene adds to the node's recording: a static body's /tf_static, the bodies'
-    own topics and frames (frame_prefix), two lockstep inputs, command_timeout; the node over
-    DDS with two controller nodes and the in-process loop record the same run."""
+    own topics and frames (frame_prefix), two lockstep inputs, command_timeout, and fewer
+    outputs recorded (record_outputs); the node over DDS with two controller nodes and the
+    in-process loop record the same run."""
     scene = tmp_path / 'scene.yaml'
     scene.write_text(
         'bodies:\n'
@@ -193,7 +195,8 @@ def test_a_scene_with_a_static_body_a_frame_prefix_and_two_controllers_over_dds_
         '    position: [0.0, 0.0, -5.0]\n'
         '    colliders: [{type: plane, normal: [0.0, 0.0, 1.0], offset: 0.0}]\n')
     sim = {'scene_file': str(scene), 'lockstep_inputs': ['a', 'b'], 'lockstep_delay': 1,
-           'frame_prefix': 'sc/', 'command_timeout': 0.05, 'real_time_factor': 0.0}
+           'frame_prefix': 'sc/', 'command_timeout': 0.05, 'real_time_factor': 0.0,
+           'record_outputs': ['odom', 'imu']}
     dds = loop.closed_loop(tmp_path / 'dds.mcap', env=ros_env, stop_after=1.0,
                            sim_args=[a for k, v in sim.items() for a in ('-p', f'{k}:={v}')],
                            controllers=[['-r', '__ns:=/a'], ['-r', '__ns:=/b']])
@@ -202,6 +205,9 @@ def test_a_scene_with_a_static_body_a_frame_prefix_and_two_controllers_over_dds_
     result = closed_loop.run(dict(SIM, stop_after=1.0, **sim), laws, str(ours))
     assert result.error == '' and result.answered == 200
     assert node_recorder.same_run(str(dds), str(ours)) == ''
+    recorded = {t for t, info in RecordingReader(str(dds)).topics.items()
+                if info.message_count and not t.startswith('/rb_sim/')}
+    assert recorded == {'/a/odom', '/a/imu', '/b/odom', '/b/imu', '/tf', '/tf_static'}
     statics = list(RecordingReader(str(ours)).messages(topics=['/tf_static']))
     assert [t.child_frame_id for t in statics[0].message.transforms] == ['sc/ground']
 
@@ -241,3 +247,27 @@ def test_a_controller_file_loads_as_a_module_and_a_failing_one_is_one_line(tmp_p
         closed_loop.load_controller(str(tmp_path / 'boom.py'))
     with pytest.raises(ValueError, match='make_law: TypeError'):
         closed_loop.load_controller(str(tmp_path / 'dc.py'), {'nope': 1})
+
+
+def test_record_outputs_keeps_those_outputs_bit_for_bit_and_replay_verifies_them(tmp_path):
+    """A recording of odom and imu only, without /tf: those topics (as rosbags, an independent
+    reader, lists them), each message the bytes of the full recording's, and replay verifies
+    it (regenerating every output, comparing those recorded)."""
+    law = closed_loop.load_controller(CONTROLLER, dict(GAINS, source='imu'))
+    base = {'stop_after': 0.5, 'imu_gyro_noise': 0.01, 'imu_seed': 3}
+    full, few = tmp_path / 'full.mcap', tmp_path / 'few.mcap'
+    closed_loop.run(base, {'body': law}, str(full))
+    closed_loop.run(dict(base, record_outputs=['odom', 'imu'], publish_tf=False),
+                    {'body': law}, str(few))
+
+    def outputs(path):
+        with AnyReader([path]) as reader:
+            return {c.topic: [raw for _, _, raw in reader.messages([c])]
+                    for c in reader.connections
+                    if c.msgcount and not c.topic.startswith('/rb_sim/')}
+    every, kept = outputs(full), outputs(few)
+    assert sorted(every) == ['/accel', '/imu', '/odom', '/pose', '/tf', '/twist']
+    assert sorted(kept) == ['/imu', '/odom']
+    assert all(kept[t] == every[t] and len(kept[t]) == 51 for t in kept)
+    verified = replay.verify(str(few))
+    assert verified.identical and verified.outputs == 2 * 51

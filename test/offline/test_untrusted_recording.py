@@ -140,6 +140,14 @@ CASES = {
         'pose': '/twist', 'twist': '/pose', 'odom': '/odom'}}), 'has type'),
     'renamed output kind': (_meta(output_topics=lambda o: {'body': {
         'posture': '/pose', 'twist': '/twist', 'odom': '/odom'}}), 'output_topics.body has'),
+    'an output record_outputs does not name': (_meta(parameters=lambda p: _set(
+        p, 'record_outputs', ['pose', 'twist', 'odom', 'imu'])), 'record_outputs names only'),
+    'a required output record_outputs names missing': (_meta(
+        parameters=lambda p: _set(p, 'record_outputs', ['pose', 'twist', 'odom', 'accel']),
+        output_topics=lambda o: {'body': {'pose': '/pose', 'twist': '/twist'}}),
+        "it needs ['pose', 'twist', 'odom']"),
+    'record_outputs naming no output': (_meta(parameters=lambda p: _set(
+        p, 'record_outputs', [])), 'record_outputs must name one or more'),
     'renamed body': (_meta(output_topics=lambda o: {'robot': o['body']}),
                      "bodies ['robot']"),
     'renamed body in config': (_meta(config=lambda c: _set(c, 'bodies', [
