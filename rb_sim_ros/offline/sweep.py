@@ -55,6 +55,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 import copy
 import csv
+import itertools
 import json
 import math
 import multiprocessing
@@ -354,7 +355,7 @@ def publish_state(sim, name, out, sensor, recorder) -> bool:
     drawn nor recorded, for a state that is not finite."""
     t = sim.time_ns
     pose_twist = sim.pose_twist(name)
-    if not all(math.isfinite(c) for vec in pose_twist for c in vec):
+    if not all(map(math.isfinite, itertools.chain(*pose_twist))):
         return False
     if not out.fill(t, *pose_twist):
         return False
