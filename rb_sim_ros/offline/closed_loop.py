@@ -149,10 +149,13 @@ class _Body:
         self.name = spec.name
         self.frame = node_params.body_frame(values, spec.name, single)
         noise = node_params.imu_noise(values)
+        # what is read of a state: the outputs recorded, the law's state, odom (the trace)
+        read = {*node_params.record_outputs(values['record_outputs']), 'odom',
+                getattr(law, 'state', 'odom')}
         self.out = ros_messages.OutputMessages(
             values['world_frame'], self.frame, values['twist_frame'],
             node_params.covariance36(values['odom_pose_covariance']),
-            node_params.covariance36(values['odom_twist_covariance']), noise)
+            node_params.covariance36(values['odom_twist_covariance']), noise, read)
         self.sensor = ImuSensor(noise, index)
         prefix = '/' if single else f'/{spec.name}/'
         self.topics = {kind: prefix + kind for kind, _, _ in PUBLISHED if kind in RECORDED}
@@ -216,7 +219,7 @@ class ClosedLoop:
         if declared and set(declared) != set(laws):
             raise ValueError(f'lockstep_inputs {sorted(set(declared))}: in-process, the '
                              f'inputs are the bodies with a controller ({sorted(laws)})')
-        self.lockstep = Lockstep(sorted(laws), values['lockstep_delay'])
+        self.lockstep = Lockstep(sorted(laws), values['lockstep_delay'], threaded=False)
         self.lockstep.join(self.lockstep.declared)
         self.stop_step = stop_step(values, self.config)
         self.timeout_steps = timeout_steps(values, self.config)

@@ -205,7 +205,7 @@ class _Body:
     def nested(self, expr: str, t) -> None:
         """A nested message, inlined (a run of values goes on across it); one of several
         fields bound to a local name first (each field is then one attribute away)."""
-        if '.' in expr and len(_class_of(t).SLOT_TYPES) > 1:
+        if '.' in expr and len(getattr(_class_of(t), 'SLOT_TYPES', ())) > 1:
             self.generator.locals += 1
             local = f'_{self.generator.locals}_{expr.rsplit(".", 1)[1]}'
             # (before the run in progress is packed: reads have no effects, the run goes on)

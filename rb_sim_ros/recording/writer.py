@@ -235,8 +235,8 @@ class RecordingWriter:
             raise WriterError(f'{self.path}: cannot create: {_reason(e)}') from None
         self._sink = _Sink(fd, fsync)
         self._mcap = _Writer(self._sink,  # type: ignore[arg-type] # a file-like sink
-                            chunk_size=chunk_size,
-                            compression=COMPRESSION[compression])
+                             chunk_size=chunk_size,
+                             compression=COMPRESSION[compression])
         try:
             self._mcap.start(profile=PROFILE, library=library)
             if bag_info:  # as rosbag2 does when it opens a file: nothing recorded yet

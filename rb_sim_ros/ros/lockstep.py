@@ -27,9 +27,11 @@ A wrench answer is whatever event the node made of the message (a SetWrench).
 from __future__ import annotations
 
 import collections
+import contextlib
 from dataclasses import dataclass, field
 import threading
 import time
+from typing import Any
 
 # The frame_id of an answer that changes nothing (the held wrench stays).
 HOLD = 'hold'
@@ -56,13 +58,32 @@ class Counters:
     since: float = field(default_factory=time.monotonic)
 
 
+class _Flag:
+    """threading.Event's set, clear and is_set, for one thread."""
+
+    def __init__(self) -> None:
+        self._set = False
+
+    def set(self) -> None:
+        self._set = True
+
+    def clear(self) -> None:
+        self._set = False
+
+    def is_set(self) -> bool:
+        return self._set
+
+
 class Lockstep:
     """The answers awaited for the last published state, and those due to take effect.
 
     ``declared``: the bodies whose wrench_stamped are inputs; None for every body whose
     wrench_stamped has a publisher when the run starts (``start``)."""
 
-    def __init__(self, declared: list[str] | None, delay: int = 0) -> None:
+    def __init__(self, declared: list[str] | None, delay: int = 0,
+                 threaded: bool = True) -> None:
+        """``threaded`` False: one thread only calls it (offline/closed_loop), so no lock and
+        a plain flag for ``ready`` (the same bookkeeping, without their cost)."""
         self.declared = None if declared is None else list(declared)
         self.delay = int(delay)
         self.members: dict[str, Member] = {}
@@ -72,10 +93,11 @@ class Lockstep:
         # some controller answered already (another may have a publisher too).
         self.gathered = False
         self.ready_ns = 0  # when ready was last set (monotonic ns)
-        self.ready = threading.Event()  # every member answered the awaited stamp
+        # every member answered the awaited stamp
+        self.ready = threading.Event() if threaded else _Flag()
         self.counters = Counters()
         self._pipeline: collections.deque = collections.deque()
-        self._lock = threading.Lock()
+        self._lock: Any = threading.Lock() if threaded else contextlib.nullcontext()
         self._waiting_since: float | None = None
         self._timed_out: set[str] = set()
         self._taken: int | None = None  # the stamp whose answers take() queued last

@@ -92,7 +92,12 @@ class OutputMessages:
 
     def __init__(self, world_frame: str = 'world', body_frame: str = 'base_link',
                  twist_frame: str = 'body', pose_covariance=None,
-                 twist_covariance=None, imu_noise=None) -> None:
+                 twist_covariance=None, imu_noise=None, kinds=None) -> None:
+        """``kinds``: the messages read after a fill (None: all five, as the node publishes
+        them); the others are left as they are (offline/closed_loop: what it records and
+        its laws read). odom's pose is the PoseStamped's: both are filled if either is."""
+        self.kinds = frozenset(('pose', 'twist', 'odom', 'imu', 'accel') if kinds is None
+                               else kinds)
         self.pose = PoseStamped()
         self.twist = Twist()
         self.odom = Odometry()
@@ -132,10 +137,13 @@ class OutputMessages:
         lin_b = rotate(r, linear_velocity, transpose=True)
         ang_b = rotate(r, angular_velocity, transpose=True)
         lin, ang = (lin_b, ang_b) if self.twist_in_body else (linear_velocity, angular_velocity)
-        t = self.twist
-        t.linear.x, t.linear.y, t.linear.z = lin
-        t.angular.x, t.angular.y, t.angular.z = ang
-        set_stamp(self.pose.header.stamp, time_ns)
+        kinds = self.kinds
+        if 'twist' in kinds:
+            t = self.twist
+            t.linear.x, t.linear.y, t.linear.z = lin
+            t.angular.x, t.angular.y, t.angular.z = ang
+        if 'pose' in kinds:
+            set_stamp(self.pose.header.stamp, time_ns)
         set_stamp(self.odom.header.stamp, time_ns)
         self.odom.pose.pose = pose
         ot = self.odom.twist.twist
@@ -156,18 +164,20 @@ class OutputMessages:
             (g0, g1, g2), (f0, f1, f2) = imu_offsets
             gyro = (gyro[0] + g0, gyro[1] + g1, gyro[2] + g2)
             force = (force[0] + f0, force[1] + f1, force[2] + f2)
-        imu = self.imu
-        set_stamp(imu.header.stamp, time_ns)
-        o = imu.orientation
-        o.x, o.y, o.z, o.w = quaternion_xyzw
-        w, a = imu.angular_velocity, imu.linear_acceleration
-        w.x, w.y, w.z = gyro
-        a.x, a.y, a.z = force
-        acc = self.accel
-        set_stamp(acc.header.stamp, time_ns)
-        lin, ang = acc.accel.linear, acc.accel.angular
-        lin.x, lin.y, lin.z = linear_acceleration
-        ang.x, ang.y, ang.z = angular_acceleration
+        if 'imu' in self.kinds:
+            imu = self.imu
+            set_stamp(imu.header.stamp, time_ns)
+            o = imu.orientation
+            o.x, o.y, o.z, o.w = quaternion_xyzw
+            w, a = imu.angular_velocity, imu.linear_acceleration
+            w.x, w.y, w.z = gyro
+            a.x, a.y, a.z = force
+        if 'accel' in self.kinds:
+            acc = self.accel
+            set_stamp(acc.header.stamp, time_ns)
+            lin, ang = acc.accel.linear, acc.accel.angular
+            lin.x, lin.y, lin.z = linear_acceleration
+            ang.x, ang.y, ang.z = angular_acceleration
         return all(math.isfinite(c) for c in gyro + force + tuple(linear_acceleration)
                    + tuple(angular_acceleration))
 
