@@ -6,8 +6,9 @@ workers (and on a local Ray), over DDS with 2 workers, and a campaign of 10,000 
     python -m bench.campaign_bench [--runs 100] [--dds-runs 10] [--big 10000] [--quick]
 
 Each run is examples/attitude_controller.py in lockstep with one body for 10 s of sim time
-(dt 1 ms, a state and an answer every 10 ms: 1,001 periods), recorded as the node records it
-(pose, twist, odom, imu, accel and /tf every period, each wrench input), with its inertia,
+(dt 1 ms, a state and an answer every 10 ms: 1,001 periods), recorded as a campaign records
+by default (odom every period and each wrench input: record_outputs [odom], publish_tf false;
+each recording verifies with replay), with its inertia,
 initial twist and the IMU seed dispersed, and its metrics computed (offline/campaign). The
 engines are started and warmed (a first small campaign: workers up, kernels loaded) before
 timing; the start is printed beside. In-process, the controller is called through the

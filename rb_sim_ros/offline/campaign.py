@@ -46,8 +46,8 @@ campaign's (``--stop-after``, and each run's seed).
 A run records what its metrics read: each body's odom and the inputs (``record_outputs`` and
 ``publish_tf`` default to ``[odom]`` and false here, RECORDED); ``--param
 record_outputs=[odom,imu]`` keeps more, ``--param publish_tf=true`` /tf. A recording of fewer
-outputs is the same run (replay regenerates every output and compares those recorded), made
-in half the time.
+outputs is the same run (replay regenerates every output and compares those recorded),
+written faster.
 """
 
 from __future__ import annotations
