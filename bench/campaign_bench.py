@@ -7,8 +7,8 @@ workers (and on a local Ray), over DDS with 2 workers, and a campaign of 10,000 
 
 Each run is examples/attitude_controller.py in lockstep with one body for 10 s of sim time
 (dt 1 ms, a state and an answer every 10 ms: 1,001 periods), recorded as a campaign records
-by default (odom every period and each wrench input: record_outputs [odom], publish_tf false;
-each recording verifies with replay), with its inertia,
+by default (odom every period and each wrench input: record_outputs [odom], publish_tf
+false), with its inertia,
 initial twist and the IMU seed dispersed, and its metrics computed (offline/campaign). The
 engines are started and warmed (a first small campaign: workers up, kernels loaded) before
 timing; the start is printed beside. In-process, the controller is called through the

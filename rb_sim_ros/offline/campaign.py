@@ -301,7 +301,10 @@ def _spec_context(spec: dict, spec_path: str) -> dict:
     data = read_scene_data(scene_path) if scene_path else None
     if data is None and spec.get('body') not in ('', 'body', None):
         raise ValueError(f"--body {spec['body']}: without --scene the body is 'body'")
-    params = dict(RECORDED, **spec['params'], stop_after=float(spec['stop_after']))
+    params = dict(spec['params'], stop_after=float(spec['stop_after']))
+    if 'odom' not in node_params.record_outputs(params.get('record_outputs', 'odom')):
+        raise ValueError(f"record_outputs {params['record_outputs']!r}: a campaign records odom "
+                         '(its metrics read it)')
     if scene_path:
         params['scene_file'] = scene_path
     context = {'plan': sweep.Plan(varies, int(spec['seeds'])), 'params': params,
@@ -330,6 +333,8 @@ def campaign(spec: dict, out_dir: str, engine=None, progress: bool = True) -> li
     """Run a campaign (``spec``: what campaign.json holds); its rows, sorted by run."""
     os.makedirs(out_dir, exist_ok=True)
     spec_path = os.path.join(out_dir, 'campaign.json')
+    # (written into campaign.json: a campaign made before these defaults reruns as it ran)
+    spec = dict(spec, params={**RECORDED, **spec['params']})
     context = _spec_context(spec, spec_path)
     sweep._write_atomically(spec_path, json.dumps(spec, indent=1, sort_keys=True).encode())
     return sweep.drive(context, [k for k, _ in spec['vary']], out_dir, engine, progress,

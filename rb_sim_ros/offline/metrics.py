@@ -70,7 +70,9 @@ def series(path: str, body: str = '', target=(0.0, 0.0, 0.0, 1.0)):
     name = body or next(iter(outputs))
     if name not in outputs:
         raise ValueError(f"{path}: no body '{name}' recorded (bodies: {', '.join(outputs)})")
-    topic = outputs[name]['odom']
+    topic = outputs[name].get('odom')
+    if topic is None:
+        raise ValueError(f"{path}: body '{name}' has no odom recorded (record_outputs)")
     wrench_topic = node_recorder.input_topic(name, 'wrench')
     t, q, tw, torque = [], [], [], []
     for m in reader.messages(topics=[topic, wrench_topic]):

@@ -1,8 +1,8 @@
 # Copyright 2026 The rb_sim_ros Authors
 # Licensed under the Apache License, Version 2.0
 """A CDR serialiser for rclpy messages, generated per message type: the bytes rclpy's
-``serialize_message`` makes, several times faster for the small fixed messages a recording
-is made of (an Odometry in a few microseconds instead of ~15).
+``serialize_message`` makes, faster for the small fixed messages a recording is made of
+(rclpy's conversion to C reads every field through Python first).
 
     encode = encoder(Odometry)     # None: a type this module does not handle (use rclpy)
     data = encode(msg)
@@ -11,14 +11,15 @@ The bytes are XCDR1 little endian (the encapsulation ROS 2 uses, 00 01 00 00), e
 aligned to its size counted from after that header, strings as a uint32 length with their
 terminating NUL, sequences as a uint32 count. rclpy leaves padding bytes as they were in its
 buffer; here they are zeros, so the same message is always the same bytes. A string is cut at
-its first NUL, as rclpy's conversion to C cuts it. Types with wide strings are not handled
-(``encoder`` returns None). The source of each encoder is generated from the type's rosidl
-description (``SLOT_TYPES``): values in a row go through one ``struct`` call, arrays of numbers
-through numpy's bytes.
+its first NUL, as rclpy's conversion to C cuts it. Types with wide strings (or a long double)
+are not handled (``encoder`` returns None). The source of each encoder is generated from the
+type's rosidl description (``SLOT_TYPES``): values in a row go through one ``struct`` call,
+arrays of numbers through numpy's bytes.
 """
 
 from __future__ import annotations
 
+import array
 import struct
 from typing import Any, Callable
 
@@ -32,7 +33,7 @@ _BASIC = {
     'boolean': ('?', 1), 'octet': ('B', 1), 'char': ('B', 1), 'uint8': ('B', 1),
     'int8': ('b', 1), 'uint16': ('H', 2), 'int16': ('h', 2), 'uint32': ('I', 4),
     'int32': ('i', 4), 'uint64': ('Q', 8), 'int64': ('q', 8), 'float': ('f', 4),
-    'double': ('d', 8), 'long double': ('d', 8), 'float32': ('f', 4), 'float64': ('d', 8),
+    'double': ('d', 8), 'float32': ('f', 4), 'float64': ('d', 8),
     'short': ('h', 2), 'unsigned short': ('H', 2), 'long': ('i', 4),
     'unsigned long': ('I', 4), 'long long': ('q', 8), 'unsigned long long': ('Q', 8),
 }
@@ -104,7 +105,8 @@ def _numbers(value, code: str, count: int | None) -> bytes:
 def _octets(value, count: int | None) -> bytes:
     """The bytes of an array of octets, chars or uint8 (rclpy holds them as bytes, a list of
     one-byte bytes, a list of ints or a numpy array)."""
-    if isinstance(value, (bytes, bytearray)):
+    if isinstance(value, (bytes, bytearray)) or \
+            isinstance(value, array.array) and value.itemsize == 1:
         data = bytes(value)
     elif isinstance(value, np.ndarray):
         data = value.astype(np.uint8).tobytes()

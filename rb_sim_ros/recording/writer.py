@@ -31,10 +31,6 @@ import time
 from typing import Any, Mapping
 import weakref
 
-from mcap._chunk_builder import ChunkBuilder
-from mcap.data_stream import RecordBuilder
-from mcap.opcode import Opcode
-from mcap.records import MessageIndex
 from mcap.writer import CompressionType, LIBRARY_IDENTIFIER, Writer
 from rclpy.serialization import serialize_message
 
@@ -55,7 +51,14 @@ LIBRARY = LIBRARY_IDENTIFIER
 COMPRESSION = {'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4,
                'none': CompressionType.NONE}
 _U64 = 2**64
-_MESSAGE_OPCODE = int(Opcode.MESSAGE)
+try:  # mcap 1.x's internals, for _Writer's fast path (without them: mcap's own add_message)
+    from mcap._chunk_builder import ChunkBuilder
+    from mcap.data_stream import RecordBuilder
+    from mcap.records import MessageIndex
+    _FAST_MCAP = True
+except ImportError:  # pragma: no cover - another mcap
+    _FAST_MCAP = False
+_MESSAGE_OPCODE = 0x05  # MCAP's Message record
 # Queue items: tuples whose first element says what they are.
 _MESSAGE, _SCHEMA, _CHANNEL, _METADATA, _FLUSH, _FINISH = range(6)
 _YIELD_EVERY = 16  # messages written in a row (~70 us) before the writer thread lets others run
@@ -101,9 +104,9 @@ class _Sink:
 class _Writer(Writer):
     """mcap's Writer, its ``add_message`` done in one struct call and one buffer write where
     its state is what this was written against (mcap 1.x: the chunk builder's record buffer,
-    message indexes and times, the statistics): the same bytes, in a third of the time (a
-    campaign's run writes thousands of small messages). Otherwise (``fast`` False: another
-    mcap) mcap's own."""
+    message indexes and times, the statistics): the same bytes, faster (a campaign's run
+    writes thousands of small messages). Otherwise (``fast`` False: another mcap) mcap's own.
+    (The class is named as mcap's so that ``self._Writer__x`` is mcap's private ``__x``.)"""
 
     _HEAD = struct.Struct('<BQHIQQ')  # opcode, record length, channel, sequence, times
 
@@ -111,7 +114,7 @@ class _Writer(Writer):
         super().__init__(*args, **kwargs)
         builder = getattr(self, '_Writer__chunk_builder', None)
         stats = getattr(self, '_Writer__statistics', None)
-        self.fast = (isinstance(builder, ChunkBuilder) and stats is not None and
+        self.fast = (_FAST_MCAP and isinstance(builder, ChunkBuilder) and stats is not None and
                      isinstance(getattr(builder, 'record_writer', None), RecordBuilder) and
                      isinstance(getattr(builder.record_writer, '_buffer', None), io.BytesIO)
                      and isinstance(getattr(self, '_Writer__chunk_size', None), int)
@@ -294,6 +297,10 @@ class RecordingWriter:
         qos_yaml = offered_qos_profiles(qos, where)
         text = schema_text(name)  # WriterError if not installed: nothing queued yet
         digest = type_hash(name)
+        try:  # (made before anything is queued; rclpy's for a type it cannot make)
+            encode = encoder(msg_type) or serialize_message
+        except Exception:  # noqa: B902 - whatever a foreign message class does: rclpy's way
+            encode = serialize_message
         metadata = {'offered_qos_profiles': qos_yaml}
         if digest is not None:
             metadata['topic_type_hash'] = digest
@@ -308,8 +315,7 @@ class RecordingWriter:
             channel_id = len(self._topics) + 1
             self._summaries[channel_id] = TopicSummary(topic, name, qos_yaml, digest or '', 0)
             self._queue.put((_CHANNEL, channel_id, topic, schema_id, metadata))
-            self._topics[topic] = (channel_id, msg_type,
-                                   encoder(msg_type) or serialize_message)
+            self._topics[topic] = (channel_id, msg_type, encode)
 
     def write(self, topic: str, msg: Any, log_time_ns: int, publish_time_ns: int | None = None,
               sequence: int = 0) -> None:

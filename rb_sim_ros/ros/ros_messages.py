@@ -137,14 +137,15 @@ class OutputMessages:
         lin_b = rotate(r, linear_velocity, transpose=True)
         ang_b = rotate(r, angular_velocity, transpose=True)
         lin, ang = (lin_b, ang_b) if self.twist_in_body else (linear_velocity, angular_velocity)
+        stamp = time_msg(time_ns)  # (new each time: a law in-process may keep the old one)
         kinds = self.kinds
         if 'twist' in kinds:
             t = self.twist
             t.linear.x, t.linear.y, t.linear.z = lin
             t.angular.x, t.angular.y, t.angular.z = ang
         if 'pose' in kinds:
-            set_stamp(self.pose.header.stamp, time_ns)
-        set_stamp(self.odom.header.stamp, time_ns)
+            self.pose.header.stamp = stamp
+        self.odom.header.stamp = stamp
         self.odom.pose.pose = pose
         ot = self.odom.twist.twist
         ot.linear.x, ot.linear.y, ot.linear.z = lin_b
@@ -164,9 +165,10 @@ class OutputMessages:
             (g0, g1, g2), (f0, f1, f2) = imu_offsets
             gyro = (gyro[0] + g0, gyro[1] + g1, gyro[2] + g2)
             force = (force[0] + f0, force[1] + f1, force[2] + f2)
+        stamp = time_msg(time_ns)
         if 'imu' in self.kinds:
             imu = self.imu
-            set_stamp(imu.header.stamp, time_ns)
+            imu.header.stamp = stamp
             o = imu.orientation
             o.x, o.y, o.z, o.w = quaternion_xyzw
             w, a = imu.angular_velocity, imu.linear_acceleration
@@ -174,7 +176,7 @@ class OutputMessages:
             a.x, a.y, a.z = force
         if 'accel' in self.kinds:
             acc = self.accel
-            set_stamp(acc.header.stamp, time_ns)
+            acc.header.stamp = stamp
             lin, ang = acc.accel.linear, acc.accel.angular
             lin.x, lin.y, lin.z = linear_acceleration
             ang.x, ang.y, ang.z = angular_acceleration

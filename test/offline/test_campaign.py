@@ -191,6 +191,9 @@ def test_the_rows_metrics_are_the_recordings(tmp_path):
     campaign.campaign(_spec([('controller.natural_frequency', '[2.0]')], stop_after=3.0),
                       str(tmp_path), Serial(), progress=False)
     row = _rows(tmp_path)[0]
+    # (the defaults are written into campaign.json: a rerun makes the run as it was made)
+    assert json.loads((tmp_path / 'campaign.json').read_text())['params']['record_outputs'] \
+        == ['odom']
     recording = RecordingReader(str(tmp_path / row['file']))
     assert {t for t, info in recording.topics.items()
             if info.message_count and not t.startswith('/rb_sim/')} == {'/odom'}
@@ -413,6 +416,7 @@ def test_contact_time_is_the_periods_in_contact(tmp_path):
     (['--param', 'imu_seed=3'], "each run's seed"),
     (['--body', 'ghost'], "without --scene the body is 'body'"),
     (['--metric', 'no_such_module_x:f'], '--metric no_such_module_x:f: ModuleNotFoundError'),
+    (['--param', 'record_outputs=[imu]'], 'a campaign records odom'),
 ])
 def test_more_bad_arguments_are_one_line(tmp_path, args, said):
     out = _cli('--controller', CONTROLLER, '--out', 'c', *args, cwd=tmp_path)
