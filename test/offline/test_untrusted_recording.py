@@ -453,13 +453,13 @@ SPAWNED = BodySpec('b', 2.0, (0.1, 0.2, 0.3), initial_position=(1.0, 2.0, 3.0),
                    initial_angular_velocity=(0.0, 0.5, 1.0))
 
 
-def _record_spawning(path, spawn_topics=None):
+def _record_spawning(path, spawn_topics=None, params=None):
     """The single body 'body', with 'b' spawned at period 2 (outputs on /b/...), pushed at
     period 3 and deleted at period 6, recorded as the node records it (a spawned body's frame
     is its name)."""
     spec = BodySpec(initial_angular_velocity=(0.1, 0.2, 0.3))
     config = Config(dt=0.001, steps_per_publish=10, bodies=(spec,))
-    params = _params()
+    params = params or _params()
     rec = NodeRecorder(str(path), config, params, {'body': {k: f'/{k}' for k in OUTPUT_KINDS}})
     sim = Simulation(config)
     outs = {'body': OutputMessages(params['world_frame'], params['body_frame'],
@@ -484,6 +484,22 @@ def _record_spawning(path, spawn_topics=None):
             rec.output(name, sim.step_count, sim.time_ns, outs[name])
     rec.close()
     assert rec.failed is None
+
+
+def test_record_outputs_holds_for_a_spawned_body_and_it_verifies(tmp_path):
+    """record_outputs [odom]: the spawned body's outputs are its odom only, in the spawn's
+    own record too, and replay verifies what is there."""
+    f = tmp_path / 'spawn.mcap'
+    _record_spawning(f, params=_params(record_outputs=['odom']))
+    code, out, err = _verify(f)
+    assert code == 0 and 'identical' in out, out + err
+    with AnyReader([f]) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections if c.msgcount}
+        spawn = [json.loads(reader.deserialize(raw, c.msgtype).data)
+                 for c, _, raw in reader.messages() if c.topic == '/rb_sim/input/b/spawn']
+    assert {t for t in counts if not t.startswith('/rb_sim/')} == {'/odom', '/b/odom'}
+    assert counts['/b/odom'] == 4 and counts['/odom'] == 9
+    assert [s['output_topics'] for s in spawn] == [{'odom': '/b/odom'}]
 
 
 def test_a_run_with_a_spawn_and_a_delete_verifies(tmp_path):
