@@ -20,6 +20,7 @@ arrays of numbers through numpy's bytes.
 from __future__ import annotations
 
 import array
+import importlib
 import struct
 from typing import Any, Callable
 
@@ -207,13 +208,14 @@ class _Body:
     def nested(self, expr: str, t) -> None:
         """A nested message, inlined (a run of values goes on across it); one of several
         fields bound to a local name first (each field is then one attribute away)."""
-        if '.' in expr and len(getattr(_class_of(t), 'SLOT_TYPES', ())) > 1:
+        msg_type = _class_of(t)
+        if '.' in expr and len(getattr(msg_type, 'SLOT_TYPES', ())) > 1:
             self.generator.locals += 1
             local = f'_{self.generator.locals}_{expr.rsplit(".", 1)[1]}'
             # (before the run in progress is packed: reads have no effects, the run goes on)
             self.lines.append(f'{local} = {expr}')
             expr = local
-        self.message(expr, _class_of(t), top=False)
+        self.message(expr, msg_type, top=False)
 
     def array(self, expr: str, t) -> None:
         item = t.value_type
@@ -259,6 +261,5 @@ class _Body:
 
 def _class_of(t) -> type:
     """The rclpy class of a rosidl NamespacedType."""
-    import importlib
     module = importlib.import_module('.'.join(t.namespaces))
     return getattr(module, t.name)

@@ -22,6 +22,7 @@ from sensor_msgs.msg import Imu
 
 from rb_sim_ros.core import so3
 from rb_sim_ros.core.rigid_body import Frame, Wrench
+from rb_sim_ros.ros import output_kinds
 from rb_sim_ros.sim.imu import specific_force
 
 # tf2's topics (absolute: tf2_ros listens there whatever the node's namespace).
@@ -96,8 +97,7 @@ class OutputMessages:
         """``kinds``: the messages read after a fill (None: all five, as the node publishes
         them); the others are left as they are (offline/closed_loop: what it records and
         its laws read). odom's pose is the PoseStamped's: both are filled if either is."""
-        self.kinds = frozenset(('pose', 'twist', 'odom', 'imu', 'accel') if kinds is None
-                               else kinds)
+        self.kinds = frozenset(output_kinds.NAMES if kinds is None else kinds)
         self.pose = PoseStamped()
         self.twist = Twist()
         self.odom = Odometry()
