@@ -361,6 +361,11 @@ class Wrench:
             return NotImplemented
         return self._key == other._key
 
+    @property
+    def components(self) -> tuple:
+        """The six floats: force x, y, z, then torque x, y, z."""
+        return self._key[1:]
+
     def __hash__(self) -> int:
         return hash(self._key)
 

@@ -211,7 +211,8 @@ def mul9(a, b, transpose_b: bool = False) -> tuple[float, ...]:
 
 def mul9_vec(a, v, transpose: bool = False) -> tuple[float, float, float]:
     """A v (or A^T v) of a 3x3 matrix as 9 row-major floats, in plain float arithmetic."""
-    x, y, z = (float(c) for c in v)
+    x, y, z = v
+    x, y, z = float(x), float(y), float(z)
     if transpose:
         return (a[0] * x + a[3] * y + a[6] * z, a[1] * x + a[4] * y + a[7] * z,
                 a[2] * x + a[5] * y + a[8] * z)

@@ -584,8 +584,9 @@ class Stepper(FixedStep):
         self._wrench = wrench
         self._store.wrench_changes += 1
         in_body = wrench.frame is Frame.BODY
-        force: Any = wrench.force
-        torque: Any = wrench.torque
+        components = wrench.components
+        force: Any = components[:3]
+        torque: Any = components[3:]
         if in_body and self._q is not None:
             force = so3.mul9_vec(self._q9, force, transpose=True)
             torque = so3.mul9_vec(self._q9, torque, transpose=True)
@@ -678,8 +679,8 @@ def set_wrench_params(p: np.ndarray, inverse_mass: float, force, torque,
                       in_body: bool) -> None:
     """Fill a kernel params row with a held wrench (force and torque in the principal body
     frame if ``in_body``, else world), as Thm 1 takes it: F / m, and F / m + g where constant."""
-    f0, f1, f2 = force.tolist() if type(force) is np.ndarray else (float(c) for c in force)
-    tx, ty, tz = torque.tolist() if type(torque) is np.ndarray else (float(c) for c in torque)
+    f0, f1, f2 = force.tolist() if type(force) is np.ndarray else map(float, force)
+    tx, ty, tz = torque.tolist() if type(torque) is np.ndarray else map(float, torque)
     fx, fy, fz = f0 * inverse_mass, f1 * inverse_mass, f2 * inverse_mass
     gx, gy, gz = p[K.GRAVITY:K.GRAVITY + 3].tolist()
     has_gravity = gx != 0.0 or gy != 0.0 or gz != 0.0

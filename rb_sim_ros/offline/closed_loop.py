@@ -19,8 +19,8 @@ metadata, states, IMU noise, /tf and wrench inputs at the same steps
 is made of the node's own pieces: the lockstep bookkeeping (``ros/lockstep.Lockstep``: the
 answers of a state take effect together at the step after it, or ``lockstep_delay`` periods
 later), the publish of a state with its IMU draw (``sweep.publish_state``), the answer made of
-the law's wrench (``control_loop.command_message``) and turned into the wrench the node takes
-(``body_ports.stamped_wrench``), a re-sent identical wrench not recorded, a law that raises, or
+the law's wrench as ``control_loop.command_message`` puts it in the answer and the node takes
+it (``body_ports.wrench_in``), a re-sent identical wrench not recorded, a law that raises, or
 gives a wrench the node refuses, answered with no change (HOLD), and command_timeout.
 
 A controller is a Python file or module with ``make_law(parameters: dict)``, returning the
@@ -44,14 +44,12 @@ import os
 import sys
 from typing import Any, Callable
 
-from geometry_msgs.msg import WrenchStamped
-
 from rb_sim_ros.core.rigid_body import ZERO_WRENCH
 from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.offline.sweep import publish_state
 from rb_sim_ros.ros import node_params, ros_messages
-from rb_sim_ros.ros.body_ports import PUBLISHED, RECORDED, stamped_wrench
-from rb_sim_ros.ros.control_loop import command_message, stamp_ns
+from rb_sim_ros.ros.body_ports import PUBLISHED, RECORDED, wrench_in
+from rb_sim_ros.ros.control_loop import body_frame_of, stamp_ns
 from rb_sim_ros.ros.lockstep import HOLD, Lockstep
 from rb_sim_ros.ros.node_config import config_from, stop_step, timeout_steps
 from rb_sim_ros.ros.node_recorder import NodeRecorder
@@ -161,7 +159,8 @@ class _Body:
         self.topics = {kind: prefix + kind for kind, _, _ in PUBLISHED if kind in RECORDED}
         self.points = dict(spec.points)
         self.law = law
-        self.answer = WrenchStamped()  # the law's answer, refilled each period (read at once)
+        self.reads_imu = getattr(law, 'state', 'odom') == 'imu'
+        self.law_frame = getattr(law, 'frame', 'body')
         self.last_command_step = 0
         # (with trace) every published state's time and orientation, every recorded wrench
         # input's time and torque: the recording's own values, for metrics without reading
@@ -224,35 +223,44 @@ class ClosedLoop:
         self.stop_step = stop_step(values, self.config)
         self.timeout_steps = timeout_steps(values, self.config)
         self.result = Result(0, 0)
+        self._read_clock()
 
     # -- the node's period ---------------------------------------------------------------
     def start(self) -> bool:
         """Step 0: its state published and answered. False if the run ended."""
         return self._publish_and_answer()
 
+    def _read_clock(self) -> None:
+        """The step and its time (ns), read once a period."""
+        self.step: int = self.sim.step_count
+        self.t_ns: int = self.sim.time_ns_of(self.step)
+
     def period(self) -> bool:
         """One publish period: the answers due applied, the steps, the state published and
         answered. False once the run has ended (stop_after, or an error)."""
         sim = self.sim
+        step = self.step
         for name, answer in self.lockstep.take():
             body = self._body(name)
             if isinstance(answer, SetWrench):
                 self._apply(body, answer, command=True)
             else:  # HOLD
-                body.last_command_step = sim.step_count
+                body.last_command_step = step
         if self.timeout_steps:
             for body in self.bodies:
-                if sim.step_count - body.last_command_step >= self.timeout_steps and \
+                if step - body.last_command_step >= self.timeout_steps and \
                         sim.wrench(body.name) != ZERO_WRENCH:
                     self._apply(body, SetWrench(ZERO_WRENCH, body.name), command=False)
-        end = min(sim.step_count + self.config.steps_per_publish, self.stop_step)
+        end = min(step + self.config.steps_per_publish, self.stop_step)
         try:
-            sim.run(end - sim.step_count)
+            sim.run(end - step)
         except IntegrationError as e:
             self.result.error = str(e).splitlines()[0][:500]
             return False
-        if sim.step_count >= self.stop_step:
-            self.lockstep.expect(sim.time_ns)
+        finally:
+            self._read_clock()
+        if self.step >= self.stop_step:
+            self.lockstep.expect(self.t_ns)
             self._publish()
             return False
         return self._publish_and_answer()
@@ -267,25 +275,24 @@ class ClosedLoop:
         held = sim.wrench(body.name)
         sim.apply(event)
         if command:
-            body.last_command_step = sim.step_count
+            body.last_command_step = self.step
         if sim.wrench(body.name) != held:
-            self.recorder.event(sim.step_count, sim.time_ns, event)
+            self.recorder.event(self.step, self.t_ns, event)
             if self.trace:
-                body.wrench_times.append(sim.time_ns * 1e-9)
-                body.torques.append(tuple(event.wrench.torque))
+                body.wrench_times.append(self.t_ns * 1e-9)
+                body.torques.append(event.wrench.components[3:])
 
     def _publish(self) -> bool:
-        sim = self.sim
+        sim, step, t_ns = self.sim, self.step, self.t_ns
         failed = False
         for body in self.bodies:  # (all of them, as the node: the others are published)
-            if not publish_state(sim, body.name, body.out, body.sensor, self.recorder) and \
-                    not failed:
+            if not publish_state(sim, body.name, body.out, body.sensor, self.recorder,
+                                 step, t_ns) and not failed:
                 failed = True
                 self.result.error = (f"body '{body.name}' has a non-finite state at step "
-                                     f'{sim.step_count}; not published')
+                                     f'{step}; not published')
         if failed:
             return False
-        t_ns = sim.time_ns
         if self.trace:
             for body in self.bodies:
                 o = body.out.odom.pose.pose.orientation
@@ -297,15 +304,15 @@ class ClosedLoop:
         if self._tf is not None:
             ros_messages.fill_tf(self._tf, t_ns, [sim.pose_twist(b.name)[:2]
                                                   for b in self.bodies])
-            self.recorder.tf(TF, sim.step_count, t_ns, self._tf)
+            self.recorder.tf(TF, step, t_ns, self._tf)
         if self._tf_static is not None:  # once, at the first publish
             ros_messages.fill_tf(self._tf_static, t_ns, self._static_poses)
-            self.recorder.tf(TF_STATIC, sim.step_count, t_ns, self._tf_static)
+            self.recorder.tf(TF_STATIC, step, t_ns, self._tf_static)
             self._tf_static = None
         return True
 
     def _publish_and_answer(self) -> bool:
-        self.lockstep.expect(self.sim.time_ns)
+        self.lockstep.expect(self.t_ns)
         if not self._publish():
             return False
         for body in self.bodies:
@@ -315,26 +322,34 @@ class ClosedLoop:
 
     def _answer(self, body: _Body) -> None:
         """The controller's answer to the state just published, as its ControlLoop and the
-        node's wrench_stamped make it."""
+        node's wrench_stamped make it: command_message's numbers, frame and stamp (the
+        state's, read after the law), taken as the node takes a wrench_stamped
+        (body_ports.wrench_in), without making the message itself."""
         law = body.law
-        state = body.out.imu if getattr(law, 'state', 'odom') == 'imu' else body.out.odom
+        state = body.out.imu if body.reads_imu else body.out.odom
+        answer: Any = HOLD
         try:
             wrench = law(state)
-            msg = command_message(state, wrench, getattr(law, 'frame', 'body'), body.answer)
+            if wrench is not None:
+                force, torque = wrench
+                fx, fy, fz = map(float, force)  # (as command_message fills the message)
+                tx, ty, tz = map(float, torque)
+                frame = body.law_frame
+                fid = (body_frame_of(state) if frame == 'body' else frame).lstrip('/')
+            else:
+                fid = HOLD
         except Exception as e:  # noqa: B902 - as ControlLoop: a law that raises answers HOLD
             self._refused(f'the law raised {type(e).__name__}: {e}')
-            msg = command_message(state, None, out=body.answer)
-        fid = msg.header.frame_id.lstrip('/')
-        answer: Any = HOLD
+            fid = HOLD
         if fid != HOLD:
             v = self.values
             try:
-                answer = SetWrench(stamped_wrench(msg.wrench, fid, v['world_frame'],
-                                                  body.frame, body.points, v['wrench_frame'],
-                                                  v['max_wrench']), body.name)
+                answer = SetWrench(wrench_in((fx, fy, fz), (tx, ty, tz), fid, v['world_frame'],
+                                             body.frame, body.points, v['wrench_frame'],
+                                             v['max_wrench']), body.name)
             except ValueError as e:  # the node refuses it, and answers with no change
                 self._refused(f'its wrench was refused: {e}')
-        self.lockstep.offer(body.name, stamp_ns(msg.header.stamp), answer)
+        self.lockstep.offer(body.name, stamp_ns(state.header.stamp), answer)
         self.result.answered += 1
 
     def run_to_end(self) -> Result:
@@ -351,7 +366,7 @@ class ClosedLoop:
     def _refused(self, why: str) -> None:
         self.result.refused += 1
         if not self.result.refusal:
-            self.result.refusal = (f't = {self.sim.time_ns * 1e-9:.9f} s: '
+            self.result.refusal = (f't = {self.t_ns * 1e-9:.9f} s: '
                                    + why.splitlines()[0])[:300]
 
     def close(self) -> Result:

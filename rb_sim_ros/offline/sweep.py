@@ -77,7 +77,7 @@ from rb_sim_ros.offline.progress import Progress
 from rb_sim_ros.ros import node_params, node_recorder, ros_arguments
 from rb_sim_ros.ros.node_config import config_from
 from rb_sim_ros.ros.node_recorder import NodeRecorder
-from rb_sim_ros.ros.ros_messages import OutputMessages
+from rb_sim_ros.ros.ros_messages import OutputMessages, rotation_from_quaternion
 from rb_sim_ros.ros.wrench_profile import load_profile
 from rb_sim_ros.sim import safe_yaml
 from rb_sim_ros.sim.imu import ImuSensor
@@ -349,23 +349,28 @@ def _simulate(config, params, context, out_path) -> dict:
     return row
 
 
-def publish_state(sim, name, out, sensor, recorder) -> bool:
+def publish_state(sim, name, out, sensor, recorder, step: int | None = None,
+                  time_ns: int | None = None) -> bool:
     """One publish of ``name`` as the node's BodyPorts.publish makes it with a recorder (the
     messages filled in ``out``, the IMU's noise drawn, the outputs recorded); False, nothing
-    drawn nor recorded, for a state that is not finite."""
-    t = sim.time_ns
+    drawn nor recorded, for a state that is not finite. ``step`` and ``time_ns``: the sim's
+    (read here if None)."""
+    if step is None or time_ns is None:
+        step, time_ns = sim.step_count, sim.time_ns
+    t = time_ns
     pose_twist = sim.pose_twist(name)
     if not all(map(math.isfinite, itertools.chain(*pose_twist))):
         return False
-    if not out.fill(t, *pose_twist):
+    r = rotation_from_quaternion(pose_twist[1])
+    if not out.fill(t, *pose_twist, rotation=r):
         return False
     a, b = sim.accelerations(name)
     offsets = sensor.sample(t)
     if not out.fill_motion(t, pose_twist[1], pose_twist[3], a, b, sim.config.gravity,
-                           offsets):
+                           offsets, rotation=r):
         sensor.undo()
         return False
-    recorder.output(name, sim.step_count, t, out)
+    recorder.output(name, step, t, out)
     return True
 
 

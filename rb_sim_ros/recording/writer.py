@@ -337,6 +337,27 @@ class RecordingWriter:
         if type(msg) is not msg_type:
             raise WriterError(f'{self.path}: topic {topic} carries {msg_type.__name__}, not '
                               f'{type(msg).__name__}')
+        self._put(topic, channel_id, encode(msg), log_time_ns, publish_time_ns, sequence)
+
+    def write_serialized(self, topic: str, data: bytes, log_time_ns: int,
+                         publish_time_ns: int | None = None, sequence: int = 0) -> None:
+        """``write`` of a message already serialised (``data``: its CDR bytes, encapsulation
+        header first, as ``serialize_message`` gives them): the caller vouches that they are
+        a message of the topic's type. The same checks of the rest."""
+        if self._closing or self._error is not None:
+            self._check_open()
+            return
+        try:
+            channel_id = self._topics[topic][0]
+        except (KeyError, TypeError):
+            raise WriterError(f'{self.path}: topic {topic!r} was not registered') from None
+        if type(data) is not bytes:
+            raise WriterError(f'{self.path}: topic {topic}: serialised data must be bytes, '
+                              f'not {type(data).__name__}')
+        self._put(topic, channel_id, data, log_time_ns, publish_time_ns, sequence)
+
+    def _put(self, topic: str, channel_id: int, data: bytes, log_time_ns, publish_time_ns,
+             sequence) -> None:
         log = log_time_ns
         if type(log) is not int or not 0 <= log < _U64:
             log = _ns(log_time_ns, 'log_time_ns', self.path, topic)
@@ -349,7 +370,7 @@ class RecordingWriter:
             except TypeError:
                 raise WriterError(f'{self.path}: topic {topic}: sequence {sequence!r} is not '
                                   'an integer') from None
-        self._queue.put((_MESSAGE, channel_id, log, pub, sequence & 0xFFFFFFFF, encode(msg)))
+        self._queue.put((_MESSAGE, channel_id, log, pub, sequence & 0xFFFFFFFF, data))
 
     def write_metadata(self, name: str, data: Mapping[str, str]) -> None:
         """Queue an MCAP metadata record ``name`` with string keys and values.

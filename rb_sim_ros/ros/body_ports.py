@@ -17,7 +17,7 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSPolicyKind, QoSProfile
 from rclpy.qos_overriding_options import QoSOverridingOptions
 
-from rb_sim_ros.core.rigid_body import Frame
+from rb_sim_ros.core.rigid_body import Frame, Wrench
 from rb_sim_ros.ros import node_params, output_kinds, ros_messages
 from rb_sim_ros.ros.lockstep import HOLD
 from rb_sim_ros.sim.imu import ImuSensor
@@ -71,7 +71,15 @@ def stamped_wrench(wrench_msg: WrenchMsg, fid: str, world_frame: str, body_frame
     '' is ``wrench_frame``'s, the world or the body by their frame ids (or 'world', 'body'),
     or an application point of ``points`` (force there, axes the body's). ValueError naming
     what is wrong. The node's answer to a wrench_stamped, and an in-process controller's
-    (offline/closed_loop), are made here alike."""
+    (offline/closed_loop, with the message's numbers: ``wrench_in``), are made here alike."""
+    f, t = wrench_msg.force, wrench_msg.torque
+    return wrench_in((f.x, f.y, f.z), (t.x, t.y, t.z), fid, world_frame, body_frame, points,
+                     wrench_frame, max_wrench)
+
+
+def wrench_in(force: tuple, torque: tuple, fid: str, world_frame: str, body_frame: str,
+              points: dict, wrench_frame: str, max_wrench: float):
+    """``stamped_wrench`` of a message whose force and torque are these 3-tuples."""
     if fid == '':
         frame = Frame.parse(wrench_frame)
     elif fid in (world_frame, 'world'):
@@ -79,12 +87,13 @@ def stamped_wrench(wrench_msg: WrenchMsg, fid: str, world_frame: str, body_frame
     elif fid in (body_frame, 'body'):
         frame = Frame.BODY
     elif fid in points:
-        return ros_messages.wrench_at_point(wrench_msg, points[fid], max_wrench)
+        return ros_messages.wrench_at(force, torque, points[fid], max_wrench)
     else:
         named = f", nor a point ({', '.join(sorted(points))})" if points else ''
         raise ValueError(f"frame_id '{fid}' is neither '{world_frame}' nor '{body_frame}'"
                          f'{named} (no tf lookup here)')
-    return ros_messages.wrench_from_msg(wrench_msg, frame, max_wrench)
+    ros_messages.check_wrench(force, torque, max_wrench)
+    return Wrench(force, torque, frame)
 
 
 class TwistInput:
@@ -208,7 +217,8 @@ class BodyPorts:
             if sensor is not None:  # unheard, but drawn: the noise follows publishes only
                 sensor.sample(time_ns)
             return True
-        if not self.out.fill(time_ns, *pose_twist):
+        r = ros_messages.rotation_from_quaternion(pose_twist[1])
+        if not self.out.fill(time_ns, *pose_twist, rotation=r):
             return False
         if motion or ((recorder is not None or fill) and self.motion_pubs):
             a, b = sim.accelerations(self.name)
@@ -216,7 +226,7 @@ class BodyPorts:
             # replay draws it): taken back if the values are not finite.
             offsets = sensor.sample(time_ns) if sensor is not None else None
             if not self.out.fill_motion(time_ns, pose_twist[1], pose_twist[3], a, b,
-                                        sim.config.gravity, offsets):
+                                        sim.config.gravity, offsets, rotation=r):
                 if sensor is not None:
                     sensor.undo()
                 return False

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import json
 import os
+import struct
 
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
 from mcap.writer import LIBRARY_IDENTIFIER
@@ -44,6 +45,7 @@ from std_msgs.msg import String
 from rb_sim_ros import __version__
 from rb_sim_ros.core.rigid_body import Wrench
 from rb_sim_ros.recording import RecordingWriter, WriterError
+from rb_sim_ros.recording.cdr import HEADER
 from rb_sim_ros.recording.compare import difference
 from rb_sim_ros.ros import node_params, output_kinds
 from rb_sim_ros.ros.ros_messages import set_stamp, tf_qos, time_msg
@@ -146,6 +148,25 @@ def wrench_message(event: SetWrench, time_ns: int, msg: WrenchStamped) -> Wrench
     f.x, f.y, f.z = map(float, event.wrench.force)
     t.x, t.y, t.z = map(float, event.wrench.torque)
     return msg
+
+
+_WRENCH_DATA = struct.Struct('<iI')  # the stamp; then the frame id, and six doubles
+_SIX = struct.Struct('<6d')
+_frame_ids: dict[str, bytes] = {}
+
+
+def wrench_bytes(event: SetWrench, time_ns: int) -> bytes:
+    """The CDR bytes of ``wrench_message(event, time_ns, ...)`` (what its serialiser gives),
+    packed from the numbers: a closed-loop run records a wrench input every period."""
+    wrench = event.wrench
+    frame = wrench.frame.value
+    tail = _frame_ids.get(frame)
+    if tail is None:  # its length, the UTF-8 and a NUL, padded to the doubles' alignment
+        text = frame.encode() + b'\0'
+        tail = struct.pack('<I', len(text)) + text
+        tail = _frame_ids[frame] = tail + bytes(-(8 + len(tail)) % 8)
+    sec, nanosec = divmod(time_ns, 1_000_000_000)
+    return HEADER + _WRENCH_DATA.pack(sec, nanosec) + tail + _SIX.pack(*wrench.components)
 
 
 def event_message(event, time_ns: int, output_topics: dict | None = None):
@@ -266,7 +287,6 @@ class NodeRecorder:
             raise WriterError(f'cannot record to {e}{hint}') from None
         self._closed_error: str | None = None
         self._first = config.bodies[0].name
-        self._wrench = WrenchStamped()  # refilled for each wrench input recorded
         # the outputs recorded: those record_outputs names (all, for a caller without it)
         self._kinds = frozenset(node_params.record_outputs(
             parameters.get('record_outputs', OUTPUTS)))
@@ -312,18 +332,28 @@ class NodeRecorder:
     def event(self, step: int, time_ns: int, event) -> None:
         if self._writer.error is not None:
             return
-        if type(event) is SetWrench:  # (the most frequent: one message refilled, as the
-            # writer serialises it before write returns)
-            kind, msg = 'wrench', wrench_message(event, time_ns, self._wrench)
-        else:
-            kind, msg = event_message(event, time_ns)
+        if type(event) is SetWrench:  # (the most frequent: packed from its numbers)
+            topic = input_topic(event.body or self._first, 'wrench')
+            if topic not in self._registered and not self._registered_now(topic, 'wrench'):
+                return
+            self._writer.write_serialized(topic, wrench_bytes(event, time_ns), time_ns,
+                                          sequence=step)
+            return
+        kind, msg = event_message(event, time_ns)
         topic = input_topic(event.body or self._first, kind)
+        if not self._registered_now(topic, kind):
+            return
+        self._writer.write(topic, msg, time_ns, sequence=step)
+
+    def _registered_now(self, topic: str, kind: str) -> bool:
+        """Input ``topic`` of ``kind`` registered (once); False if it cannot be (said at the
+        close)."""
         try:
             self._register(topic, INPUTS[kind])
         except WriterError as e:
             self._closed_error = self._closed_error or str(e)
-            return
-        self._writer.write(topic, msg, time_ns, sequence=step)
+            return False
+        return True
 
     def _recorded(self, topics: dict[str, str]) -> dict[str, str]:
         """Of a body's output topics, those recorded (record_outputs)."""

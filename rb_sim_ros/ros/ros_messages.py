@@ -53,11 +53,15 @@ def wrench_from_msg(msg: WrenchMsg, frame: Frame, max_wrench: float) -> Wrench:
 
 def wrench_at_point(msg: WrenchMsg, point, max_wrench: float) -> Wrench:
     """The body-frame wrench at the centre of mass of a geometry_msgs/Wrench given in the
-    frame of an application point at ``point`` (m, body frame; axes those of the body): the
-    force, and the torque plus point x force. Both the message and the result are checked
-    as ``check_wrench``."""
-    f = (msg.force.x, msg.force.y, msg.force.z)
-    t = (msg.torque.x, msg.torque.y, msg.torque.z)
+    frame of an application point at ``point`` (m, body frame; axes those of the body)."""
+    return wrench_at((msg.force.x, msg.force.y, msg.force.z),
+                     (msg.torque.x, msg.torque.y, msg.torque.z), point, max_wrench)
+
+
+def wrench_at(f: tuple, t: tuple, point, max_wrench: float) -> Wrench:
+    """``wrench_at_point`` of force ``f`` and torque ``t`` (3-tuples): the force, and the
+    torque plus point x force. Both what is given and the result are checked as
+    ``check_wrench``."""
     check_wrench(f, t, max_wrench)
     rx, ry, rz = point
     moment = (t[0] + ry * f[2] - rz * f[1], t[1] + rz * f[0] - rx * f[2],
@@ -71,12 +75,15 @@ def check_wrench(force, torque, max_wrench: float) -> None:
     <= ``max_wrench``. The norm is math.hypot's, which does not overflow: a finite component
     of 1e200 is over the limit, not an OverflowError."""
     f, t = tuple(force), tuple(torque)
-    if not all(isinstance(c, float) and math.isfinite(c) for c in f + t):
-        raise ValueError(f'non-finite wrench: force {f}, torque {t}')
-    for name, vec in (('force', f), ('torque', t)):
-        norm = math.hypot(*vec)
-        if not norm <= max_wrench:
-            raise ValueError(f'{name} norm {norm:.6g} exceeds max_wrench {max_wrench:.6g}')
+    for c in f + t:
+        if not isinstance(c, float) or not math.isfinite(c):
+            raise ValueError(f'non-finite wrench: force {f}, torque {t}')
+    norm = math.hypot(*f)
+    if not norm <= max_wrench:
+        raise ValueError(f'force norm {norm:.6g} exceeds max_wrench {max_wrench:.6g}')
+    norm = math.hypot(*t)
+    if not norm <= max_wrench:
+        raise ValueError(f'torque norm {norm:.6g} exceeds max_wrench {max_wrench:.6g}')
 
 
 # R v (or R^T v) for R given as 9 row-major floats.
@@ -126,14 +133,15 @@ class OutputMessages:
         self.odom.twist.covariance = list(twist_covariance or zeros)
 
     def fill(self, time_ns: int, position, quaternion_xyzw, linear_velocity,
-             angular_velocity) -> bool:
+             angular_velocity, rotation=None) -> bool:
         """Fill all three from a world-frame state at ``time_ns`` (sim time, ns). False if a
-        body-frame velocity overflowed (|v| near 1e308): then nothing must be sent."""
+        body-frame velocity overflowed (|v| near 1e308): then nothing must be sent.
+        ``rotation``: ``rotation_from_quaternion(quaternion_xyzw)`` if the caller has it."""
         pose = self.pose.pose
         pose.position.x, pose.position.y, pose.position.z = position
         o = pose.orientation
         o.x, o.y, o.z, o.w = quaternion_xyzw
-        r = rotation_from_quaternion(quaternion_xyzw)
+        r = rotation or rotation_from_quaternion(quaternion_xyzw)
         lin_b = rotate(r, linear_velocity, transpose=True)
         ang_b = rotate(r, angular_velocity, transpose=True)
         lin, ang = (lin_b, ang_b) if self.twist_in_body else (linear_velocity, angular_velocity)
@@ -150,15 +158,15 @@ class OutputMessages:
         ot = self.odom.twist.twist
         ot.linear.x, ot.linear.y, ot.linear.z = lin_b
         ot.angular.x, ot.angular.y, ot.angular.z = ang_b
-        return all(math.isfinite(c) for c in lin_b + ang_b)
+        return all(map(math.isfinite, lin_b + ang_b))
 
     def fill_motion(self, time_ns: int, quaternion_xyzw, angular_velocity, linear_acceleration,
-                    angular_acceleration, gravity, imu_offsets=None) -> bool:
+                    angular_acceleration, gravity, imu_offsets=None, rotation=None) -> bool:
         """Fill the Imu (body frame: orientation, angular velocity and specific force a - g,
         plus ``imu_offsets`` = (gyro, accel) noise, body frame) and the AccelStamped (world
         frame) from a world-frame state and its accelerations at ``time_ns``. False if a value
-        is not finite: then nothing must be sent."""
-        r = rotation_from_quaternion(quaternion_xyzw)
+        is not finite: then nothing must be sent. ``rotation``: as ``fill``'s."""
+        r = rotation or rotation_from_quaternion(quaternion_xyzw)
         gyro = rotate(r, angular_velocity, transpose=True)
         force = rotate(r, specific_force(linear_acceleration, gravity), transpose=True)
         if imu_offsets is not None:
@@ -180,8 +188,8 @@ class OutputMessages:
             lin, ang = acc.accel.linear, acc.accel.angular
             lin.x, lin.y, lin.z = linear_acceleration
             ang.x, ang.y, ang.z = angular_acceleration
-        return all(math.isfinite(c) for c in gyro + force + tuple(linear_acceleration)
-                   + tuple(angular_acceleration))
+        return all(map(math.isfinite, gyro + force + tuple(linear_acceleration)
+                       + tuple(angular_acceleration)))
 
 
 def tf_qos(topic: str) -> QoSProfile:

@@ -31,6 +31,8 @@ import numpy as np
 # published; a bias walked for years; a sample plus its noise).
 MAX_SIGMA = 1.0e6
 
+_BATCH = 64  # samples' normals drawn at once
+
 
 @dataclass(frozen=True)
 class ImuNoise:
@@ -87,6 +89,11 @@ class ImuSensor:
         self._noisy = noise.noisy
         self._last_ns: int | None = None
         self._undo: tuple | None = None
+        # The stream's normals, drawn _BATCH samples at a time (the same numbers as 12 a
+        # sample: numpy's normals take no state across calls), and where the next sample's
+        # start.
+        self._normals: list[float] = []
+        self._next = 0
 
     def sample(self, time_ns: int):
         """The noise of the sample at sim time ``time_ns``: (gyroscope rad/s, accelerometer
@@ -97,9 +104,12 @@ class ImuSensor:
         if not self._noisy:
             return None
         gb, ab = self._gyro_bias, self._accel_bias
-        self._undo = (self._rng.bit_generator.state, gb, ab, self._last_ns)
-        g0, g1, g2, a0, a1, a2, wg0, wg1, wg2, wa0, wa1, wa2 = \
-            self._rng.standard_normal(12).tolist()
+        i = self._next
+        if i == len(self._normals):
+            self._normals, i = self._rng.standard_normal(12 * _BATCH).tolist(), 0
+        self._undo = (gb, ab, self._last_ns)
+        self._next = i + 12
+        g0, g1, g2, a0, a1, a2, wg0, wg1, wg2, wa0, wa1, wa2 = self._normals[i:i + 12]
         root = math.sqrt((time_ns - self._last_ns) * 1e-9) if self._last_ns is not None \
             else 0.0
         self._last_ns = time_ns
@@ -113,6 +123,6 @@ class ImuSensor:
     def undo(self) -> None:
         """Take back the last ``sample`` (its sample was not sent): the stream is as before."""
         if self._undo is not None:
-            state, self._gyro_bias, self._accel_bias, self._last_ns = self._undo
-            self._rng.bit_generator.state = state
+            self._gyro_bias, self._accel_bias, self._last_ns = self._undo
+            self._next -= 12
             self._undo = None

@@ -280,7 +280,11 @@ class Simulation:
     @property
     def time_ns(self) -> int:
         """Simulated time in integer nanoseconds: step_count * dt, rounded."""
-        return round(self.step_count * self.config.dt * 1e9)
+        return round(int(self._clock[0]) * self.config.dt * 1e9)
+
+    def time_ns_of(self, step: int) -> int:
+        """``time_ns`` at step ``step``."""
+        return round(step * self.config.dt * 1e9)
 
     # -- the read API (what the node publishes; it does not reach into steppers or world) --
     def is_moving(self, name: str) -> bool:

@@ -271,3 +271,35 @@ def test_record_outputs_keeps_those_outputs_bit_for_bit_and_replay_verifies_them
     assert all(kept[t] == every[t] and len(kept[t]) == 51 for t in kept)
     verified = replay.verify(str(few))
     assert verified.identical and verified.outputs == 2 * 51
+
+
+@pytest.mark.parametrize('frame, expected', [
+    # (the law's frame: what the node takes its answer as, and the wrench input recorded)
+    ('world', ('world', (1.0, 0.0, 0.0), (0.0, 0.0, 0.2))),
+    ('/world', ('world', (1.0, 0.0, 0.0), (0.0, 0.0, 0.2))),
+    ('thruster', ('body', (1.0, 0.0, 0.0), (0.0, 0.0, 0.2 - 0.5))),  # t + r x f, r = (0, .5, 0)
+    ('nowhere', None)])
+def test_a_laws_frame_is_taken_as_the_node_takes_a_wrench_stamped(tmp_path, frame, expected):
+    """A law answering in the world frame, or at an application point of the body (its force
+    there, the moment r x f added about the centre of mass), as body_ports does for a
+    wrench_stamped with that frame_id; an unknown frame is refused and held."""
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text('bodies:\n  - {name: body, mass: 2.0, inertia: [0.1, 0.1, 0.1], '
+                     'points: {thruster: [0.0, 0.5, 0.0]}}\n')
+    law = _Law(lambda k: ((1.0, 0.0, 0.0), (0.0, 0.0, 0.2)))
+    law.frame = frame
+    path = tmp_path / 'run.mcap'
+    result = closed_loop.run({'scene_file': str(scene), 'stop_after': 0.1}, {'body': law},
+                             str(path))
+    assert result.error == '' and result.answered == 10
+    recorded = [m.message for m in RecordingReader(str(path)).messages(
+        topics=['/rb_sim/input/body/wrench'])]
+    if expected is None:
+        assert recorded == [] and result.refused == 10
+        assert "frame_id 'nowhere'" in result.refusal
+        return
+    assert result.refused == 0 and len(recorded) == 1
+    w = recorded[0]
+    assert (w.header.frame_id, (w.wrench.force.x, w.wrench.force.y, w.wrench.force.z),
+            (w.wrench.torque.x, w.wrench.torque.y, w.wrench.torque.z)) == expected
+    assert replay.verify(str(path)).identical

@@ -177,3 +177,20 @@ def test_an_undone_sample_leaves_the_stream_as_it_was():
     a.undo()
     assert b.sample(10_000_000) == first
     assert a.sample(30_000_000) == b.sample(30_000_000)
+
+
+def test_the_stream_is_twelve_normals_a_sample_of_the_seeded_pcg64():
+    """The documented stream, from numpy alone: sample k adds the normals 12k .. 12k + 11 of
+    PCG64(SeedSequence([seed, body index])) (gyro, accel, then the walks' steps), across the
+    sensor's batches of draws, with a sample undone at the edge of a batch."""
+    noise = ImuNoise(gyro_noise=0.1, accel_noise=0.2, seed=5)
+    sensor = ImuSensor(noise, 4)
+    normals = np.random.Generator(np.random.PCG64(np.random.SeedSequence([5, 4]))) \
+        .standard_normal(12 * 150).reshape(150, 12)
+    for k in range(150):
+        if k in (63, 64, 128):
+            sensor.sample(k * 10_000_000)
+            sensor.undo()
+        gyro, accel = sensor.sample(k * 10_000_000)
+        assert gyro == tuple(0.1 * c for c in normals[k, :3].tolist())  # (no bias)
+        assert accel == tuple(0.2 * c for c in normals[k, 3:6].tolist())
