@@ -474,10 +474,16 @@ def file_name(run: int) -> str:
 
 
 def chunks(count: int, workers: int) -> list:
-    """Tasks as (start, stop) of ``count`` items: about eight per worker (scheduling
-    amortised, the load still balanced), at most 64 items each."""
-    size = max(1, min(64, math.ceil(count / max(1, 8 * workers))))
-    return [(i, min(i + size, count)) for i in range(0, count, size)]
+    """Tasks as (start, stop) of ``count`` items, largest first (guided scheduling): each a
+    quarter of a worker's share of what is left, at most 64 items, so that the scheduling is
+    amortised while much is left, and the last tasks are of one item: the workers finish
+    together (a task of k items last on one worker left the others idle for k runs)."""
+    tasks, i = [], 0
+    while i < count:
+        size = max(1, min(64, (count - i) // max(1, 4 * workers)))
+        tasks.append((i, i + size))
+        i += size
+    return tasks
 
 
 class Interrupted(KeyboardInterrupt):
@@ -593,10 +599,11 @@ class LocalEngine:
     def map(self, fn, shared, tasks: list):
         """Yield (task index, result or exception) as tasks finish, ``fn(shared, *task)``.
 
-        At most ``workers`` tasks are in the pool at once. A task that raises is tried once
-        more. A worker that dies breaks the pool and the tasks in it: they run again one at
-        a time, so that the one that kills its worker is found; it is tried once more alone,
-        then given up (the others are not charged)."""
+        At most two tasks a worker are in the pool at once (a worker that ends a task starts
+        the next without waiting for the driver to take the result). A task that raises is
+        tried once more. A worker that dies breaks the pool and the tasks in it: they run
+        again one at a time, so that the one that kills its worker is found; it is tried
+        once more alone, then given up (the others are not charged)."""
         pool = self._pool or self._fresh()
         waiting = collections.deque(range(len(tasks)))
         # suspects of a dead worker, to run one at a time
@@ -612,7 +619,7 @@ class LocalEngine:
                     running[pool.submit(fn, shared, *tasks[solo])] = solo
                 elif not alone:
                     solo = None
-                    while waiting and len(running) < self.workers:
+                    while waiting and len(running) < 2 * self.workers:
                         i = waiting.popleft()
                         try:
                             running[pool.submit(fn, shared, *tasks[i])] = i

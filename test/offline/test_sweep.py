@@ -356,10 +356,22 @@ def test_a_vector_index_is_a_plain_number():
     assert data['bodies'][0]['position'] == [0, 0, 2.0]
 
 
+@pytest.mark.parametrize('count, workers', [(1, 1), (10, 1), (100, 2), (61, 3), (10_000, 2)])
+def test_tasks_cover_the_runs_largest_first_and_end_in_single_runs(count, workers):
+    """Guided scheduling: every run once, in order; sizes never grow, at most 64; the last
+    tasks (as many as the workers) are single runs, so no worker idles long at the end."""
+    tasks = sweep.chunks(count, workers)
+    assert [r for start, stop in tasks for r in range(start, stop)] == list(range(count))
+    sizes = [stop - start for start, stop in tasks]
+    assert sizes == sorted(sizes, reverse=True) and max(sizes) <= 64
+    assert sizes[-workers:] == [1] * min(workers, len(sizes))
+    assert len(tasks) < count / 4 + 8 * workers + 40  # (not one task a run: amortised)
+
+
 # -- --verify of many files ------------------------------------------------------------------
 def test_verify_reports_a_missing_file_alone(scene, tmp_path, capsys):
-    """N17: ten paths on one worker (tasks of two), the fourth not there: one line names it;
-    the nine recordings that are there verify, as they do alone."""
+    """N17: ten paths on one worker (the first tasks of two), the fourth not there: one line
+    names it; the nine recordings that are there verify, as they do alone."""
     engine = sweep.LocalEngine(1)
     try:
         sweep.sweep(scene, [], 1, 50, str(tmp_path / 'o'), engine=engine, progress=False)
@@ -372,7 +384,8 @@ def test_verify_reports_a_missing_file_alone(scene, tmp_path, capsys):
         if k != 3:
             shutil.copy(good, path)
         paths.append(str(path))
-    assert len(sweep.chunks(10, 1)) == 5  # the missing one shares its task with a good one
+    # the missing one shares its task with a good one
+    assert (2, 4) in sweep.chunks(10, 1)
     code = sweep.main(['sweep', '--verify', *paths, '--workers', '1'])
     lines = capsys.readouterr().out.splitlines()
     assert code == 1
