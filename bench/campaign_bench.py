@@ -8,13 +8,15 @@ workers (and on a local Ray), over DDS with 2 workers, and a campaign of 10,000 
 Each run is examples/attitude_controller.py in lockstep with one body for 10 s of sim time
 (dt 1 ms, a state and an answer every 10 ms: 1,001 periods), recorded as a campaign records
 by default (odom every period and each wrench input: record_outputs [odom], publish_tf
-false), with its inertia,
-initial twist and the IMU seed dispersed, and its metrics computed (offline/campaign). The
-engines are started and warmed (a first small campaign: workers up, kernels loaded) before
-timing; the start is printed beside. In-process, the controller is called through the
-lockstep helper; over DDS (``--dds``) every run is two processes, the simulator node and the
-controller node, as a user runs them. The rows are the same whatever the engine (checked:
-every metric of every run, and the DDS runs' against the in-process ones).
+false), with its inertia, initial twist and the IMU seed dispersed, and its metrics computed
+(offline/campaign). The engines are started and warmed (a first small campaign: workers up,
+kernels loaded) before timing; the start is printed beside. The 1- and 2-worker campaigns
+run in alternate rounds (``--rounds``, default 3) and the best of each is the figure: this
+machine's speed drifts over minutes, and two figures minutes apart would put the drift in
+their ratio. In-process, the controller is called through the lockstep helper; over DDS
+(``--dds``) every run is two processes, the simulator node and the controller node, as a
+user runs them. The rows are the same whatever the engine (checked: every metric of every
+run, and the DDS runs' against the in-process ones).
 """
 
 from __future__ import annotations
@@ -70,6 +72,9 @@ def main() -> int:
     parser.add_argument('--stop-after', type=float, default=10.0)
     parser.add_argument('--quick', action='store_true', help='6 runs of 1 s, 2 over DDS')
     parser.add_argument('--no-ray', action='store_true')
+    parser.add_argument('--rounds', type=int, default=3,
+                        help='rounds of the 1- and 2-worker campaigns, alternated; the best '
+                        'of each is the figure (default 3; --quick: 1)')
     parser.add_argument('--json', type=Path, help='write the figures here (default: '
                         'docs/bench/campaign_bench.json; --quick: none)')
     opts = parser.parse_args()
@@ -77,29 +82,54 @@ def main() -> int:
         (opts.runs, opts.dds_runs, opts.stop_after)
     print(f'campaign of the attitude controller: runs of {stop:g} s (1 ms steps, 100 Hz), '
           'recorded, metrics computed')
-    engines = [('in-process, 1 worker', 1, False, None),
-               ('in-process, 2 workers', 2, False, None)]
-    if not opts.no_ray:
-        engines.append(('in-process, Ray (local) 2 CPUs', 2, False, 'local'))
-    engines.append(('over DDS, 2 workers', 2, True, None))
+    rounds = 1 if opts.quick else max(1, opts.rounds)
     results: dict = {}
+
+    def record(label, n, seconds, metrics, cpu, start, each=None):
+        results[label] = {'runs': n, 'seconds': seconds, 'runs_per_s': n / seconds,
+                          'cpu_s_per_run': cpu, 'start_s': start, 'metrics': metrics}
+        if each:
+            results[label]['rounds_runs_per_s'] = each
+        used = '' if label.startswith('over DDS') else \
+            f'{cpu * 1e3:.0f} ms of CPU a run in the worker; '
+        best = f'; best of {len(each)} rounds: {", ".join(f"{r:.2f}" for r in each)}' \
+            if each and len(each) > 1 else ''
+        print(f'  {label:<32} {n / seconds:7.2f} runs/s  ({seconds / n * 1e3:7.1f} ms a '
+              f'run; {used}starting and warming the engine took {start:.1f} s{best})',
+              flush=True)
+
     with tempfile.TemporaryDirectory() as d:
-        for k, (label, workers, dds, ray) in enumerate(engines):
+        # 1 and 2 local workers in alternate rounds (this machine's speed drifts over
+        # minutes: a ratio of two measurements minutes apart would measure the drift)
+        local = {}
+        for label, workers in (('in-process, 1 worker', 1), ('in-process, 2 workers', 2)):
             t0 = time.perf_counter()
-            engine = sweep.make_engine(ray, workers)
+            engine = sweep.LocalEngine(workers)
+            timed(engine, 2 * workers, min(stop, 0.1), f'{d}/warm{workers}')
+            local[label] = (engine, time.perf_counter() - t0, [])
+        try:
+            for k in range(rounds):
+                for label, (engine, _, done) in local.items():
+                    done.append(timed(engine, runs, stop, f'{d}/round{k}_{engine.workers}'))
+        finally:
+            for engine, _, _ in local.values():
+                engine.close()
+        for label, (_, start, done) in local.items():
+            seconds, metrics, cpu = min(done, key=lambda r: r[0])
+            record(label, runs, seconds, metrics, cpu, start, [runs / r[0] for r in done])
+        others = [] if opts.no_ray else [('in-process, Ray (local) 2 CPUs', False, 'local')]
+        others.append(('over DDS, 2 workers', True, None))
+        for k, (label, dds, ray) in enumerate(others):
+            t0 = time.perf_counter()
+            engine = sweep.make_engine(ray, 2)
             n = dds_runs if dds else runs
             try:
-                timed(engine, 2 * workers, min(stop, 0.1), f'{d}/warm{k}', dds)
+                timed(engine, 4, min(stop, 0.1), f'{d}/warm_other{k}', dds)
                 start = time.perf_counter() - t0
-                seconds, metrics, cpu = timed(engine, n, stop, f'{d}/run{k}', dds)
+                seconds, metrics, cpu = timed(engine, n, stop, f'{d}/other{k}', dds)
             finally:
                 engine.close()
-            results[label] = {'runs': n, 'seconds': seconds, 'runs_per_s': n / seconds,
-                              'cpu_s_per_run': cpu, 'start_s': start, 'metrics': metrics}
-            used = '' if dds else f'{cpu * 1e3:.0f} ms of CPU a run in the worker; '
-            print(f'  {label:<32} {n / seconds:7.2f} runs/s  ({seconds / n * 1e3:7.1f} ms a '
-                  f'run; {used}starting and warming the engine took {start:.1f} s)',
-                  flush=True)
+            record(label, n, seconds, metrics, cpu, start)
         first = results['in-process, 1 worker']['metrics']
         for label, r in results.items():
             if r['metrics'] != first[:len(r['metrics'])]:

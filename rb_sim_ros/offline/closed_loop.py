@@ -19,16 +19,18 @@ metadata, states, IMU noise, /tf and wrench inputs at the same steps
 is made of the node's own pieces: the lockstep bookkeeping (``ros/lockstep.Lockstep``: the
 answers of a state take effect together at the step after it, or ``lockstep_delay`` periods
 later), the publish of a state with its IMU draw (``sweep.publish_state``), the answer made of
-the law's wrench as ``control_loop.command_message`` puts it in the answer and the node takes
-it (``body_ports.wrench_in``), a re-sent identical wrench not recorded, a law that raises, or
-gives a wrench the node refuses, answered with no change (HOLD), and command_timeout.
+the law's wrench as ``control_loop.command_message`` puts it in the answer
+(``command_parts``) and the node takes it (``body_ports.wrench_in``), a re-sent identical
+wrench not recorded, a law that raises, or gives a wrench the node refuses, answered with no
+change (HOLD), and command_timeout.
 
 A controller is a Python file or module with ``make_law(parameters: dict)``, returning the
 law: called with each state message (nav_msgs/Odometry, or sensor_msgs/Imu if the law's
 ``state`` attribute is 'imu'), it returns ``(force, torque)`` (N, N m, in the law's ``frame``
-attribute: 'body' by default) or None for no change. The same file run as a ROS node
-(``python FILE --ros-args -p NAME:=VALUE``) takes the same parameters: that is the other way
-to run it (examples/attitude_controller.py is both). The message the law gets is the
+attribute: 'body' by default) or None for no change (``state`` and ``frame`` are read once,
+when the run is made, as a ControlLoop reads them when it is made). The same file run as a
+ROS node (``python FILE --ros-args -p NAME:=VALUE``) takes the same parameters: that is the
+other way to run it (examples/attitude_controller.py is both). The message the law gets is the
 simulator's own, refilled for the next state: a law that keeps a state past its call copies
 what it keeps (over ROS each state is a fresh message; a law keeping the message itself would
 see it change here, and the two ways would differ).
@@ -49,7 +51,7 @@ from rb_sim_ros.core.stepper import IntegrationError
 from rb_sim_ros.offline.sweep import publish_state
 from rb_sim_ros.ros import node_params, ros_messages
 from rb_sim_ros.ros.body_ports import PUBLISHED, RECORDED, wrench_in
-from rb_sim_ros.ros.control_loop import body_frame_of, stamp_ns
+from rb_sim_ros.ros.control_loop import command_parts, stamp_ns
 from rb_sim_ros.ros.lockstep import HOLD, Lockstep
 from rb_sim_ros.ros.node_config import config_from, stop_step, timeout_steps
 from rb_sim_ros.ros.node_recorder import NodeRecorder
@@ -147,9 +149,11 @@ class _Body:
         self.name = spec.name
         self.frame = node_params.body_frame(values, spec.name, single)
         noise = node_params.imu_noise(values)
-        # what is read of a state: the outputs recorded, the law's state, odom (the trace)
-        read = {*node_params.record_outputs(values['record_outputs']), 'odom',
-                getattr(law, 'state', 'odom')}
+        # the messages read of a state: the outputs recorded (but odom: the recorder packs
+        # it from the numbers) and the law's state
+        read = set(node_params.record_outputs(values['record_outputs'])) - {'odom'}
+        if law is not None:
+            read.add(getattr(law, 'state', 'odom'))
         self.out = ros_messages.OutputMessages(
             values['world_frame'], self.frame, values['twist_frame'],
             node_params.covariance36(values['odom_pose_covariance']),
@@ -295,9 +299,8 @@ class ClosedLoop:
             return False
         if self.trace:
             for body in self.bodies:
-                o = body.out.odom.pose.pose.orientation
                 body.times.append(t_ns * 1e-9)
-                body.orientations.append((o.x, o.y, o.z, o.w))
+                body.orientations.append(tuple(body.out.last[2]))
             stats = sim.contact_stats()
             if stats is not None and stats.contacts:
                 self.contact_periods += 1
@@ -322,29 +325,22 @@ class ClosedLoop:
 
     def _answer(self, body: _Body) -> None:
         """The controller's answer to the state just published, as its ControlLoop and the
-        node's wrench_stamped make it: command_message's numbers, frame and stamp (the
-        state's, read after the law), taken as the node takes a wrench_stamped
-        (body_ports.wrench_in), without making the message itself."""
+        node's wrench_stamped make it: command_message's numbers and frame (command_parts)
+        and stamp (the state's, read after the law), taken as the node takes a
+        wrench_stamped (body_ports.wrench_in), without making the message itself."""
         law = body.law
         state = body.out.imu if body.reads_imu else body.out.odom
         answer: Any = HOLD
         try:
-            wrench = law(state)
-            if wrench is not None:
-                force, torque = wrench
-                fx, fy, fz = map(float, force)  # (as command_message fills the message)
-                tx, ty, tz = map(float, torque)
-                frame = body.law_frame
-                fid = (body_frame_of(state) if frame == 'body' else frame).lstrip('/')
-            else:
-                fid = HOLD
+            fid, force, torque = command_parts(state, law(state), body.law_frame)
+            fid = fid.lstrip('/')  # (as the node reads a wrench_stamped's frame_id)
         except Exception as e:  # noqa: B902 - as ControlLoop: a law that raises answers HOLD
             self._refused(f'the law raised {type(e).__name__}: {e}')
             fid = HOLD
         if fid != HOLD:
             v = self.values
             try:
-                answer = SetWrench(wrench_in((fx, fy, fz), (tx, ty, tz), fid, v['world_frame'],
+                answer = SetWrench(wrench_in(force, torque, fid, v['world_frame'],
                                              body.frame, body.points, v['wrench_frame'],
                                              v['max_wrench']), body.name)
             except ValueError as e:  # the node refuses it, and answers with no change

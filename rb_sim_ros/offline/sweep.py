@@ -647,7 +647,12 @@ class LocalEngine:
                 yield i, result
             if not broken:
                 continue
-            suspects = failed + list(running.values())
+            suspects = failed
+            for future, i in running.items():  # a task that ended before the break stands
+                if future.done() and not future.cancelled() and future.exception() is None:
+                    yield i, future.result()
+                else:
+                    suspects.append(i)
             running.clear()
             pool = self._fresh()
             if solo is not None and suspects == [solo]:  # it killed its worker, alone

@@ -339,18 +339,21 @@ class RecordingWriter:
                               f'{type(msg).__name__}')
         self._put(topic, channel_id, encode(msg), log_time_ns, publish_time_ns, sequence)
 
-    def write_serialized(self, topic: str, data: bytes, log_time_ns: int,
+    def write_serialized(self, topic: str, data: bytes, msg_type: type, log_time_ns: int,
                          publish_time_ns: int | None = None, sequence: int = 0) -> None:
-        """``write`` of a message already serialised (``data``: its CDR bytes, encapsulation
-        header first, as ``serialize_message`` gives them): the caller vouches that they are
-        a message of the topic's type. The same checks of the rest."""
+        """``write`` of a message of ``msg_type`` already serialised (``data``: its CDR bytes,
+        encapsulation header first, as ``serialize_message`` gives them; the caller vouches
+        that they are one). The same checks as ``write``."""
         if self._closing or self._error is not None:
             self._check_open()
             return
         try:
-            channel_id = self._topics[topic][0]
+            channel_id, registered, _ = self._topics[topic]
         except (KeyError, TypeError):
             raise WriterError(f'{self.path}: topic {topic!r} was not registered') from None
+        if msg_type is not registered:
+            raise WriterError(f'{self.path}: topic {topic} carries {registered.__name__}, not '
+                              f'{getattr(msg_type, "__name__", msg_type)}')
         if type(data) is not bytes:
             raise WriterError(f'{self.path}: topic {topic}: serialised data must be bytes, '
                               f'not {type(data).__name__}')

@@ -53,7 +53,7 @@ from nav_msgs.msg import Odometry
 from rb_sim_ros.ros.lockstep import HOLD
 from rb_sim_ros.ros.taken_inputs import TakenInputs
 
-__all__ = ['ControlLoop', 'HOLD', 'command_message']
+__all__ = ['ControlLoop', 'HOLD', 'command_message', 'command_parts']
 
 
 def stamp_ns(stamp) -> int:
@@ -155,19 +155,38 @@ class ControlLoop:
         return command_message(state, wrench, self.frame)
 
 
+def command_parts(state, wrench, frame: str = 'body') -> tuple:
+    """(frame_id, force, torque) of the answer to the state message ``state`` with ``wrench``
+    ((force, torque), or None for HOLD: (HOLD, None, None)), in ``frame`` ('body': the
+    state's body frame), each force and torque three floats: what ``command_message`` puts
+    in its WrenchStamped, and what offline/closed_loop takes for a controller called
+    in-process without making the message, so that both paths give the same bits. Raises
+    what float() and unpacking raise for a wrench that is not two triples of numbers."""
+    if wrench is None:
+        return HOLD, None, None
+    fid = body_frame_of(state) if frame == 'body' else frame
+    force, torque = wrench
+    fx, fy, fz = map(float, force)
+    tx, ty, tz = map(float, torque)
+    return fid, (fx, fy, fz), (tx, ty, tz)
+
+
 def command_message(state, wrench, frame: str = 'body',
                     out: WrenchStamped | None = None) -> WrenchStamped:
     """The WrenchStamped answering the state message ``state`` with ``wrench`` ((force,
     torque), or None for HOLD), stamped as the state, in ``frame`` ('body': the state's body
-    frame): what a ControlLoop publishes, and what offline/closed_loop hands the simulator
-    for a controller called in-process, so that both paths give the same bits. ``out``: a
+    frame): what a ControlLoop publishes (``command_parts`` in a message). ``out``: a
     message to fill (a HOLD's wrench is then what it held), else a new one."""
     if out is None:
         out = WrenchStamped()
     out.header.stamp = state.header.stamp
-    if wrench is None:
-        out.header.frame_id = HOLD
-        return out
+    fid, force, torque = command_parts(state, wrench, frame)
+    out.header.frame_id = fid
+    if force is not None:
+        f, t = out.wrench.force, out.wrench.torque
+        f.x, f.y, f.z = force
+        t.x, t.y, t.z = torque
+    return out
     out.header.frame_id = body_frame_of(state) if frame == 'body' else frame
     force, torque = wrench
     f, t = out.wrench.force, out.wrench.torque

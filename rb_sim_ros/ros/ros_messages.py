@@ -103,8 +103,11 @@ class OutputMessages:
                  twist_covariance=None, imu_noise=None, kinds=None) -> None:
         """``kinds``: the messages read after a fill (None: all five, as the node publishes
         them); the others are left as they are (offline/closed_loop: what it records and
-        its laws read). odom's pose is the PoseStamped's: both are filled if either is."""
+        its laws read). odom's pose is the PoseStamped's: both are filled if either is.
+        ``last``: the numbers of the last ``fill`` (time ns, position, quaternion x-y-z-w,
+        body-frame linear and angular velocity: odom's), filled or not."""
         self.kinds = frozenset(output_kinds.NAMES if kinds is None else kinds)
+        self.last: tuple = (0, (0.0,) * 3, (0.0, 0.0, 0.0, 1.0), (0.0,) * 3, (0.0,) * 3)
         self.pose = PoseStamped()
         self.twist = Twist()
         self.odom = Odometry()
@@ -137,27 +140,29 @@ class OutputMessages:
         """Fill all three from a world-frame state at ``time_ns`` (sim time, ns). False if a
         body-frame velocity overflowed (|v| near 1e308): then nothing must be sent.
         ``rotation``: ``rotation_from_quaternion(quaternion_xyzw)`` if the caller has it."""
-        pose = self.pose.pose
-        pose.position.x, pose.position.y, pose.position.z = position
-        o = pose.orientation
-        o.x, o.y, o.z, o.w = quaternion_xyzw
         r = rotation or rotation_from_quaternion(quaternion_xyzw)
         lin_b = rotate(r, linear_velocity, transpose=True)
         ang_b = rotate(r, angular_velocity, transpose=True)
-        lin, ang = (lin_b, ang_b) if self.twist_in_body else (linear_velocity, angular_velocity)
-        stamp = time_msg(time_ns)  # (new each time: a law in-process may keep the old one)
+        self.last = (time_ns, position, quaternion_xyzw, lin_b, ang_b)
         kinds = self.kinds
         if 'twist' in kinds:
+            lin, ang = (lin_b, ang_b) if self.twist_in_body else \
+                (linear_velocity, angular_velocity)
             t = self.twist
             t.linear.x, t.linear.y, t.linear.z = lin
             t.angular.x, t.angular.y, t.angular.z = ang
-        if 'pose' in kinds:
+        if 'pose' in kinds or 'odom' in kinds:
+            pose = self.pose.pose
+            pose.position.x, pose.position.y, pose.position.z = position
+            o = pose.orientation
+            o.x, o.y, o.z, o.w = quaternion_xyzw
+            stamp = time_msg(time_ns)  # (new each time: a law in-process may keep the old one)
             self.pose.header.stamp = stamp
-        self.odom.header.stamp = stamp
-        self.odom.pose.pose = pose
-        ot = self.odom.twist.twist
-        ot.linear.x, ot.linear.y, ot.linear.z = lin_b
-        ot.angular.x, ot.angular.y, ot.angular.z = ang_b
+            self.odom.header.stamp = stamp
+            self.odom.pose.pose = pose
+            ot = self.odom.twist.twist
+            ot.linear.x, ot.linear.y, ot.linear.z = lin_b
+            ot.angular.x, ot.angular.y, ot.angular.z = ang_b
         return all(map(math.isfinite, lin_b + ang_b))
 
     def fill_motion(self, time_ns: int, quaternion_xyzw, angular_velocity, linear_acceleration,
