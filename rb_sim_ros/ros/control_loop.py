@@ -187,9 +187,3 @@ def command_message(state, wrench, frame: str = 'body',
         f.x, f.y, f.z = force
         t.x, t.y, t.z = torque
     return out
-    out.header.frame_id = body_frame_of(state) if frame == 'body' else frame
-    force, torque = wrench
-    f, t = out.wrench.force, out.wrench.torque
-    f.x, f.y, f.z = map(float, force)
-    t.x, t.y, t.z = map(float, torque)
-    return out

@@ -169,7 +169,7 @@ def wrench_bytes(event: SetWrench, time_ns: int) -> bytes:
     return HEADER + _STAMP.pack(sec, nanosec) + tail + _SIX.pack(*wrench.components)
 
 
-_POSE_AND_TWIST = struct.Struct('<7d')  # position, orientation; then a covariance
+_POSE = struct.Struct('<7d')  # position, orientation; then a covariance
 _TWIST = struct.Struct('<6d')  # odom's body-frame twist; then its covariance
 _ODOM_TAIL = (7 + 36 + 6 + 36) * 8  # the bytes after the frame ids: doubles only
 _odom_parts: dict[tuple, tuple[bytes, bytes, bytes]] = {}
@@ -198,7 +198,7 @@ def odom_bytes(out) -> bytes:
     head, pose_cov_bytes, twist_cov_bytes = parts
     time_ns, p, q, lin, ang = out.last
     sec, nanosec = divmod(time_ns, 1_000_000_000)
-    return (HEADER + _STAMP.pack(sec, nanosec) + head + _POSE_AND_TWIST.pack(*p, *q)
+    return (HEADER + _STAMP.pack(sec, nanosec) + head + _POSE.pack(*p, *q)
             + pose_cov_bytes + _TWIST.pack(*lin, *ang) + twist_cov_bytes)
 
 

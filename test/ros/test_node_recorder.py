@@ -63,13 +63,15 @@ def test_serialised_writes_are_checked_as_messages_are(tmp_path):
 @settings(max_examples=150, deadline=None)
 @given(state=st.tuples(*[st.tuples(*[FINITE] * 3)] * 3), quaternion=st.tuples(
            *[st.floats(-1.0, 1.0)] * 4), time_ns=st.integers(0, 2**31 * 1_000_000_000 - 1),
-       frames=st.tuples(st.text(max_size=12), st.text(max_size=12)),
+       frames=st.tuples(*[st.text(st.characters(blacklist_categories=('Cs',),
+                                                blacklist_characters='\x00'), max_size=12)] * 2),
        twist_in_body=st.booleans(), seed=st.integers(0, 2**32 - 1))
 def test_odom_packed_from_the_numbers_is_the_filled_message_serialised(
         state, quaternion, time_ns, frames, twist_in_body, seed):
     """Odometry not filled (a law that reads the IMU) is recorded from the fill's numbers:
     the bytes of the same Odometry filled and serialised, frame ids of any length (the
-    padding after them) and covariances the node was given."""
+    padding after them) and covariances the node was given; rclpy reads it back as the filled
+    message (frame ids without a NUL, which the wire cuts them at)."""
     position, linear, angular = state
     rng = np.random.default_rng(seed)
     covariances = rng.normal(size=36).tolist(), rng.normal(size=36).tolist()
