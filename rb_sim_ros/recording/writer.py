@@ -327,37 +327,39 @@ class RecordingWriter:
         registered, non-integer or out-of-range times and writing after ``finish()``. Once
         writing the file has failed (``failed``), does nothing.
         """
-        if self._closing or self._error is not None:
-            self._check_open()
-            return
-        try:
-            channel_id, msg_type, encode = self._topics[topic]
-        except (KeyError, TypeError):
-            raise WriterError(f'{self.path}: topic {topic!r} was not registered') from None
-        if type(msg) is not msg_type:
-            raise WriterError(f'{self.path}: topic {topic} carries {msg_type.__name__}, not '
-                              f'{type(msg).__name__}')
-        self._put(topic, channel_id, encode(msg), log_time_ns, publish_time_ns, sequence)
+        channel = self._channel(topic, type(msg))
+        if channel is not None:
+            self._put(topic, channel[0], channel[1](msg), log_time_ns, publish_time_ns,
+                      sequence)
 
     def write_serialized(self, topic: str, data: bytes, msg_type: type, log_time_ns: int,
                          publish_time_ns: int | None = None, sequence: int = 0) -> None:
         """``write`` of a message of ``msg_type`` already serialised (``data``: its CDR bytes,
         encapsulation header first, as ``serialize_message`` gives them; the caller vouches
         that they are one). The same checks as ``write``."""
+        channel = self._channel(topic, msg_type)
+        if channel is None:
+            return
+        if type(data) is not bytes:
+            raise WriterError(f'{self.path}: topic {topic}: serialised data must be bytes, '
+                              f'not {type(data).__name__}')
+        self._put(topic, channel[0], data, log_time_ns, publish_time_ns, sequence)
+
+    def _channel(self, topic: str, msg_type: Any) -> tuple[int, Any] | None:
+        """(channel id, serialiser) of registered ``topic`` for a message of ``msg_type``;
+        None once writing has failed; WriterError after ``finish()``, for an unregistered
+        topic or another type than registered."""
         if self._closing or self._error is not None:
             self._check_open()
-            return
+            return None
         try:
-            channel_id, registered, _ = self._topics[topic]
+            channel_id, registered, encode = self._topics[topic]
         except (KeyError, TypeError):
             raise WriterError(f'{self.path}: topic {topic!r} was not registered') from None
         if msg_type is not registered:
             raise WriterError(f'{self.path}: topic {topic} carries {registered.__name__}, not '
                               f'{getattr(msg_type, "__name__", msg_type)}')
-        if type(data) is not bytes:
-            raise WriterError(f'{self.path}: topic {topic}: serialised data must be bytes, '
-                              f'not {type(data).__name__}')
-        self._put(topic, channel_id, data, log_time_ns, publish_time_ns, sequence)
+        return channel_id, encode
 
     def _put(self, topic: str, channel_id: int, data: bytes, log_time_ns, publish_time_ns,
              sequence) -> None:
